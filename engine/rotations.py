@@ -1,0 +1,198 @@
+"""Small rotation toolkit (numpy): quaternions (w, x, y, z), rotation matrices, 6D, Euler.
+
+Quaternions follow the HumanML3D convention (scalar first) so that the representation code
+reads like its definition. Everything broadcasts over leading dimensions.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+_EPS = 1e-9
+
+
+def qnormalize(q: np.ndarray) -> np.ndarray:
+    return q / np.maximum(np.linalg.norm(q, axis=-1, keepdims=True), _EPS)
+
+
+def qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product a*b; shapes (..., 4)."""
+    aw, ax, ay, az = np.moveaxis(a, -1, 0)
+    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    return np.stack(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ],
+        axis=-1,
+    )
+
+
+def qinv(q: np.ndarray) -> np.ndarray:
+    return q * np.array([1.0, -1.0, -1.0, -1.0], dtype=q.dtype)
+
+
+def qrot(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate vectors v (..., 3) by unit quaternions q (..., 4)."""
+    qvec = q[..., 1:]
+    uv = np.cross(qvec, v)
+    uuv = np.cross(qvec, uv)
+    return v + 2.0 * (q[..., :1] * uv + uuv)
+
+
+def qbetween(v0: np.ndarray, v1: np.ndarray) -> np.ndarray:
+    """The shortest-arc rotation taking direction v0 to direction v1 (..., 3) -> (..., 4)."""
+    axis = np.cross(v0, v1)
+    w = np.sqrt((v0**2).sum(-1, keepdims=True) * (v1**2).sum(-1, keepdims=True)) + (v0 * v1).sum(
+        -1, keepdims=True
+    )
+    return qnormalize(np.concatenate([w, axis], axis=-1))
+
+
+def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """(..., 4) -> (..., 3, 3)."""
+    q = qnormalize(q)
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        axis=-2,
+    )
+
+
+def matrix_to_quat(m: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) -> (..., 4), numerically stable branch selection, w >= 0."""
+    m = np.asarray(m, dtype=np.float64)
+    shape = m.shape[:-2]
+    m = m.reshape(-1, 3, 3)
+    tr = m[:, 0, 0] + m[:, 1, 1] + m[:, 2, 2]
+    cand = np.stack(
+        [
+            1 + tr,
+            1 + m[:, 0, 0] - m[:, 1, 1] - m[:, 2, 2],
+            1 - m[:, 0, 0] + m[:, 1, 1] - m[:, 2, 2],
+            1 - m[:, 0, 0] - m[:, 1, 1] + m[:, 2, 2],
+        ],
+        axis=-1,
+    )
+    best = cand.argmax(-1)
+    q = np.empty((m.shape[0], 4))
+    for b in range(4):
+        sel = best == b
+        if not sel.any():
+            continue
+        ms = m[sel]
+        s = np.sqrt(np.maximum(cand[sel, b], _EPS)) * 2.0  # = 4 * component b
+        if b == 0:
+            q[sel] = np.stack([s / 4, (ms[:, 2, 1] - ms[:, 1, 2]) / s, (ms[:, 0, 2] - ms[:, 2, 0]) / s,
+                               (ms[:, 1, 0] - ms[:, 0, 1]) / s], -1)
+        elif b == 1:
+            q[sel] = np.stack([(ms[:, 2, 1] - ms[:, 1, 2]) / s, s / 4, (ms[:, 0, 1] + ms[:, 1, 0]) / s,
+                               (ms[:, 0, 2] + ms[:, 2, 0]) / s], -1)
+        elif b == 2:
+            q[sel] = np.stack([(ms[:, 0, 2] - ms[:, 2, 0]) / s, (ms[:, 0, 1] + ms[:, 1, 0]) / s, s / 4,
+                               (ms[:, 1, 2] + ms[:, 2, 1]) / s], -1)
+        else:
+            q[sel] = np.stack([(ms[:, 1, 0] - ms[:, 0, 1]) / s, (ms[:, 0, 2] + ms[:, 2, 0]) / s,
+                               (ms[:, 1, 2] + ms[:, 2, 1]) / s, s / 4], -1)
+    q = np.where(q[:, :1] < 0, -q, q)
+    return qnormalize(q).reshape(*shape, 4)
+
+
+def matrix_to_cont6d(m: np.ndarray) -> np.ndarray:
+    """First two columns of the rotation matrix (HumanML3D's continuous 6D): (..., 3, 3) -> (..., 6)."""
+    return np.concatenate([m[..., :, 0], m[..., :, 1]], axis=-1)
+
+
+def cont6d_to_matrix(d6: np.ndarray) -> np.ndarray:
+    """Gram-Schmidt back to a rotation matrix: (..., 6) -> (..., 3, 3)."""
+    a, b = d6[..., :3], d6[..., 3:]
+    x = a / np.maximum(np.linalg.norm(a, axis=-1, keepdims=True), _EPS)
+    z = np.cross(x, b)
+    z = z / np.maximum(np.linalg.norm(z, axis=-1, keepdims=True), _EPS)
+    y = np.cross(z, x)
+    return np.stack([x, y, z], axis=-1)
+
+
+def axis_angle_to_matrix(axis_angle: np.ndarray) -> np.ndarray:
+    """Rodrigues: (..., 3) rotation vectors -> (..., 3, 3)."""
+    aa = np.asarray(axis_angle, dtype=np.float64)
+    angle = np.linalg.norm(aa, axis=-1, keepdims=True)
+    axis = aa / np.maximum(angle, _EPS)
+    x, y, z = np.moveaxis(axis, -1, 0)
+    c, s = np.cos(angle[..., 0]), np.sin(angle[..., 0])
+    C = 1 - c
+    return np.stack(
+        [
+            np.stack([c + x * x * C, x * y * C - z * s, x * z * C + y * s], -1),
+            np.stack([y * x * C + z * s, c + y * y * C, y * z * C - x * s], -1),
+            np.stack([z * x * C - y * s, z * y * C + x * s, c + z * z * C], -1),
+        ],
+        axis=-2,
+    )
+
+
+def axis_rotation(axis: str, angle: np.ndarray) -> np.ndarray:
+    """Rotation matrices about a principal axis 'x', 'y' or 'z' by angles (radians), (...,) -> (..., 3, 3)."""
+    angle = np.asarray(angle, dtype=np.float64)
+    c, s = np.cos(angle), np.sin(angle)
+    o, i = np.zeros_like(angle), np.ones_like(angle)
+    rows = {
+        "x": [[i, o, o], [o, c, -s], [o, s, c]],
+        "y": [[c, o, s], [o, i, o], [-s, o, c]],
+        "z": [[c, -s, o], [s, c, o], [o, o, i]],
+    }[axis.lower()]
+    return np.stack([np.stack(r, -1) for r in rows], -2)
+
+
+def euler_to_matrix(angles_deg: np.ndarray, order: str) -> np.ndarray:
+    """BVH-style intrinsic Euler angles in degrees, applied in the channel order given.
+
+    ``order`` is e.g. "ZYX": the rotation is Rz @ Ry @ Rx (the first channel is outermost),
+    which is how BVH channels compose. angles_deg (..., 3) in that same order.
+    """
+    rad = np.deg2rad(np.asarray(angles_deg, dtype=np.float64))
+    out = axis_rotation(order[0], rad[..., 0])
+    for k in (1, 2):
+        out = out @ axis_rotation(order[k], rad[..., k])
+    return out
+
+
+def matrix_to_euler(m: np.ndarray, order: str) -> np.ndarray:
+    """Inverse of :func:`euler_to_matrix` for the six Tait-Bryan orders; degrees (..., 3)."""
+    order = order.upper()
+    i, j, k = ("XYZ".index(c) for c in order)
+    if len(set(order)) != 3:
+        raise ValueError(f"unsupported Euler order {order!r}")
+    # sign of the permutation (i, j, k) of (0, 1, 2)
+    sign = 1.0 if (i, j, k) in ((0, 1, 2), (1, 2, 0), (2, 0, 1)) else -1.0
+    m = np.asarray(m, dtype=np.float64)
+    b = np.clip(sign * m[..., i, k], -1.0, 1.0)
+    second = np.arcsin(b)
+    first = np.arctan2(-sign * m[..., j, k], m[..., k, k])
+    third = np.arctan2(-sign * m[..., i, j], m[..., i, i])
+    # gimbal lock: put everything in the first angle
+    lock = np.abs(b) > 1 - 1e-9
+    if np.any(lock):
+        third = np.where(lock, 0.0, third)
+        first = np.where(lock, np.arctan2(sign * m[..., k, j], m[..., j, j]), first)
+    return np.rad2deg(np.stack([first, second, third], axis=-1))
+
+
+def yaw_matrix(angle: np.ndarray) -> np.ndarray:
+    """Rotation about +Y (up) by angle radians."""
+    return axis_rotation("y", angle)
+
+
+def kabsch(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """Best rotation R with R @ src_i ~ dst_i. src (..., N, 3), dst (..., N, 3) -> (..., 3, 3)."""
+    h = np.swapaxes(src, -1, -2) @ dst  # (..., 3, 3) = sum_i src_i dst_i^T
+    u, _, vt = np.linalg.svd(h)
+    d = np.sign(np.linalg.det(np.swapaxes(vt, -1, -2) @ np.swapaxes(u, -1, -2)))
+    diag = np.ones(h.shape[:-1])
+    diag[..., -1] = d
+    return np.swapaxes(vt, -1, -2) @ (diag[..., None] * np.swapaxes(u, -1, -2))
