@@ -1,0 +1,27 @@
+"""Shared fixtures: paths to the real reference data (read in place, never copied)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+PROJECT_ROOT = Path(__file__).resolve().parents[1]
+REAL_DATA = PROJECT_ROOT.parent / "shared" / "data" / "real"
+
+
+def real_file(name: str) -> Path:
+    path = REAL_DATA / name
+    if not path.exists():
+        pytest.skip(f"real data not available: {path} (the shared data folder is absent)")
+    return path
+
+
+@pytest.fixture(scope="session")
+def real_joints() -> np.ndarray:
+    return np.load(real_file("humanml3d_012314_joints.npy"), allow_pickle=False)
+
+
+@pytest.fixture(scope="session")
+def real_vecs() -> np.ndarray:
+    return np.load(real_file("humanml3d_012314_vecs.npy"), allow_pickle=False)
