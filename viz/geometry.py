@@ -29,7 +29,7 @@ class Template:
     faces: np.ndarray  # VTK face array of one copy: [n, i0, i1, ..., n, ...]
 
 
-def sphere_template(*, resolution: int = 14) -> Template:
+def sphere_template(*, resolution: int = 16) -> Template:
     """A unit sphere (radius 1, centred at the origin)."""
     sphere = pv.Sphere(radius=1.0, theta_resolution=resolution, phi_resolution=max(resolution - 2, 6))
     points = np.asarray(sphere.points, dtype=np.float64)

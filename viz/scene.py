@@ -45,7 +45,7 @@ N_JOINTS = len(JOINT_NAMES)
 HEAD = JOINT_NAMES.index("head")
 PELVIS = JOINT_NAMES.index("pelvis")
 DEFAULT_ROLE = "motion"
-_PATH_LIFT = 0.004  # root path sits just above the floor to avoid z-fighting
+_PATH_LIFT = 0.006  # root path sits just above the floor to avoid z-fighting
 _FLOOR_HEIGHT = -0.002
 
 
@@ -71,21 +71,27 @@ def as_motions(motions: object) -> dict[str, np.ndarray]:
 
 
 def side_by_side_offsets(motions: Mapping[str, np.ndarray], *, spacing: float) -> dict[str, np.ndarray]:
-    """X offsets that put each motion's whole X extent next to the previous one, ``spacing`` apart.
+    """X offsets that keep skeletons apart: at every frame, each one is at least ``spacing``
+    metres to the +X side of the previous one (a motion past its end holds its last pose).
 
-    The group is centred on the X centre of the original motions; one motion gets no offset.
+    Paths may cross (at different times); bodies never overlap. The group is centred on the
+    mean X centre of the original motions; a single motion gets no offset.
     """
-    if len(motions) == 1:
-        return {role: np.zeros(3) for role in motions}
-    lows = {r: float(m[..., 0].min()) for r, m in motions.items()}
-    highs = {r: float(m[..., 0].max()) for r, m in motions.items()}
-    cursor, shifts = 0.0, {}
-    for role in motions:
-        shifts[role] = cursor - lows[role]
-        cursor += highs[role] - lows[role] + spacing
-    width = cursor - spacing
-    centre = float(np.mean([0.5 * (lows[r] + highs[r]) for r in motions]))
-    return {r: np.array([s - width / 2.0 + centre, 0.0, 0.0]) for r, s in shifts.items()}
+    roles = list(motions)
+    if len(roles) == 1:
+        return {roles[0]: np.zeros(3)}
+    n = max(m.shape[0] for m in motions.values())
+    frame = np.arange(n)
+    low = {r: m[np.minimum(frame, len(m) - 1), :, 0].min(axis=1) for r, m in motions.items()}
+    high = {r: m[np.minimum(frame, len(m) - 1), :, 0].max(axis=1) for r, m in motions.items()}
+    shift = {roles[0]: 0.0}
+    for prev, cur in zip(roles, roles[1:]):
+        shift[cur] = shift[prev] + float(np.max(high[prev] - low[cur])) + spacing
+    lows = [float(low[r].min()) + shift[r] for r in roles]
+    highs = [float(high[r].max()) + shift[r] for r in roles]
+    group_centre = 0.5 * (min(lows) + max(highs))
+    centre = float(np.mean([0.5 * (m[..., 0].min() + m[..., 0].max()) for m in motions.values()]))
+    return {r: np.array([shift[r] - group_centre + centre, 0.0, 0.0]) for r in roles}
 
 
 @dataclass
@@ -131,6 +137,8 @@ class SkeletonScene:
         title: text in the upper left corner (e.g. the prompt).
         frame_label: show "frame k / T-1" in the upper right corner.
         legend: show role names and colours; default when there is more than one role.
+        anti_aliasing: pyvista anti-aliasing ("msaa", "ssaa", "fxaa") or None; off-screen
+            EGL/OSMesa builds of VTK replace "fxaa" by the slower "ssaa".
         off_screen: render off screen (no window); keep True for tests, files and servers.
     """
 
@@ -153,6 +161,7 @@ class SkeletonScene:
         title: str | None = None,
         frame_label: bool = False,
         legend: bool | None = None,
+        anti_aliasing: str | None = "ssaa",
         off_screen: bool = True,
     ) -> None:
         data = as_motions(motions)
@@ -179,7 +188,8 @@ class SkeletonScene:
 
         self.plotter = pv.Plotter(off_screen=off_screen, window_size=list(size))
         self.plotter.set_background("white", top="#cfdcec")
-        self.plotter.enable_anti_aliasing("fxaa")
+        if anti_aliasing:
+            self.plotter.enable_anti_aliasing(anti_aliasing)
 
         self._skeletons: dict[str, _Skeleton] = {}
         for i, (role, joints) in enumerate(data.items()):
@@ -203,7 +213,7 @@ class SkeletonScene:
                 {"label": role, "color": color_to_rgb(s.base_colors[PELVIS]) / 255.0}
                 for role, s in self._skeletons.items()
             ]
-            self.plotter.add_legend(entries, bcolor="white", size=(0.18, 0.06 * len(entries)), face="circle")
+            self.plotter.add_legend(entries, bcolor="white", size=(0.14, 0.045 * len(entries)), face="circle")
 
         first = next(iter(self._skeletons.values()))
         self.azimuth = facing_azimuth(first.joints[0]) + 30.0 if azimuth is None else float(azimuth)
@@ -233,11 +243,10 @@ class SkeletonScene:
             root[:, 1] = _PATH_LIFT
             if len(root) == 1:  # a single pose: a dot-sized path keeps the actor valid
                 root = np.concatenate([root, root])
-            skel.path_mesh = polyline(root)
+            skel.path_mesh = polyline(root).tube(radius=0.008, n_sides=8)
             path_color = mix(color_to_rgb(base)[None], "black", 0.2)[0] / 255.0
             skel.actors["path"] = self.plotter.add_mesh(
-                skel.path_mesh, name=f"{role}/path", color=path_color, line_width=3.0,
-                render_lines_as_tubes=True, lighting=False,
+                skel.path_mesh, name=f"{role}/path", color=path_color, ambient=0.4, diffuse=0.6
             )
         return skel
 
@@ -317,6 +326,7 @@ class SkeletonScene:
 
     def screenshot(self) -> np.ndarray:
         """Render and return the image as uint8 (height, width, 3)."""
+        self.plotter.render()  # pyvista only renders on its own before the first screenshot
         return np.asarray(self.plotter.screenshot(return_img=True))[..., :3].copy()
 
     # ------------------------------------------------------------------ camera
@@ -332,7 +342,7 @@ class SkeletonScene:
             rel = np.concatenate(
                 [(s.joints - self._root_xz(s.joints)[:, None]).reshape(-1, 3) for s in self._skeletons.values()]
             )
-            pose = fit_points(rel, direction=direction, aspect=width / height, margin=1.25)
+            pose = fit_points(rel, direction=direction, aspect=width / height, margin=1.1)
             shift = self._current_root_xz()
             position, focal = pose.position + shift, pose.focal_point + shift
         else:

@@ -1,0 +1,49 @@
+"""`moattn convert` and `moattn render`: thin wrappers over engine.io and viz.render."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    convert = sub.add_parser(
+        "convert",
+        help="convert a motion between BVH and .npy (joints (T,22,3) or HumanML3D vectors (T,263))",
+        description="Read a .bvh or .npy motion and write .npy (joints or 263-dim vectors) or .bvh.",
+    )
+    convert.add_argument("input", type=Path, help="input .bvh or .npy")
+    convert.add_argument("output", type=Path, help="output .npy or .bvh")
+    convert.add_argument("--to", choices=("joints", "vecs"), default="joints",
+                         help="what an .npy output holds (default: joints)")
+    convert.set_defaults(run=run_convert)
+
+    render = sub.add_parser(
+        "render",
+        help="render a motion to PNG (one frame), GIF or MP4",
+        description="Render a .bvh or .npy motion with the pyvista skeleton scene.",
+    )
+    render.add_argument("input", type=Path, help="input .bvh or .npy")
+    render.add_argument("--out", type=Path, required=True, help="output .png, .gif or .mp4")
+    render.add_argument("--frame", type=int, default=None, help="frame to draw for a .png (default 0)")
+    render.set_defaults(run=run_render)
+
+
+def run_convert(args: argparse.Namespace) -> int:
+    from engine.io import load_motion, save_motion
+
+    joints = load_motion(args.input)
+    save_motion(joints, args.output, to=args.to)
+    print(f"wrote {args.output} ({len(joints)} frames at 20 fps)")
+    return 0
+
+
+def run_render(args: argparse.Namespace) -> int:
+    from engine.io import load_motion
+    from viz.render import render_file
+
+    joints = load_motion(args.input)
+    if args.frame is not None and not 0 <= args.frame < len(joints):
+        raise ValueError(f"--frame {args.frame} is outside the motion's {len(joints)} frames")
+    render_file(joints, args.out, frame=args.frame)
+    print(f"wrote {args.out}")
+    return 0

@@ -1,0 +1,123 @@
+"""The one sampling loop: DDIM (any steps, eta), DDPM (eta = 1 over every step) and DDIM inversion.
+
+A denoiser is anything with the model's call signature ``G(x, t, cond, *, step, controller) -> x0_hat``
+(the model itself, classifier-free guidance, DiffusionBlending ...). The loop yields a
+``StepState`` per step; step-end hooks may return a changed state (inpainting, DoubleTake
+handshakes, progress), and the controller's ``on_step_end`` sees every state.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, replace
+from typing import Protocol
+
+import torch
+
+from engine.attention.controller import AttentionController
+from engine.diffusion.schedule import CosineSchedule
+from engine.model.denoiser import Condition
+
+CLEAN = -1  # the "timestep" of clean data
+
+
+class DenoiserFn(Protocol):
+    def __call__(self, x: torch.Tensor, t: torch.Tensor, cond: Condition, *, step: int = 0,
+                 controller: AttentionController | None = None) -> torch.Tensor: ...
+
+
+@dataclass(frozen=True)
+class StepState:
+    step: int  # 0 = first (noisiest when sampling)
+    num_steps: int
+    t: int  # timestep the denoiser saw
+    t_next: int  # timestep of x_prev (CLEAN = -1 at the end of sampling)
+    x_t: torch.Tensor  # (B, T, D) input of this step
+    x0_hat: torch.Tensor  # (B, T, D) the denoiser's prediction
+    x_prev: torch.Tensor  # (B, T, D) the loop's next state
+
+
+StepHook = Callable[[StepState], "StepState | None"]
+
+
+class Cancelled(RuntimeError):
+    """Raised by a hook (e.g. the app's cancel button) to stop sampling."""
+
+
+def run_loop(
+    denoiser: DenoiserFn,
+    x: torch.Tensor,
+    cond: Condition,
+    *,
+    schedule: CosineSchedule,
+    timesteps: Sequence[int],
+    eta: float = 0.0,
+    controller: AttentionController | None = None,
+    hooks: Sequence[StepHook] = (),
+    generator: torch.Generator | None = None,
+) -> Iterator[StepState]:
+    """Walk x along ``timesteps`` (descending: sampling; ascending: inversion).
+
+    Each step predicts x0_hat at t and moves to the next timestep with the DDIM update
+    (eta = 0 deterministic, eta = 1 the DDPM posterior); after the last timestep a descending
+    walk lands on clean data (x_prev = x0_hat).
+    """
+    ts = list(timesteps)
+    descending = len(ts) < 2 or ts[0] > ts[-1]
+    targets = ts[1:] + ([CLEAN] if descending else [])
+    pairs = list(zip(ts, targets))
+    if not descending and eta != 0.0:
+        raise ValueError("DDIM inversion is deterministic: eta must be 0")
+    b = x.shape[0]
+    for i, (t, t_next) in enumerate(pairs):
+        t_batch = torch.full((b,), t, dtype=torch.long)
+        with torch.no_grad():
+            x0_hat = denoiser(x, t_batch, cond, step=i, controller=controller)
+        ab = schedule.alpha_bar(torch.tensor(t)).item()
+        ab_next = schedule.alpha_bar(torch.tensor(t_next)).item()
+        eps = (x - ab**0.5 * x0_hat) / max(1 - ab, 1e-12) ** 0.5
+        sigma = 0.0
+        if eta > 0 and t_next != CLEAN:
+            sigma = eta * ((1 - ab_next) / (1 - ab) * (1 - ab / ab_next)) ** 0.5
+        x_prev = ab_next**0.5 * x0_hat + max(1 - ab_next - sigma**2, 0.0) ** 0.5 * eps
+        if sigma > 0:
+            x_prev = x_prev + sigma * torch.randn(x.shape, generator=generator, dtype=x.dtype)
+        state = StepState(step=i, num_steps=len(pairs), t=t, t_next=t_next, x_t=x, x0_hat=x0_hat, x_prev=x_prev)
+        for hook in hooks:
+            changed = hook(state)
+            if changed is not None:
+                state = changed
+        if controller is not None:
+            controller.on_step_end(state)
+        yield state
+        x = state.x_prev
+
+
+def final(states: Iterator[StepState]) -> StepState:
+    last = None
+    for last in states:
+        pass
+    if last is None:
+        raise ValueError("the loop ran no steps")
+    return last
+
+
+def ddim(denoiser: DenoiserFn, noise: torch.Tensor, cond: Condition, *, schedule: CosineSchedule,
+         num_steps: int = 50, eta: float = 0.0, **kwargs) -> Iterator[StepState]:
+    return run_loop(denoiser, noise, cond, schedule=schedule, timesteps=schedule.timesteps(num_steps), eta=eta, **kwargs)
+
+
+def ddpm(denoiser: DenoiserFn, noise: torch.Tensor, cond: Condition, *, schedule: CosineSchedule,
+         num_steps: int | None = None, **kwargs) -> Iterator[StepState]:
+    return run_loop(denoiser, noise, cond, schedule=schedule,
+                    timesteps=schedule.timesteps(num_steps or schedule.steps), eta=1.0, **kwargs)
+
+
+def ddim_invert(denoiser: DenoiserFn, x0: torch.Tensor, cond: Condition, *, schedule: CosineSchedule,
+                num_steps: int = 50, **kwargs) -> Iterator[StepState]:
+    """Clean motion -> noise that DDIM with the same steps maps back to it (x_prev of the last state)."""
+    ascending = list(reversed(schedule.timesteps(num_steps)))
+    return run_loop(denoiser, x0, cond, schedule=schedule, timesteps=ascending, eta=0.0, **kwargs)
+
+
+def with_state(state: StepState, **changes) -> StepState:
+    return replace(state, **changes)

@@ -1,0 +1,63 @@
+"""The one attention module: every self- and cross-attention call of the model goes through here."""
+from __future__ import annotations
+
+import math
+
+import torch
+import torch.nn.functional as F
+from einops import rearrange
+from torch import nn
+
+from engine.attention.context import AttnKind, StepInfo
+from engine.attention.controller import AttentionController
+
+
+class Attention(nn.Module):
+    """Multi-head attention with an explicit context and an optional controller.
+
+    With no controller, or one that needs no maps, it runs ``scaled_dot_product_attention``;
+    otherwise the explicit softmax path, so controllers can read and edit the maps.
+    """
+
+    def __init__(self, *, layer: int, kind: AttnKind, width: int, context_width: int | None = None, heads: int = 4):
+        super().__init__()
+        if width % heads:
+            raise ValueError(f"width {width} is not divisible by {heads} heads")
+        self.layer, self.kind, self.heads = layer, kind, heads
+        context_width = context_width or width
+        self.to_q = nn.Linear(width, width)
+        self.to_k = nn.Linear(context_width, width)
+        self.to_v = nn.Linear(context_width, width)
+        self.to_out = nn.Linear(width, width)
+
+    def forward(
+        self,
+        x: torch.Tensor,  # (B, N, width) frames
+        context: torch.Tensor,  # (B, M, context_width): frames (self) or words (cross)
+        key_mask: torch.Tensor,  # (B, M) bool, True = attend
+        *,
+        info: StepInfo | None = None,
+        controller: AttentionController | None = None,
+    ) -> torch.Tensor:
+        q = rearrange(self.to_q(x), "b n (h d) -> b h n d", h=self.heads)
+        k = rearrange(self.to_k(context), "b m (h d) -> b h m d", h=self.heads)
+        v = rearrange(self.to_v(context), "b m (h d) -> b h m d", h=self.heads)
+        ctx = info.ctx(layer=self.layer, kind=self.kind) if (controller is not None and info is not None) else None
+        if ctx is not None:
+            replaced = controller.on_qkv(q, k, v, ctx)
+            if replaced is not None:
+                q, k, v = replaced
+        # fully masked rows (e.g. no words) attend to nothing: guard against NaN
+        safe_mask = key_mask.clone()
+        safe_mask[~key_mask.any(-1), 0] = True
+        if ctx is not None and controller.needs_maps:
+            scores = torch.einsum("bhnd,bhmd->bhnm", q, k) / math.sqrt(q.shape[-1])
+            scores = scores.masked_fill(~safe_mask[:, None, None, :], float("-inf"))
+            probs = scores.softmax(dim=-1)
+            edited = controller.on_probs(probs, ctx)
+            if edited is not None:
+                probs = edited
+            out = torch.einsum("bhnm,bhmd->bhnd", probs, v)
+        else:
+            out = F.scaled_dot_product_attention(q, k, v, attn_mask=safe_mask[:, None, None, :])
+        return self.to_out(rearrange(out, "b h n d -> b n (h d)"))

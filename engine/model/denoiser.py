@@ -1,0 +1,133 @@
+"""The MotionCLR-style denoiser: normalised 263-dim frames + timestep + words -> predicted x0."""
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+
+import torch
+from torch import nn
+
+from engine.attention.attach import attached_controller
+from engine.attention.context import BatchRoles, StepInfo, WordIndex
+from engine.attention.controller import AttentionController
+from engine.model.blocks import Block
+from engine.representation import FEATURE_DIM
+from engine.text import TextEncoder, sinusoidal
+
+MAX_FRAMES = 196
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    width: int = 192
+    layers: int = 6
+    heads: int = 4
+    text_layers: int = 2
+    dropout: float = 0.1
+    vocab_size: int = 512
+    feature_dim: int = FEATURE_DIM
+    max_frames: int = MAX_FRAMES
+
+    def to_json(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_json(cls, data: dict) -> "ModelConfig":
+        known = {f for f in cls.__dataclass_fields__}
+        unknown = set(data) - known
+        if unknown:
+            raise ValueError(f"unknown model config fields: {sorted(unknown)}")
+        return cls(**data)
+
+
+@dataclass
+class Condition:
+    """Everything a denoiser call is conditioned on, besides x_t and t.
+
+    text_ids/text_mask (B, L); frame_mask (B, T) True on real frames; use_text (B,) False for the
+    unconditional pass; roles and words name the batch slots for attention controllers.
+    """
+
+    text_ids: torch.Tensor
+    text_mask: torch.Tensor
+    frame_mask: torch.Tensor
+    use_text: torch.Tensor
+    roles: BatchRoles
+    words: WordIndex | None = None
+    extras: dict = field(default_factory=dict)  # method-specific tensors (e.g. control targets)
+
+    def __len__(self) -> int:
+        return self.text_ids.shape[0]
+
+    def select(self, slots: list[int]) -> "Condition":
+        idx = torch.as_tensor(slots, dtype=torch.long)
+        return Condition(
+            text_ids=self.text_ids[idx], text_mask=self.text_mask[idx], frame_mask=self.frame_mask[idx],
+            use_text=self.use_text[idx],
+            roles=BatchRoles(names=tuple(self.roles.names[i] for i in slots), uncond=tuple(self.roles.uncond[i] for i in slots)),
+            words=None if self.words is None else WordIndex(words=tuple(self.words.words[i] for i in slots)),
+            extras={k: v[idx] if isinstance(v, torch.Tensor) else v for k, v in self.extras.items()},
+        )
+
+    def with_uncond(self) -> "Condition":
+        """The CFG batch: these slots, then the same slots without text."""
+        return Condition(
+            text_ids=torch.cat([self.text_ids, self.text_ids]),
+            text_mask=torch.cat([self.text_mask, self.text_mask]),
+            frame_mask=torch.cat([self.frame_mask, self.frame_mask]),
+            use_text=torch.cat([self.use_text, torch.zeros_like(self.use_text)]),
+            roles=self.roles.with_uncond(),
+            words=None if self.words is None else self.words.with_uncond(),
+            extras={k: torch.cat([v, v]) if isinstance(v, torch.Tensor) else v for k, v in self.extras.items()},
+        )
+
+
+class Denoiser(nn.Module):
+    """x_t (B, T, 263), t (B,), Condition -> x0_hat (B, T, 263)."""
+
+    def __init__(self, config: ModelConfig):
+        super().__init__()
+        self.config = config
+        w = config.width
+        self.text_encoder = TextEncoder(vocab_size=config.vocab_size, width=w, layers=config.text_layers,
+                                        heads=config.heads, dropout=config.dropout)
+        self.in_proj = nn.Linear(config.feature_dim, w)
+        self.time_mlp = nn.Sequential(nn.Linear(w, w), nn.SiLU(), nn.Linear(w, w))
+        self.blocks = nn.ModuleList(
+            Block(layer=i, width=w, heads=config.heads, text_width=w, dropout=config.dropout) for i in range(config.layers)
+        )
+        self.out_norm = nn.LayerNorm(w)
+        self.out_proj = nn.Linear(w, config.feature_dim)
+        self.register_buffer("frame_pos", sinusoidal(torch.arange(config.max_frames), w), persistent=False)
+
+    @property
+    def num_layers(self) -> int:
+        return self.config.layers
+
+    def encode_text(self, cond: Condition) -> torch.Tensor:
+        return self.text_encoder(cond.text_ids, cond.text_mask)
+
+    def forward(
+        self,
+        x: torch.Tensor,
+        t: torch.Tensor,
+        cond: Condition,
+        *,
+        step: int = 0,
+        controller: AttentionController | None = None,
+    ) -> torch.Tensor:
+        b, frames, _ = x.shape
+        if frames > self.config.max_frames:
+            raise ValueError(f"{frames} frames exceed the model's maximum of {self.config.max_frames}")
+        controller = controller if controller is not None else attached_controller(self)
+        info = StepInfo(step=step, t=int(t.reshape(-1)[0]), roles=cond.roles, words=cond.words) if controller is not None else None
+        temb = self.time_mlp(sinusoidal(t, self.config.width))
+        text = self.encode_text(cond)
+        h = self.in_proj(x) + self.frame_pos[:frames][None]
+        for block in self.blocks:
+            h = block(h, temb, cond.frame_mask, text, cond.text_mask, cond.use_text, info=info, controller=controller)
+        return self.out_proj(self.out_norm(h))
+
+    # -- persistence -------------------------------------------------------------
+    def config_json(self) -> str:
+        return json.dumps(self.config.to_json(), indent=2)

@@ -1,0 +1,144 @@
+"""Word-level tokeniser over the corpus vocabulary and a small transformer text encoder.
+
+Token i is word i of the prompt (no start token), so the UI and the attention edits can point
+at words directly. Unknown words are reported by name with suggestions, never dropped.
+"""
+from __future__ import annotations
+
+import difflib
+import math
+import re
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import torch
+from torch import nn
+
+PAD = "<pad>"
+_WORD = re.compile(r"[a-z]+(?:'[a-z]+)?")
+MAX_WORDS = 40
+
+
+def split_words(prompt: str) -> list[str]:
+    """Lowercase words of a prompt; punctuation and digits are separators."""
+    return _WORD.findall(prompt.lower())
+
+
+class PromptError(ValueError):
+    """A prompt the model cannot read: empty, too long, or with unknown words."""
+
+    def __init__(self, message: str, *, unknown: Sequence[str] = (), suggestions: dict[str, list[str]] | None = None):
+        super().__init__(message)
+        self.unknown = list(unknown)
+        self.suggestions = dict(suggestions or {})
+
+
+@dataclass(frozen=True)
+class TokenizedPrompt:
+    prompt: str
+    words: tuple[str, ...]
+    ids: tuple[int, ...]
+
+    def word_index(self, word: str, occurrence: int = 0) -> int:
+        """Token index of ``word`` (its ``occurrence``-th appearance) in this prompt."""
+        word = word.lower()
+        hits = [i for i, w in enumerate(self.words) if w == word]
+        if len(hits) <= occurrence:
+            raise PromptError(f"the word {word!r} is not in the prompt {self.prompt!r} (words: {', '.join(self.words)})")
+        return hits[occurrence]
+
+
+class Tokenizer:
+    """Maps words to ids; id 0 is padding."""
+
+    def __init__(self, vocabulary: Iterable[str]):
+        # order is kept (a checkpoint's word list must map to the same ids); duplicates dropped
+        words = list(dict.fromkeys(w.strip().lower() for w in vocabulary if w.strip() and w != PAD))
+        bad = [w for w in words if not _WORD.fullmatch(w)]
+        if bad:
+            raise ValueError(f"vocabulary entries are not plain words: {bad[:5]}")
+        self.words: tuple[str, ...] = (PAD, *words)
+        self._ids = {w: i for i, w in enumerate(self.words)}
+
+    def extended(self, vocabulary: Iterable[str]) -> "Tokenizer":
+        """This tokenizer plus new words appended at the end (existing ids unchanged)."""
+        return Tokenizer([*self.words[1:], *vocabulary])
+
+    def __len__(self) -> int:
+        return len(self.words)
+
+    def __contains__(self, word: str) -> bool:
+        return word.lower() in self._ids and word != PAD
+
+    def suggest(self, word: str, n: int = 3) -> list[str]:
+        return difflib.get_close_matches(word.lower(), self.words[1:], n=n, cutoff=0.6)
+
+    def unknown_words(self, prompt: str) -> list[str]:
+        return [w for w in split_words(prompt) if w not in self._ids]
+
+    def encode(self, prompt: str, *, max_words: int = MAX_WORDS) -> TokenizedPrompt:
+        words = split_words(prompt)
+        if not words:
+            raise PromptError("the prompt is empty: type a few words, e.g. 'a person jumps twice'")
+        if len(words) > max_words:
+            raise PromptError(f"the prompt has {len(words)} words; at most {max_words} are supported")
+        unknown = [w for w in dict.fromkeys(words) if w not in self._ids]
+        if unknown:
+            suggestions = {w: self.suggest(w) for w in unknown}
+            hints = "; ".join(
+                f"{w!r} (did you mean {', '.join(repr(s) for s in sug)}?)" if sug else repr(w)
+                for w, sug in suggestions.items()
+            )
+            raise PromptError(f"unknown word{'s' if len(unknown) > 1 else ''}: {hints}", unknown=unknown, suggestions=suggestions)
+        return TokenizedPrompt(prompt=prompt, words=tuple(words), ids=tuple(self._ids[w] for w in words))
+
+    def batch(self, prompts: Sequence[str | TokenizedPrompt]) -> tuple[torch.Tensor, torch.Tensor]:
+        """Pad a batch: ids (B, L) long and mask (B, L) bool (True = a real word)."""
+        tokenized = [p if isinstance(p, TokenizedPrompt) else self.encode(p) for p in prompts]
+        length = max(len(t.ids) for t in tokenized)
+        ids = torch.zeros(len(tokenized), length, dtype=torch.long)
+        mask = torch.zeros(len(tokenized), length, dtype=torch.bool)
+        for row, t in enumerate(tokenized):
+            ids[row, : len(t.ids)] = torch.tensor(t.ids)
+            mask[row, : len(t.ids)] = True
+        return ids, mask
+
+
+def sinusoidal(positions: torch.Tensor, dim: int) -> torch.Tensor:
+    """Sinusoidal embedding of (...,) positions/timesteps -> (..., dim)."""
+    half = dim // 2
+    freqs = torch.exp(-math.log(10000.0) * torch.arange(half, dtype=torch.float32, device=positions.device) / half)
+    args = positions.float()[..., None] * freqs
+    return torch.cat([torch.sin(args), torch.cos(args)], dim=-1)
+
+
+class TextEncoder(nn.Module):
+    """Word embeddings + positions -> a small transformer -> one feature per word (B, L, width)."""
+
+    def __init__(self, *, vocab_size: int, width: int, layers: int = 2, heads: int = 4, dropout: float = 0.1):
+        super().__init__()
+        self.width = width
+        self.embed = nn.Embedding(vocab_size, width, padding_idx=0)
+        layer = nn.TransformerEncoderLayer(
+            d_model=width, nhead=heads, dim_feedforward=2 * width, dropout=dropout, batch_first=True, norm_first=True
+        )
+        self.encoder = nn.TransformerEncoder(layer, num_layers=layers, enable_nested_tensor=False)
+        self.norm = nn.LayerNorm(width)
+
+    def forward(self, ids: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        # ids, mask: (B, L) -> (B, L, width)
+        positions = torch.arange(ids.shape[1], device=ids.device)
+        h = self.embed(ids) + sinusoidal(positions, self.width)[None]
+        h = self.encoder(h, src_key_padding_mask=~mask)
+        return self.norm(h)
+
+    def resize_vocabulary(self, new_size: int) -> None:
+        """Grow the embedding table (new words start near zero); used when resuming on a larger vocabulary."""
+        old = self.embed
+        if new_size < old.num_embeddings:
+            raise ValueError("the vocabulary can only grow")
+        grown = nn.Embedding(new_size, self.width, padding_idx=0)
+        with torch.no_grad():
+            grown.weight.normal_(0, 0.02)
+            grown.weight[: old.num_embeddings] = old.weight
+        self.embed = grown
