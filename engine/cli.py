@@ -15,6 +15,7 @@ SUBCOMMANDS: dict[str, str] = {
     "convert": "engine.cli_io",
     "render": "engine.cli_io",
     "corpus": "engine.cli_corpus",
+    "train": "engine.cli_train",
     "serve": "app.cli_serve",
 }
 

@@ -19,7 +19,7 @@ import numpy as np
 import torch
 from scipy.ndimage import gaussian_filter1d
 
-from engine.rotations import matrix_to_cont6d, qbetween, qinv, qmul, qrot, quat_to_matrix
+from engine.rotations import cross, matrix_to_cont6d, qbetween, qinv, qmul, qrot, quat_to_matrix
 from engine.skeleton import CHAINS, FACE_JOINTS, FOOT_JOINTS, NUM_JOINTS
 
 FEATURE_DIM = 263
@@ -43,6 +43,20 @@ HML_RAW_OFFSETS = np.array(
     dtype=np.float64,
 )
 _UP = np.array([0.0, 1.0, 0.0])
+
+
+def _ik_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per bone along HumanML3D's chains: child joint, parent joint, previous bone (-1 = root)."""
+    child, parent, prev = [], [], []
+    for chain in CHAINS:
+        for j, (a, b) in enumerate(zip(chain[:-1], chain[1:])):
+            child.append(b)
+            parent.append(a)
+            prev.append(len(child) - 2 if j > 0 else -1)
+    return np.array(child), np.array(parent), np.array(prev)
+
+
+_IK_CHILD, _IK_PARENT, _IK_PREV = _ik_tables()
 _FORWARD = np.array([0.0, 0.0, 1.0])
 
 
@@ -62,7 +76,7 @@ def facing_direction(joints: np.ndarray) -> np.ndarray:
     r_hip, l_hip, r_sdr, l_sdr = FACE_JOINTS
     across = (joints[..., r_hip, :] - joints[..., l_hip, :]) + (joints[..., r_sdr, :] - joints[..., l_sdr, :])
     across = across / np.linalg.norm(across, axis=-1, keepdims=True)
-    forward = np.cross(_UP, across)
+    forward = cross(_UP, across)
     return forward / np.linalg.norm(forward, axis=-1, keepdims=True)
 
 
@@ -90,7 +104,7 @@ def hml_inverse_kinematics(joints: np.ndarray, *, smooth_forward: bool = True) -
     the observed bone, relative to the accumulated chain rotation (each chain restarts at the
     root rotation, as in HumanML3D).
     """
-    forward = np.cross(_UP, _hml_ik_across(joints))
+    forward = cross(_UP, _hml_ik_across(joints))
     if smooth_forward:
         forward = gaussian_filter1d(forward, 20, axis=0, mode="nearest")
     forward = forward / np.linalg.norm(forward, axis=-1, keepdims=True)
@@ -98,17 +112,15 @@ def hml_inverse_kinematics(joints: np.ndarray, *, smooth_forward: bool = True) -
     # HumanML3D pins the first frame's root rotation to the identity (the canonical pose already
     # faces +Z), so the first root angular velocity absorbs the smoothing offset.
     root_quat[0] = (1.0, 0.0, 0.0, 0.0)
-    quats = np.zeros(joints.shape[:-1] + (4,))
+    # Along a chain the accumulated rotation after bone b equals b's shortest arc, so each
+    # stored quaternion is inv(arc of the previous bone in the chain, or the root) * arc(b).
+    bones = joints[:, _IK_CHILD] - joints[:, _IK_PARENT]
+    bones = bones / np.linalg.norm(bones, axis=-1, keepdims=True)
+    arcs = qbetween(np.broadcast_to(HML_RAW_OFFSETS[_IK_CHILD], bones.shape), bones)  # (T, 21, 4)
+    prev = np.concatenate([root_quat[:, None], arcs], axis=1)[:, _IK_PREV + 1]
+    quats = np.empty(joints.shape[:-1] + (4,))
     quats[:, 0] = root_quat
-    for chain in CHAINS:
-        acc = root_quat
-        for a, b in zip(chain[:-1], chain[1:]):
-            bone = joints[:, b] - joints[:, a]
-            bone = bone / np.linalg.norm(bone, axis=-1, keepdims=True)
-            arc = qbetween(np.broadcast_to(HML_RAW_OFFSETS[b], bone.shape), bone)
-            loc = qmul(qinv(acc), arc)
-            quats[:, b] = loc
-            acc = qmul(acc, loc)
+    quats[:, _IK_CHILD] = qmul(qinv(prev), arcs)
     return quats
 
 

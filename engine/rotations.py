@@ -14,10 +14,17 @@ def qnormalize(q: np.ndarray) -> np.ndarray:
     return q / np.maximum(np.linalg.norm(q, axis=-1, keepdims=True), _EPS)
 
 
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product over the last axis (..., 3); faster than np.cross on small arrays."""
+    ax, ay, az = a[..., 0], a[..., 1], a[..., 2]
+    bx, by, bz = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx], axis=-1)
+
+
 def qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product a*b; shapes (..., 4)."""
-    aw, ax, ay, az = np.moveaxis(a, -1, 0)
-    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    aw, ax, ay, az = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
+    bw, bx, by, bz = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
     return np.stack(
         [
             aw * bw - ax * bx - ay * by - az * bz,
@@ -36,14 +43,14 @@ def qinv(q: np.ndarray) -> np.ndarray:
 def qrot(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vectors v (..., 3) by unit quaternions q (..., 4)."""
     qvec = q[..., 1:]
-    uv = np.cross(qvec, v)
-    uuv = np.cross(qvec, uv)
+    uv = cross(qvec, v)
+    uuv = cross(qvec, uv)
     return v + 2.0 * (q[..., :1] * uv + uuv)
 
 
 def qbetween(v0: np.ndarray, v1: np.ndarray) -> np.ndarray:
     """The shortest-arc rotation taking direction v0 to direction v1 (..., 3) -> (..., 4)."""
-    axis = np.cross(v0, v1)
+    axis = cross(v0, v1)
     w = np.sqrt((v0**2).sum(-1, keepdims=True) * (v1**2).sum(-1, keepdims=True)) + (v0 * v1).sum(
         -1, keepdims=True
     )

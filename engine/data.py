@@ -1,0 +1,127 @@
+"""Training data: one interface over the procedural corpus and HumanML3D-layout folders, plus batching."""
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+import torch
+
+from engine.model.denoiser import MAX_FRAMES, Condition
+from engine.attention.context import BatchRoles, WordIndex
+from engine.text import Tokenizer, split_words
+
+
+@dataclass(frozen=True)
+class MotionText:
+    features: np.ndarray  # (T, 263) float32, not normalised
+    captions: tuple[str, ...]
+
+
+class MotionSource(Protocol):
+    """Where training motions come from: ``get(i)`` for any i >= 0 (sources may be infinite)."""
+
+    def get(self, index: int) -> MotionText: ...
+
+    def words(self) -> Sequence[str]: ...
+
+
+class CorpusSource:
+    """The procedural corpus, generated on the fly."""
+
+    def __init__(self, *, split: str = "train", seed: int = 0):
+        from engine.synth import Corpus
+
+        self.corpus = Corpus(split=split, seed=seed)
+
+    def get(self, index: int) -> MotionText:
+        s = self.corpus.sample(index)
+        return MotionText(features=s.features, captions=tuple(s.captions))
+
+    def words(self) -> Sequence[str]:
+        from engine.synth import vocabulary
+
+        return vocabulary()
+
+
+class FolderSource:
+    """A HumanML3D-layout folder (new_joint_vecs/, texts/, split lists); cycles over its samples."""
+
+    def __init__(self, folder: str | Path, *, split: str = "train"):
+        from engine.io.humanml3d import read_folder
+
+        self.items = [(np.asarray(f, dtype=np.float32), tuple(c for c in caps)) for _, f, caps in read_folder(folder, split=split)]
+        if not self.items:
+            raise ValueError(f"no samples in split {split!r} of {folder}")
+
+    def get(self, index: int) -> MotionText:
+        features, captions = self.items[index % len(self.items)]
+        return MotionText(features=features, captions=captions)
+
+    def words(self) -> Sequence[str]:
+        return sorted({w for _, caps in self.items for c in caps for w in split_words(c)})
+
+
+@dataclass
+class Batch:
+    x0: torch.Tensor  # (B, T, 263) normalised
+    cond: Condition
+    captions: list[str]
+
+
+def collate(
+    items: Sequence[MotionText],
+    *,
+    tokenizer: Tokenizer,
+    normalize,
+    rng: np.random.Generator,
+    max_frames: int = MAX_FRAMES,
+    text_dropout: float = 0.1,
+) -> Batch:
+    """Random caption per item, random crop to ``max_frames``, zero-padding with a frame mask."""
+    feats, captions = [], []
+    for item in items:
+        f = item.features
+        if len(f) > max_frames:
+            start = int(rng.integers(0, len(f) - max_frames + 1))
+            f = f[start : start + max_frames]
+        feats.append(normalize(f))
+        captions.append(item.captions[int(rng.integers(len(item.captions)))])
+    length = max(len(f) for f in feats)
+    x0 = torch.zeros(len(feats), length, feats[0].shape[-1])
+    frame_mask = torch.zeros(len(feats), length, dtype=torch.bool)
+    for i, f in enumerate(feats):
+        x0[i, : len(f)] = torch.from_numpy(np.asarray(f, dtype=np.float32))
+        frame_mask[i, : len(f)] = True
+    tokenized = [tokenizer.encode(c) for c in captions]
+    ids, mask = tokenizer.batch(tokenized)
+    use_text = torch.from_numpy(rng.random(len(items)) >= text_dropout)
+    cond = Condition(
+        text_ids=ids, text_mask=mask, frame_mask=frame_mask, use_text=use_text,
+        roles=BatchRoles.single("out", size=len(items)), words=WordIndex(words=tuple(t.words for t in tokenized)),
+    )
+    return Batch(x0=x0, cond=cond, captions=captions)
+
+
+def batches(
+    source: MotionSource,
+    *,
+    tokenizer: Tokenizer,
+    normalize,
+    batch_size: int,
+    seed: int,
+    start_index: int = 0,
+    stride: int = 1,
+    **collate_kwargs,
+) -> Iterator[Batch]:
+    """An endless stream of batches; item indices start_index, start_index + stride, ... (DDP ranks interleave)."""
+    rng = np.random.default_rng(seed)
+    index = start_index
+    while True:
+        items = []
+        for _ in range(batch_size):
+            items.append(source.get(index))
+            index += stride
+        yield collate(items, tokenizer=tokenizer, normalize=normalize, rng=rng, **collate_kwargs)

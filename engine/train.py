@@ -1,0 +1,244 @@
+"""`moattn train`: train the denoiser on the corpus (on the fly) or a HumanML3D folder.
+
+Single process by default; under ``torchrun`` (WORLD_SIZE set) it runs torch DDP with gloo on CPU,
+each rank drawing interleaved corpus indices. Rank 0 writes checkpoints and logs.
+"""
+from __future__ import annotations
+
+import copy
+import json
+import math
+import os
+import signal
+import time
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.distributed as dist
+from tqdm import tqdm
+
+from engine.checkpoint import export_weights, load_train_state, read_config, save_train_state, write_config
+from engine.data import CorpusSource, FolderSource, MotionSource, batches
+from engine.diffusion.schedule import CosineSchedule
+from engine.model.denoiser import Denoiser, ModelConfig
+from engine.representation import Normalizer
+from engine.text import Tokenizer
+
+
+@dataclass
+class TrainConfig:
+    out: str = "runs/base"
+    data: str = "corpus"  # "corpus" or a HumanML3D-layout folder
+    steps: int = 20000
+    batch_size: int = 32
+    max_frames: int = 196
+    lr: float = 2e-4
+    weight_decay: float = 1e-2
+    warmup: int = 500
+    ema_decay: float = 0.999
+    text_dropout: float = 0.1
+    velocity_weight: float = 0.5
+    grad_clip: float = 1.0
+    seed: int = 0
+    log_every: int = 20
+    ckpt_every: int = 250
+    snapshot_every: int = 2000
+    stats_samples: int = 2000
+    threads: int = 0  # torch threads per process; 0 = torch's default
+    model: ModelConfig = field(default_factory=ModelConfig)
+
+    def to_json(self) -> dict:
+        data = asdict(self)
+        data["model"] = self.model.to_json()
+        return data
+
+    @classmethod
+    def from_json(cls, data: dict) -> "TrainConfig":
+        data = dict(data)
+        model = ModelConfig.from_json(data.pop("model"))
+        names = {f.name for f in fields(cls)}
+        return cls(model=model, **{k: v for k, v in data.items() if k in names})
+
+
+def make_source(config: TrainConfig, *, split: str = "train") -> MotionSource:
+    if config.data == "corpus":
+        return CorpusSource(split=split, seed=config.seed)
+    return FolderSource(config.data, split=split)
+
+
+def masked_losses(x0_hat: torch.Tensor, x0: torch.Tensor, mask: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Mean squared error over real frames, and of the frame-to-frame differences."""
+    m = mask[..., None].float()
+    mse = ((x0_hat - x0) ** 2 * m).sum() / (m.sum() * x0.shape[-1]).clamp_min(1)
+    mv = m[:, 1:] * m[:, :-1]
+    dv = (x0_hat[:, 1:] - x0_hat[:, :-1]) - (x0[:, 1:] - x0[:, :-1])
+    vel = (dv**2 * mv).sum() / (mv.sum() * x0.shape[-1]).clamp_min(1)
+    return mse, vel
+
+
+def lr_at(step: int, config: TrainConfig) -> float:
+    if step < config.warmup:
+        return config.lr * (step + 1) / config.warmup
+    progress = min(1.0, (step - config.warmup) / max(1, config.steps - config.warmup))
+    return config.lr * (0.1 + 0.9 * 0.5 * (1 + math.cos(math.pi * progress)))
+
+
+class _Stop:
+    """Set by SIGINT/SIGTERM so the loop checkpoints and exits cleanly."""
+
+    def __init__(self):
+        self.requested = False
+
+    def __call__(self, signum, frame):
+        self.requested = True
+
+
+def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, source: MotionSource | None = None) -> dict:
+    distributed = int(os.environ.get("WORLD_SIZE", "1")) > 1
+    if distributed:
+        dist.init_process_group("gloo")
+    rank = dist.get_rank() if distributed else 0
+    world = dist.get_world_size() if distributed else 1
+    if config.threads:
+        torch.set_num_threads(config.threads)
+    out = Path(config.out).resolve()
+    if rank == 0:
+        out.mkdir(parents=True, exist_ok=True)
+    if distributed:
+        dist.barrier()
+
+    source = source or make_source(config)
+    words = tuple(source.words())
+    state = None
+    if resume and (out / "train_state.pt").exists():
+        saved = read_config(out)
+        config = TrainConfig.from_json({**saved["train"], "steps": config.steps, "out": str(out)})
+        tokenizer = Tokenizer(saved["vocabulary"])
+        state = load_train_state(out)
+        normalizer = Normalizer.load(out)
+    else:
+        if resume and rank == 0:
+            print(f"no checkpoint in {out}; starting from scratch")
+        tokenizer = Tokenizer(sorted(words))
+        normalizer = _fit_stats(source, config) if rank == 0 else None
+        if rank == 0:
+            normalizer.save(out)
+        if distributed:
+            dist.barrier()
+            normalizer = Normalizer.load(out)
+    grown = tokenizer.extended(words)
+    model_config = config.model
+    if len(grown) > model_config.vocab_size:
+        model_config = ModelConfig.from_json({**model_config.to_json(), "vocab_size": len(grown) + 64})
+    config.model = model_config
+
+    torch.manual_seed(config.seed)
+    model = Denoiser(model_config)
+    opt_state = None
+    start_step, next_index = 0, 0
+    if state is not None:
+        params = state["model"]
+        vocab_rows = params["text_encoder.embed.weight"].shape[0]
+        if vocab_rows != model_config.vocab_size:
+            model.text_encoder.resize_vocabulary(vocab_rows)
+        model.load_state_dict(params)
+        if vocab_rows < model_config.vocab_size:
+            model.text_encoder.resize_vocabulary(model_config.vocab_size)
+            print(f"vocabulary grew to {len(grown)} words: embeddings extended, optimizer state reset")
+        else:
+            opt_state = state["optimizer"]
+        start_step, next_index = int(state["step"]), int(state["next_index"])
+    tokenizer = grown
+    ema = copy.deepcopy(model).eval()
+    if state is not None and state["ema"]["text_encoder.embed.weight"].shape == ema.text_encoder.embed.weight.shape:
+        ema.load_state_dict(state["ema"])
+    for p in ema.parameters():
+        p.requires_grad_(False)
+
+    net = torch.nn.parallel.DistributedDataParallel(model) if distributed else model
+    optimizer = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+    if opt_state is not None:
+        optimizer.load_state_dict(opt_state)
+    schedule = CosineSchedule()
+    stream = batches(
+        source, tokenizer=tokenizer, normalize=normalizer.normalize, batch_size=config.batch_size,
+        seed=config.seed * 1000 + rank + start_step, start_index=next_index + rank, stride=world,
+        max_frames=config.max_frames, text_dropout=config.text_dropout,
+    )
+    gen = torch.Generator().manual_seed(config.seed * 7919 + rank * 104729 + start_step)
+
+    def checkpoint(step: int, index: int) -> None:
+        if rank != 0:
+            return
+        write_config(out, model_config=model_config, vocabulary=tokenizer.words[1:],
+                     extra={"train": config.to_json(), "step": step})
+        save_train_state(out, {"model": model.state_dict(), "ema": ema.state_dict(),
+                               "optimizer": optimizer.state_dict(), "step": step, "next_index": index})
+        export_weights(out, ema.state_dict())
+
+    stop = _Stop()
+    previous = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
+    log_path = out / "log.jsonl"
+    bar = tqdm(total=config.steps, initial=start_step, disable=not progress or rank != 0, desc="train", unit="step")
+    step, index = start_step, next_index
+    window_loss, window_t0, last = [], time.perf_counter(), {}
+    try:
+        model.train()
+        while step < config.steps and not stop.requested:
+            batch = next(stream)
+            index += config.batch_size * world
+            b = batch.x0.shape[0]
+            t = torch.randint(0, schedule.steps, (b,), generator=gen)
+            noise = torch.randn(batch.x0.shape, generator=gen)
+            x_t = schedule.q_sample(batch.x0, t, noise)
+            for group in optimizer.param_groups:
+                group["lr"] = lr_at(step, config)
+            x0_hat = net(x_t, t, batch.cond)
+            mse, vel = masked_losses(x0_hat, batch.x0, batch.cond.frame_mask)
+            loss = mse + config.velocity_weight * vel
+            optimizer.zero_grad(set_to_none=True)
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip)
+            optimizer.step()
+            with torch.no_grad():
+                decay = min(config.ema_decay, (1 + step) / (10 + step))
+                for pe, pm in zip(ema.parameters(), model.parameters()):
+                    pe.lerp_(pm, 1 - decay)
+            step += 1
+            window_loss.append((mse.item(), vel.item()))
+            bar.update(1)
+            if step % config.log_every == 0 or step == config.steps:
+                elapsed = time.perf_counter() - window_t0
+                last = {"step": step, "mse": float(np.mean([l[0] for l in window_loss])),
+                        "vel": float(np.mean([l[1] for l in window_loss])), "lr": lr_at(step, config),
+                        "s_per_step": elapsed / len(window_loss), "time": time.time()}
+                bar.set_postfix(mse=f"{last['mse']:.4f}", s_step=f"{last['s_per_step']:.2f}")
+                if rank == 0:
+                    with log_path.open("a") as fh:
+                        fh.write(json.dumps(last) + "\n")
+                window_loss, window_t0 = [], time.perf_counter()
+            if step % config.ckpt_every == 0:
+                checkpoint(step, index)
+            if rank == 0 and config.snapshot_every and step % config.snapshot_every == 0:
+                snap = out / "snapshots" / f"step_{step:07d}"
+                snap.mkdir(parents=True, exist_ok=True)
+                write_config(snap, model_config=model_config, vocabulary=tokenizer.words[1:],
+                             extra={"train": config.to_json(), "step": step})
+                normalizer.save(snap)
+                export_weights(snap, ema.state_dict())
+    finally:
+        bar.close()
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        checkpoint(step, index)
+        if distributed:
+            dist.barrier()
+            dist.destroy_process_group()
+    return {"step": step, "stopped": stop.requested, **last}
+
+
+def _fit_stats(source: MotionSource, config: TrainConfig) -> Normalizer:
+    feats = [source.get(10_000_000 + i).features for i in range(config.stats_samples)]
+    return Normalizer.fit(np.concatenate(feats, axis=0))
