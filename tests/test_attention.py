@@ -1,0 +1,170 @@
+"""The attention extension point on a tiny seeded model."""
+from __future__ import annotations
+
+import threading
+
+import pytest
+import torch
+
+from engine.attention import AttentionStore, BatchRoles, Controller, StoreConfig, attach, stack, steps_window, layer_window
+from engine.attention.context import WordIndex
+from engine.diffusion import ClassifierFreeGuidance, CosineSchedule, ddim, final
+from engine.model import Condition, Denoiser, ModelConfig
+
+
+def tiny_model(seed: int = 0) -> Denoiser:
+    torch.manual_seed(seed)
+    return Denoiser(ModelConfig(width=32, layers=3, heads=2, text_layers=1, vocab_size=16, dropout=0.0)).eval()
+
+
+def condition(batch: int = 2, frames: int = 24, words: int = 4, roles=("ref", "edit")) -> Condition:
+    g = torch.Generator().manual_seed(1)
+    return Condition(
+        text_ids=torch.randint(1, 16, (batch, words), generator=g),
+        text_mask=torch.ones(batch, words, dtype=torch.bool),
+        frame_mask=torch.ones(batch, frames, dtype=torch.bool),
+        use_text=torch.ones(batch, dtype=torch.bool),
+        roles=BatchRoles.of(*roles),
+        words=WordIndex(words=tuple(tuple(f"w{i}" for i in range(words)) for _ in range(batch))),
+    )
+
+
+def inputs(batch=2, frames=24):
+    g = torch.Generator().manual_seed(2)
+    return torch.randn(batch, frames, 263, generator=g), torch.full((batch,), 400)
+
+
+class Recorder(Controller):
+    def __init__(self):
+        self.calls = []
+
+    def on_qkv(self, q, k, v, ctx):
+        self.calls.append(ctx)
+        return None
+
+
+def test_do_nothing_controller_is_bit_identical():
+    model, cond = tiny_model(), condition()
+    x, t = inputs()
+    plain = model(x, t, cond)
+    assert torch.equal(plain, model(x, t, cond, controller=Controller()))
+    assert torch.equal(plain, model(x, t, cond, controller=stack(Controller(), Controller())))
+    # the same holds through a whole guided sampling run
+    sched = CosineSchedule()
+    guided = ClassifierFreeGuidance(model, scale=2.5)
+    a = final(ddim(guided, x, cond, schedule=sched, num_steps=5)).x_prev
+    b = final(ddim(guided, x, cond, schedule=sched, num_steps=5, controller=Controller())).x_prev
+    assert torch.equal(a, b)
+
+
+def test_every_call_gets_an_explicit_context():
+    model, cond = tiny_model(), condition()
+    x, t = inputs()
+    rec = Recorder()
+    model(x, t, cond, controller=rec, step=7)
+    kinds = [(c.layer, c.kind) for c in rec.calls]
+    assert kinds == [(l, k) for l in range(3) for k in ("self", "cross")]
+    assert all(c.step == 7 and c.t == 400 and c.roles.names == ("ref", "edit") for c in rec.calls)
+    assert rec.calls[1].words.index(1, "w2") == 2
+
+
+def test_explicit_softmax_path_matches_fast_path():
+    model, cond = tiny_model(), condition()
+    x, t = inputs()
+    store = AttentionStore()
+    assert store.needs_maps
+    out = model(x, t, cond, controller=store)
+    assert torch.allclose(out, model(x, t, cond), atol=1e-5)
+    m = store.map(step=0, layer=1, kind="cross", slot=1)
+    assert m.shape == (24, 4)
+    assert torch.allclose(m.sum(-1), torch.ones(24), atol=1e-2)
+
+
+def test_probs_edit_changes_only_what_it_should():
+    model, cond = tiny_model(), condition()
+    x, t = inputs()
+
+    class ZeroWord(Controller):
+        needs_maps = True
+
+        def on_probs(self, probs, ctx):
+            if ctx.kind != "cross":
+                return None
+            probs = probs.clone()
+            probs[ctx.roles.slot("edit"), :, :, 0] = 0.0
+            return probs
+
+    base = model(x, t, cond)
+    edited = model(x, t, cond, controller=ZeroWord())
+    ref_slot, edit_slot = 0, 1
+    assert torch.allclose(edited[ref_slot], base[ref_slot], atol=1e-5)
+    assert (edited[edit_slot] - base[edit_slot]).abs().max() > 1e-4
+
+
+def test_store_respects_selection_and_budget():
+    model, cond = tiny_model(), condition()
+    x, t = inputs()
+    store = AttentionStore(StoreConfig(kinds=("self",), layers=frozenset({2}), record_qkv=True))
+    model(x, t, cond, controller=store, step=3)
+    assert store.sites() == [(3, 2, "self")]
+    rec = store.get(step=3, layer=2, kind="self")
+    assert rec.q.shape == (2, 2, 24, 16) and rec.probs.shape == (2, 2, 24, 24)
+    tiny = AttentionStore(StoreConfig(budget_bytes=100))
+    model(x, t, cond, controller=tiny)
+    assert not tiny.records and tiny.skipped_sites
+    with pytest.raises(KeyError, match="nothing recorded"):
+        store.get(step=0, layer=0, kind="cross")
+
+
+def test_store_skips_unconditional_half_of_cfg():
+    model, cond = tiny_model(), condition()
+    x, _ = inputs()
+    store = AttentionStore()
+    final(ddim(ClassifierFreeGuidance(model, scale=2.0), x, cond, schedule=CosineSchedule(), num_steps=3, controller=store))
+    rec = store.get(step=2, layer=0, kind="cross")
+    assert rec.probs.shape[0] == 2 and rec.roles == ("ref", "edit")
+    assert store.steps == [0, 1, 2]
+
+
+def test_attach_restores_and_isolates_threads():
+    model, cond = tiny_model(), condition()
+    x, t = inputs()
+    rec = Recorder()
+    with attach(model, rec):
+        model(x, t, cond)
+        seen_in_thread = []
+
+        def other():
+            before = len(rec.calls)
+            model(x, t, cond)
+            seen_in_thread.append(len(rec.calls) - before)
+
+        th = threading.Thread(target=other)
+        th.start()
+        th.join()
+    assert len(rec.calls) == 6 and seen_in_thread == [0]
+    with pytest.raises(RuntimeError):
+        with attach(model, rec):
+            raise RuntimeError("boom")
+    model(x, t, cond)
+    assert len(rec.calls) == 6  # detached after the error too
+
+
+def test_unconditional_rows_ignore_text():
+    model = tiny_model()
+    cond = condition()
+    x, t = inputs()
+    cond.use_text = torch.tensor([False, False])
+    other = condition()
+    other.use_text = torch.tensor([False, False])
+    other.text_ids = (other.text_ids % 15) + 1
+    assert torch.allclose(model(x, t, cond), model(x, t, other))
+
+
+def test_windows():
+    assert list(steps_window(10, 0.0, 0.5)) == [0, 1, 2, 3, 4]
+    assert layer_window(None, 4) == {0, 1, 2, 3} and layer_window(1, 4) == {1, 2, 3}
+    with pytest.raises(ValueError):
+        steps_window(10, 0.6, 0.5)
+    with pytest.raises(ValueError):
+        layer_window([5], 4)
