@@ -16,6 +16,8 @@ SUBCOMMANDS: dict[str, str] = {
     "render": "engine.cli_io",
     "corpus": "engine.cli_corpus",
     "train": "engine.cli_train",
+    "eval": "engine.cli_eval",
+    "evaluator": "engine.cli_eval",
     "serve": "app.cli_serve",
 }
 

@@ -22,7 +22,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         if f.name == "model":
             continue
         value = getattr(defaults, f.name)
-        p.add_argument(f"--{f.name.replace('_', '-')}", type=type(value), default=value, help=f"(default: {value})")
+        if isinstance(value, bool):
+            p.add_argument(f"--{f.name.replace('_', '-')}", action=argparse.BooleanOptionalAction, default=value,
+                           help=f"(default: {value})")
+        else:
+            p.add_argument(f"--{f.name.replace('_', '-')}", type=type(value), default=value, help=f"(default: {value})")
     model_defaults = ModelConfig()
     for f in fields(ModelConfig):
         if f.name in ("feature_dim", "vocab_size", "max_frames"):

@@ -45,12 +45,14 @@ def fit_points(
     view_angle: float = 30.0,
     aspect: float = 4 / 3,
     margin: float = 1.12,
+    pad: float = 0.1,
 ) -> CameraPose:
     """Place a perspective camera along ``direction`` so that all ``points`` (N, 3) fit in view.
 
     The focal point is the centre of the points' bounding box; the distance is the smallest
     that keeps every point inside the vertical ``view_angle`` (degrees) and the horizontal
-    angle implied by ``aspect`` (width / height), with ``margin`` extra room.
+    angle implied by ``aspect`` (width / height), with ``margin`` extra room (a factor) and
+    ``pad`` metres around each point (for the joint spheres and the head).
     """
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     centre = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
@@ -62,6 +64,9 @@ def fit_points(
     x, y, depth = rel @ right, rel @ up, rel @ back
     tan_v = np.tan(np.radians(view_angle) / 2.0)
     tan_h = tan_v * aspect
-    needed = np.maximum(depth + margin * np.abs(y) / tan_v, depth + margin * np.abs(x) / tan_h)
+    needed = np.maximum(
+        depth + pad + margin * (np.abs(y) + pad) / tan_v,
+        depth + pad + margin * (np.abs(x) + pad) / tan_h,
+    )
     distance = max(float(needed.max()), 0.5)
     return CameraPose(position=centre + distance * back, focal_point=centre)

@@ -18,7 +18,7 @@ import numpy as np
 import pyvista as pv
 
 from engine.skeleton import JOINT_NAMES
-from viz.camera import fit_points, facing_azimuth, view_direction
+from viz.camera import facing_azimuth, fit_points, view_direction
 from viz.colors import (
     FLOOR_COLORS,
     ROLE_PALETTE,
@@ -31,7 +31,6 @@ from viz.colors import (
 )
 from viz.geometry import (
     BONE_CHILDREN,
-    Template,
     checker_floor,
     merged_polydata,
     polyline,
@@ -177,7 +176,7 @@ class SkeletonScene:
         if unknown:
             raise ValueError(f"colours given for unknown roles {sorted(unknown)}")
 
-        self.follow = follow
+        self._follow_enabled = bool(follow)
         self.elevation = float(np.clip(elevation, -85.0, 85.0))
         self._sphere = sphere_template()
         self._tube = tube_template()
@@ -185,6 +184,7 @@ class SkeletonScene:
         self._joint_radii[HEAD] = max(2.6 * joint_radius, 0.07)
         self._bone_radius = bone_radius
         self._frame = 0
+        self._followed_root = np.zeros(3)
 
         self.plotter = pv.Plotter(off_screen=off_screen, window_size=list(size))
         self.plotter.set_background("white", top="#cfdcec")
@@ -198,6 +198,7 @@ class SkeletonScene:
                 role, joints + shifts[role], base=base, with_path=path
             )
         all_joints = np.concatenate([s.joints.reshape(-1, 3) for s in self._skeletons.values()])
+        self._track = self._root_track()
 
         self.floor_mesh: pv.PolyData | None = None
         self.floor_actor: pv.Actor | None = None
@@ -238,11 +239,8 @@ class SkeletonScene:
         )
         skel.actors["bones"] = self.plotter.add_mesh(bone_mesh, name=f"{role}/bones", **style)
         skel.actors["joints"] = self.plotter.add_mesh(joint_mesh, name=f"{role}/joints", **style)
-        if with_path:
-            root = joints[:, PELVIS].copy()
-            root[:, 1] = _PATH_LIFT
-            if len(root) == 1:  # a single pose: a dot-sized path keeps the actor valid
-                root = np.concatenate([root, root])
+        root = _root_path(joints) if with_path else None
+        if root is not None:
             skel.path_mesh = polyline(root).tube(radius=0.008, n_sides=8)
             path_color = mix(color_to_rgb(base)[None], "black", 0.2)[0] / 255.0
             skel.actors["path"] = self.plotter.add_mesh(
@@ -278,6 +276,16 @@ class SkeletonScene:
     def frame(self) -> int:
         """The frame currently shown."""
         return self._frame
+
+    @property
+    def follow(self) -> bool:
+        """Whether the camera translates with the pelvis as frames change (settable)."""
+        return self._follow_enabled
+
+    @follow.setter
+    def follow(self, value: bool) -> None:
+        self._follow_enabled = bool(value)
+        self._followed_root = self._current_root_xz()
 
     @property
     def meshes(self) -> dict[str, dict[str, pv.PolyData]]:
@@ -320,6 +328,13 @@ class SkeletonScene:
         if self.follow:
             self._follow()
 
+    def set_title(self, text: str) -> None:
+        """Set (or add) the text in the upper left corner."""
+        if self._title_actor is None:
+            self._title_actor = self.plotter.add_text(text, position="upper_left", font_size=11)
+        else:
+            self._title_actor.SetText(2, text)
+
     def render(self) -> None:
         """Render the current state (needed before reading pixels of an embedded window)."""
         self.plotter.render()
@@ -339,16 +354,18 @@ class SkeletonScene:
         direction = view_direction(azimuth=self.azimuth, elevation=self.elevation)
         width, height = self.plotter.window_size
         if self.follow:
+            track = self._track
             rel = np.concatenate(
-                [(s.joints - self._root_xz(s.joints)[:, None]).reshape(-1, 3) for s in self._skeletons.values()]
+                [(s.joints - track[: s.n_frames, None]).reshape(-1, 3) for s in self._skeletons.values()]
             )
             pose = fit_points(rel, direction=direction, aspect=width / height, margin=1.1)
-            shift = self._current_root_xz()
+            shift = track[self._frame]
             position, focal = pose.position + shift, pose.focal_point + shift
         else:
             pts = np.concatenate([s.joints.reshape(-1, 3) for s in self._skeletons.values()])
             pose = fit_points(pts, direction=direction, aspect=width / height)
             position, focal = pose.position, pose.focal_point
+        self._followed_root = self._current_root_xz()
         camera = self.plotter.camera
         camera.view_angle = 30.0
         camera.focal_point = tuple(focal)
@@ -357,23 +374,27 @@ class SkeletonScene:
         self.plotter.renderer.reset_camera_clipping_range()
 
     def _follow(self) -> None:
-        camera = self.plotter.camera
-        focal = np.asarray(camera.focal_point)
+        """Translate the camera (position and focal point) by the pelvis' XZ motion since the last frame."""
         target = self._current_root_xz()
-        delta = np.array([target[0] - focal[0], 0.0, target[2] - focal[2]])
-        camera.focal_point = tuple(focal + delta)
+        delta = target - self._followed_root
+        self._followed_root = target
+        if not np.any(delta):
+            return
+        camera = self.plotter.camera
+        camera.focal_point = tuple(np.asarray(camera.focal_point) + delta)
         camera.position = tuple(np.asarray(camera.position) + delta)
         self.plotter.renderer.reset_camera_clipping_range()
 
-    @staticmethod
-    def _root_xz(joints: np.ndarray) -> np.ndarray:
-        root = joints[:, PELVIS].copy()
-        root[:, 1] = 0.0
-        return root
+    def _root_track(self) -> np.ndarray:
+        """Per frame (n_frames, 3): the mean pelvis XZ of all roles (y = 0); what ``follow`` tracks."""
+        frames = np.arange(self.n_frames)
+        roots = [s.joints[np.minimum(frames, s.n_frames - 1), PELVIS] for s in self._skeletons.values()]
+        track = np.mean(roots, axis=0)
+        track[:, 1] = 0.0
+        return track
 
     def _current_root_xz(self) -> np.ndarray:
-        roots = [self._root_xz(s.joints)[min(self._frame, s.n_frames - 1)] for s in self._skeletons.values()]
-        return np.mean(roots, axis=0)
+        return self._track[self._frame]
 
     # ------------------------------------------------------------------ colours
     def set_color(self, color: ColorLike, *, role: str | None = None) -> None:
@@ -495,6 +516,16 @@ class SkeletonScene:
         if role not in self._skeletons:
             raise KeyError(f"unknown role {role!r}; roles: {list(self._skeletons)}")
         return [self._skeletons[role]]
+
+
+def _root_path(joints: np.ndarray) -> np.ndarray | None:
+    """The pelvis projected just above the floor, without repeated points; None if it never moves."""
+    root = joints[:, PELVIS].copy()
+    root[:, 1] = _PATH_LIFT
+    # drop repeated points (standing still): the tube filter needs distinct neighbours
+    keep = np.concatenate([[True], np.linalg.norm(np.diff(root, axis=0), axis=1) > 1e-5])
+    root = root[keep]
+    return root if len(root) >= 2 else None
 
 
 def _write(mesh: pv.PolyData, *, points: np.ndarray, normals: np.ndarray | None = None) -> None:

@@ -80,9 +80,9 @@ def assemble_joints(
     def have(name: str) -> bool:
         return name in how
 
-    def put(name: str, value: np.ndarray, description: str) -> None:
+    def put(name: str, value: np.ndarray, description: str, *, derived: bool = True) -> None:
         joints[:, JOINT_INDEX[name]] = value
-        how[name] = "derived: " + description
+        how[name] = ("derived: " if derived else "") + description
 
     idx = JOINT_INDEX
     if not have("pelvis"):
@@ -141,7 +141,7 @@ def _fill_spine(data: BVHData, positions: np.ndarray, found: dict[str, int], joi
     names = ("spine1", "spine2", "spine3")
     if len(path) == 3:
         for name, j in zip(names, path):
-            put(name, positions[:, j], f"{data.names[j]} (torso joint {names.index(name) + 1} of 3)")
+            put(name, positions[:, j], f"{data.names[j]} (torso joint {names.index(name) + 1} of 3)", derived=False)
         return
     points = np.concatenate(
         [joints[:, idx["pelvis"]][:, None], positions[:, path], joints[:, idx["neck"]][:, None]], axis=1

@@ -9,6 +9,8 @@ All functions take and return joint positions (T, 22, 3) as float64 numpy arrays
 - :func:`resample`: linear interpolation of positions to a new frame rate.
 - :func:`retarget_bone_lengths`: every bone keeps its direction and gets our length, the
   root trajectory is scaled by the ratio of leg lengths (as HumanML3D's own retargeting).
+- :func:`contact_floor` / :func:`canonical_placement`: the floor under the standing feet, the
+  root at the XZ origin, facing +Z.
 """
 from __future__ import annotations
 
@@ -16,8 +18,9 @@ import math
 
 import numpy as np
 
+from engine.representation import canonicalize
 from engine.rotations import axis_rotation
-from engine.skeleton import JOINT_INDEX, NUM_JOINTS, PARENTS, Skeleton
+from engine.skeleton import FOOT_JOINTS, JOINT_INDEX, NUM_JOINTS, PARENTS, Skeleton, measure_bone_lengths
 
 # unit name -> metres per unit
 UNITS: dict[str, float] = {
@@ -140,4 +143,57 @@ def retarget_bone_lengths(joints: np.ndarray, skeleton: Skeleton | None = None) 
         norm = np.linalg.norm(bone, axis=-1, keepdims=True)
         direction = np.where(norm > 1e-9, bone / np.maximum(norm, 1e-12), rest_dirs[j])
         out[:, j] = out[:, PARENTS[j]] + lengths[j] * direction
+    return out
+
+
+def standing_height(joints: np.ndarray) -> float:
+    """Head-joint height (m) of the clip's body standing straight: our rest pose with its median bone lengths.
+
+    Independent of what the person does; the top of the head is some 10-20 cm higher.
+    """
+    lengths = np.median(measure_bone_lengths(np.asarray(joints, dtype=np.float64)), axis=0)
+    rest = Skeleton.with_lengths(lengths).rest_pose()
+    return float(rest[JOINT_INDEX["head"], 1] - rest[:, 1].min())
+
+
+_FEET = list(FOOT_JOINTS["left"]) + list(FOOT_JOINTS["right"])
+STANCE_CLEARANCE = 0.01  # HumanML3D's stance feet sit ~1 cm above its floor (the lowest joint)
+
+
+def contact_floor(
+    joints: np.ndarray, *, fps: float, clearance: float = STANCE_CLEARANCE, max_speed: float = 0.3
+) -> float:
+    """Floor height under the standing feet.
+
+    Per frame, the lowest foot joint (ankles, toes) is in contact when it moves slower than
+    ``max_speed`` m/s horizontally; the floor is the median height of those contact points
+    minus ``clearance``, but never below the lowest foot point of the clip (so a clip whose
+    stance feet are the lowest points gets HumanML3D's floor, the lowest point). Clips with
+    almost no contact frames (under 5 %) use the lowest foot point.
+    """
+    feet = np.asarray(joints, dtype=np.float64)[:, _FEET]
+    heights = feet[..., 1]
+    lowest = heights.argmin(axis=1)
+    low = heights.min(axis=1)
+    floor_min = float(low.min())
+    if len(feet) < 2:
+        return floor_min
+    step = np.linalg.norm(np.diff(feet[..., [0, 2]], axis=0), axis=-1) * fps  # (T-1, 4) m/s
+    step = np.concatenate([step, step[-1:]], axis=0)
+    speed = step[np.arange(len(feet)), lowest]
+    contact = speed < max_speed
+    if contact.sum() < max(3, 0.05 * len(feet)):
+        return floor_min
+    return max(float(np.median(low[contact])) - clearance, floor_min)
+
+
+def canonical_placement(joints: np.ndarray, *, fps: float) -> np.ndarray:
+    """Floor (:func:`contact_floor`) at y=0, root starting at the XZ origin, first pose facing +Z."""
+    joints = np.asarray(joints, dtype=np.float64)
+    floor = contact_floor(joints, fps=fps)
+    if len(joints) < 2:  # canonicalize needs two frames
+        out = canonicalize(np.concatenate([joints, joints]))[:1]
+    else:
+        out = canonicalize(joints)
+    out[..., 1] += joints[..., 1].min() - floor  # canonicalize floors at the lowest joint
     return out

@@ -1,0 +1,166 @@
+"""The evaluator: a small contrastive text-motion model trained on the corpus train split.
+
+Its embeddings (unit norm) give FID, R-precision, MM-Dist, Diversity and MultiModality the
+HumanML3D way. It sees normalised 263-dim features (with its own Mean/Std) and the words.
+"""
+from __future__ import annotations
+
+import copy
+import json
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import nn
+from tqdm import tqdm
+
+from engine.data import MotionSource, collate
+from engine.representation import FEATURE_DIM, Normalizer
+from engine.text import Tokenizer, sinusoidal
+
+WEIGHTS = "evaluator.pt"
+CONFIG = "evaluator.json"
+
+
+@dataclass(frozen=True)
+class EvaluatorConfig:
+    width: int = 128
+    layers: int = 2
+    heads: int = 4
+    embed_dim: int = 128
+    vocab_size: int = 512
+    max_frames: int = 196
+
+
+class _SeqEncoder(nn.Module):
+    def __init__(self, width: int, layers: int, heads: int, embed_dim: int):
+        super().__init__()
+        layer = nn.TransformerEncoderLayer(d_model=width, nhead=heads, dim_feedforward=2 * width, dropout=0.1,
+                                           batch_first=True, norm_first=True)
+        self.encoder = nn.TransformerEncoder(layer, num_layers=layers, enable_nested_tensor=False)
+        self.head = nn.Sequential(nn.LayerNorm(width), nn.Linear(width, embed_dim))
+        self.width = width
+
+    def forward(self, h: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        h = h + sinusoidal(torch.arange(h.shape[1]), self.width)[None]
+        h = self.encoder(h, src_key_padding_mask=~mask)
+        m = mask[..., None].float()
+        pooled = (h * m).sum(1) / m.sum(1).clamp_min(1)
+        return F.normalize(self.head(pooled), dim=-1)
+
+
+class Evaluator(nn.Module):
+    def __init__(self, config: EvaluatorConfig):
+        super().__init__()
+        self.config = config
+        self.motion_in = nn.Sequential(nn.Linear(FEATURE_DIM, config.width), nn.GELU(), nn.Linear(config.width, config.width))
+        self.motion = _SeqEncoder(config.width, config.layers, config.heads, config.embed_dim)
+        self.words = nn.Embedding(config.vocab_size, config.width, padding_idx=0)
+        self.text = _SeqEncoder(config.width, config.layers, config.heads, config.embed_dim)
+        self.log_temp = nn.Parameter(torch.tensor(np.log(1 / 0.07), dtype=torch.float32))
+
+    def embed_motion(self, x: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        # x (B, T, 263) normalised with the evaluator's stats -> (B, D)
+        return self.motion(self.motion_in(x), mask)
+
+    def embed_text(self, ids: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        return self.text(self.words(ids), mask)
+
+
+@dataclass
+class LoadedEvaluator:
+    model: Evaluator
+    tokenizer: Tokenizer
+    normalizer: Normalizer
+
+    @torch.no_grad()
+    def motion_embeddings(self, features: list[np.ndarray], *, batch: int = 64) -> np.ndarray:
+        """Raw (de-normalised) features, one (T, 263) array per motion -> (N, D)."""
+        out = []
+        for i in range(0, len(features), batch):
+            chunk = [self.normalizer.normalize(f[: self.model.config.max_frames]) for f in features[i : i + batch]]
+            length = max(len(c) for c in chunk)
+            x = torch.zeros(len(chunk), length, FEATURE_DIM)
+            mask = torch.zeros(len(chunk), length, dtype=torch.bool)
+            for j, c in enumerate(chunk):
+                x[j, : len(c)] = torch.from_numpy(np.asarray(c, dtype=np.float32))
+                mask[j, : len(c)] = True
+            out.append(self.model.embed_motion(x, mask).numpy())
+        return np.concatenate(out)
+
+    @torch.no_grad()
+    def text_embeddings(self, captions: list[str], *, batch: int = 256) -> np.ndarray:
+        out = []
+        for i in range(0, len(captions), batch):
+            ids, mask = self.tokenizer.batch(captions[i : i + batch])
+            out.append(self.model.embed_text(ids, mask).numpy())
+        return np.concatenate(out)
+
+
+def load_evaluator(folder: str | Path) -> LoadedEvaluator:
+    folder = Path(folder)
+    if not (folder / CONFIG).exists():
+        raise FileNotFoundError(f"no evaluator in {folder} (expected {CONFIG}); train one with `moattn evaluator --out {folder}`")
+    meta = json.loads((folder / CONFIG).read_text())
+    model = Evaluator(EvaluatorConfig(**meta["config"]))
+    state = torch.load(folder / WEIGHTS, map_location="cpu", weights_only=True)
+    model.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in state.items()})
+    model.eval()
+    return LoadedEvaluator(model=model, tokenizer=Tokenizer(meta["vocabulary"]), normalizer=Normalizer.load(folder))
+
+
+def train_evaluator(
+    source: MotionSource,
+    *,
+    out: str | Path,
+    steps: int = 3000,
+    batch_size: int = 64,
+    lr: float = 3e-4,
+    seed: int = 0,
+    config: EvaluatorConfig | None = None,
+    progress: bool = True,
+    stats_samples: int = 1000,
+) -> dict:
+    """InfoNCE between motion and caption embeddings; saves fp16 weights, config and stats in ``out``."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    torch.manual_seed(seed)
+    rng = np.random.default_rng(seed)
+    words = sorted(source.words())
+    tokenizer = Tokenizer(words)
+    config = config or EvaluatorConfig(vocab_size=len(tokenizer) + 16)
+    normalizer = Normalizer.fit(np.concatenate([source.get(5_000_000 + i).features for i in range(stats_samples)]))
+    model = Evaluator(config)
+    optimizer = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=1e-2)
+    index, history = 0, []
+    t0 = time.perf_counter()
+    for step in tqdm(range(steps), disable=not progress, desc="evaluator", unit="step"):
+        items = [source.get(index + i) for i in range(batch_size)]
+        index += batch_size
+        batch = collate(items, tokenizer=tokenizer, normalize=normalizer.normalize, rng=rng, text_dropout=0.0,
+                        max_frames=config.max_frames)
+        m = model.embed_motion(batch.x0, batch.cond.frame_mask)
+        t = model.embed_text(batch.cond.text_ids, batch.cond.text_mask)
+        logits = model.log_temp.exp().clamp(max=100) * t @ m.T
+        # captions of the same program can repeat in a batch: treat identical captions as positives
+        same = torch.tensor([[a == b for b in batch.captions] for a in batch.captions], dtype=torch.float32)
+        target = same / same.sum(1, keepdim=True)
+        loss = 0.5 * (torch.sum(-target * logits.log_softmax(1), 1).mean() + torch.sum(-target.T * logits.log_softmax(0).T, 1).mean())
+        for g in optimizer.param_groups:
+            g["lr"] = lr * min(1.0, (step + 1) / 200) * (0.1 + 0.9 * 0.5 * (1 + np.cos(np.pi * step / steps)))
+        optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
+        optimizer.step()
+        history.append(loss.item())
+    state = {k: (v.half() if v.is_floating_point() else v) for k, v in model.state_dict().items()}
+    torch.save(state, out / WEIGHTS)
+    normalizer.save(out)
+    summary = {"steps": steps, "batch_size": batch_size, "final_loss": float(np.mean(history[-50:])),
+               "seconds": time.perf_counter() - t0}
+    (out / CONFIG).write_text(json.dumps({"config": asdict(config), "vocabulary": list(tokenizer.words[1:]),
+                                          "training": summary}, indent=2))
+    return summary

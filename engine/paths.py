@@ -1,0 +1,10 @@
+"""Where shipped assets live (resolved from this file, never from the working directory)."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+PROJECT_ROOT = Path(__file__).resolve().parents[1]
+ASSETS = Path(os.environ.get("MOATTN_ASSETS", PROJECT_ROOT / "assets"))
+MODEL_DIR = ASSETS / "model"
+EVALUATOR_DIR = ASSETS / "evaluator"

@@ -1,0 +1,236 @@
+"""Gaits: walk, jog, run, walk backwards, side-step and turning in place.
+
+The root follows a path with a smooth speed profile; a stride phase drives alternating
+footsteps. Each foot lands where the root will be at that foot's mid-stance (plus half the
+stance width), stays planted (heel-strike / flat / heel-off on the toe), and swings with a
+minimum-jerk arc to its next plant. Pelvis bob, sway, rotation and list, torso
+counter-rotation and the arm swing are derived from the phase and the realised feet.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from engine.synth.physics import StepPlan, foot_track, ramp_profile
+from engine.synth.primitives.base import STANCE_HALF, TOE_OUT, Context, Event, Result, arm_angles, end_state
+from engine.synth.rig import ANKLE_HEIGHT, SIDE_SIGN, STAND_PELVIS, Channels, forward_vector, left_vector
+
+
+@dataclass(frozen=True)
+class GaitParams:
+    speed: float  # m/s
+    cadence: float  # steps/s
+    duty: float  # share of a stride a foot is on the ground
+    lift: float  # swing height of the ankle (m)
+    bob: float  # pelvis vertical oscillation (m); negative = lowest at mid-stance (running)
+    knee: float  # pelvis lowered to bend the knees (m)
+    arm_gain: float  # arm swing (rad per metre of foot separation)
+    elbow: float  # elbow flexion (rad)
+    lean: float  # trunk lean (rad)
+    toe_off: float
+    heel_strike: float
+    stance: float  # stance width multiplier
+    heading_offset: float  # facing minus direction of travel (rad)
+
+
+GAITS: dict[str, GaitParams] = {
+    "walk": GaitParams(1.3, 1.85, 0.62, 0.09, 0.022, 0.01, 0.65, 0.25, 0.03, 0.55, -0.25, 1.0, 0.0),
+    "jog": GaitParams(2.4, 2.6, 0.42, 0.16, -0.035, 0.05, 0.7, 1.35, 0.1, 0.6, -0.12, 0.9, 0.0),
+    "run": GaitParams(3.4, 2.9, 0.36, 0.22, -0.045, 0.06, 0.75, 1.45, 0.16, 0.7, -0.1, 0.85, 0.0),
+    "walk_backward": GaitParams(0.75, 1.7, 0.64, 0.07, 0.015, 0.03, 0.5, 0.3, -0.02, 0.25, 0.0, 1.05, np.pi),
+    "side_step": GaitParams(0.5, 2.1, 0.62, 0.06, 0.012, 0.05, 0.0, 0.3, 0.04, 0.2, 0.0, 1.9, 0.0),
+    "turn": GaitParams(0.0, 1.7, 0.64, 0.05, 0.01, 0.02, 0.2, 0.3, 0.02, 0.25, -0.05, 1.0, 0.0),
+}
+WALK_DUTY = 0.64
+
+
+def _path_points(ctx: Context, distance: float, heading_offset: float) -> tuple[np.ndarray, float, float]:
+    """Polyline (M, 2) of the root on the floor, total length, heading offset to use."""
+    seg = ctx.segment
+    h0 = ctx.state.heading
+    r0 = ctx.state.root_xz
+    M = 48
+    if seg.path is not None and len(seg.path) >= 2:
+        pts = np.asarray(seg.path, dtype=np.float64)
+        c, s = np.cos(h0), np.sin(h0)
+        world = np.stack([pts[:, 0] * c + pts[:, 1] * s, -pts[:, 0] * s + pts[:, 1] * c], -1) + r0
+        seglen = np.linalg.norm(np.diff(world, axis=0), axis=1)
+        cum = np.concatenate([[0.0], np.cumsum(seglen)])
+        q = np.linspace(0.0, cum[-1], M)
+        world = np.stack([np.interp(q, cum, world[:, 0]), np.interp(q, cum, world[:, 1])], -1)
+        # smooth corners a little (keep the end points)
+        k = np.array([0.25, 0.5, 0.25])
+        for _ in range(3):
+            inner = world[:-2] * k[0] + world[1:-1] * k[1] + world[2:] * k[2]
+            world = np.concatenate([world[:1], inner, world[-1:]], 0)
+        length = float(np.linalg.norm(np.diff(world, axis=0), axis=1).sum())
+        return world, length, heading_offset
+    if seg.action == "side_step":
+        travel = h0 + (np.pi / 2 if seg.direction != "right" else -np.pi / 2)
+        heading_offset = -np.pi / 2 if seg.direction != "right" else np.pi / 2
+    else:
+        travel = h0 + heading_offset
+    turn_total = {"left": np.pi / 2, "right": -np.pi / 2, "circle_left": 2 * np.pi,
+                  "circle_right": -2 * np.pi}.get(seg.direction, 0.0)
+    if seg.action in ("side_step", "walk_backward"):
+        turn_total = 0.0
+    if abs(turn_total) >= 2 * np.pi - 1e-6:
+        radius = max(distance / (2 * np.pi), 0.75)
+        distance = 2 * np.pi * radius
+    s = np.linspace(0.0, distance, M)
+    alpha = travel + turn_total * s / max(distance, 1e-9)
+    ds = distance / (M - 1)
+    steps = np.stack([np.sin(alpha), np.cos(alpha)], -1) * ds
+    pts = np.concatenate([[r0], r0 + np.cumsum(0.5 * (steps[1:] + steps[:-1]), 0)], 0)
+    if ctx.style.wobble > 0 and distance > 0:
+        rng = np.random.default_rng(ctx.seed + 7)
+        normal = np.stack([np.cos(alpha), -np.sin(alpha)], -1)
+        env = np.sin(np.pi * s / distance)
+        wob = ctx.style.wobble * env * np.sin(2 * np.pi * s / rng.uniform(2.0, 3.0) + rng.uniform(0, 2 * np.pi))
+        pts = pts + normal * wob[:, None]
+    return pts, float(distance), heading_offset
+
+
+def _along(pts: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points (n, 2) and tangent angles (n,) at arc lengths s along a polyline."""
+    seg = np.diff(pts, axis=0)
+    seglen = np.linalg.norm(seg, axis=1)
+    cum = np.concatenate([[0.0], np.cumsum(seglen)])
+    x = np.interp(s, cum, pts[:, 0])
+    z = np.interp(s, cum, pts[:, 1])
+    ang = np.unwrap(np.arctan2(seg[:, 0], seg[:, 1]))
+    mids = 0.5 * (cum[1:] + cum[:-1])
+    tangent = np.interp(s, mids, ang)
+    return np.stack([x, z], -1), tangent
+
+
+def gait(ctx: Context) -> Result:
+    seg, style, person = ctx.segment, ctx.style, ctx.person
+    n = seg.frames
+    fps = ctx.fps
+    g = GAITS[seg.action]
+    dur = n / fps
+    tempo = style.tempo * person.tempo * np.sqrt(seg.speed)
+    cadence = seg.cadence if seg.cadence > 0 else g.cadence * tempo
+    step_len = g.speed / g.cadence * np.sqrt(seg.speed) * style.stride
+    K = max(2, int(round(dur * cadence)))
+    distance = step_len * K * 0.8 if seg.action != "turn" else 0.0
+    t = np.arange(n, dtype=np.float64)
+    ramp_s = min(0.45, (0.55 if seg.action in ("walk", "walk_backward", "side_step", "turn") else 0.8) / dur)
+    s_prof = ramp_profile(n, ramp_s)
+    env = np.gradient(s_prof)
+    env = env / max(env.max(), 1e-9)
+    if seg.action == "turn":
+        heading = ctx.state.heading + seg.turn * s_prof
+        root_xz = np.broadcast_to(ctx.state.root_xz, (n, 2)).copy()
+        root_xz = root_xz + (np.mean(ctx.state.feet[:, [0, 2]], 0) - ctx.state.root_xz) * 1.0
+        env = np.gradient(s_prof) / max(np.gradient(s_prof).max(), 1e-9)
+    else:
+        pts, distance, h_off = _path_points(ctx, distance, g.heading_offset)
+        root_xz, tangent = _along(pts, distance * s_prof)
+        heading = tangent - h_off
+        # same branch of the angle as the state (compose bridges any small residue)
+        heading = heading - 2 * np.pi * np.round((heading[0] - ctx.state.heading) / (2 * np.pi))
+    phi0 = 0.25
+    phi = phi0 + 0.5 * K * ramp_profile(n, min(0.3, 0.3 / dur))
+    phi_end = phi0 + 0.5 * K
+    lead = 0 if seg.lead != "right" else 1
+    offsets = np.zeros(2)
+    offsets[1 - lead] = 0.5
+    half = STANCE_HALF * g.stance * style.stance * person.stance
+    lift = g.lift * style.lift * (0.7 + 0.3 * seg.intensity)
+    rng = np.random.default_rng(ctx.seed + 11) if style.wobble > 0 else None
+    feet_ankle = np.empty((n, 2, 3))
+    feet_yaw = np.empty((n, 2))
+    feet_pitch = np.empty((n, 2))
+    contact = np.empty((n, 2, 2), dtype=bool)
+    events: list[Event] = []
+    lat_all = left_vector(heading)
+    for side in (0, 1):
+        o = offsets[side]
+        k0 = int(np.floor(phi0 + o + 0.5))
+        k_last = int(np.floor(phi_end + o + 0.5))
+        ks = np.arange(k0 + 1, k_last + 1)
+        t_k = np.interp(ks - o, phi, t)
+        env_k = np.interp(t_k, t, env)
+        duty_k = WALK_DUTY + (g.duty - WALK_DUTY) * env_k
+        duty_prev = np.concatenate([[WALK_DUTY], duty_k[:-1]])
+        lift_t = np.interp(ks - 1 + duty_prev / 2 - o, phi, t)
+        land_t = np.interp(ks - duty_k / 2 - o, phi, t)
+        land_t = np.maximum(land_t, lift_t + 2.0)
+        land_t = np.minimum(land_t, n - 1.0)
+        h_k = np.interp(t_k, t, heading)
+        lat = left_vector(h_k)
+        rxz = np.stack([np.interp(t_k, t, root_xz[:, 0]), np.interp(t_k, t, root_xz[:, 1])], -1)
+        plant = np.empty((len(ks), 3))
+        plant[:, 0] = rxz[:, 0] + lat[:, 0] * SIDE_SIGN[side] * half
+        plant[:, 1] = ANKLE_HEIGHT
+        plant[:, 2] = rxz[:, 1] + lat[:, 2] * SIDE_SIGN[side] * half
+        if rng is not None and len(ks) > 1:
+            jitter = rng.normal(0, 0.04, len(ks))
+            jitter[-1] = 0.0
+            plant[:, 0] += lat[:, 0] * jitter
+            plant[:, 2] += lat[:, 2] * jitter
+        yaw = h_k + SIDE_SIGN[side] * TOE_OUT
+        roll_scale = style.roll * np.clip(env_k, 0.3, 1.0)
+        plan = StepPlan(
+            start_ankle=ctx.state.feet[side].copy(), start_yaw=float(ctx.state.feet_yaw[side]),
+            lift=lift_t, land=land_t, plant=plant, yaw=yaw, height=lift * (0.5 + 0.5 * env_k),
+            toe_off=g.toe_off * float(np.mean(roll_scale)) if len(ks) else g.toe_off,
+            heel_strike=g.heel_strike * style.roll,
+            roll_off=max(2.0, 0.2 * fps / cadence * 2), roll_on=max(1.5, 0.1 * fps / cadence * 2),
+        )
+        a, y, p, c = foot_track(plan, n)
+        feet_ankle[:, side] = a
+        feet_yaw[:, side] = y
+        feet_pitch[:, side] = p
+        contact[:, side] = c
+        for lt, ld in zip(lift_t, land_t):
+            events.append(Event(kind="step", frame=int(round(ld)), start=int(np.floor(lt)), end=int(np.ceil(ld)),
+                                side=("left", "right")[side]))
+    events.sort(key=lambda e: e.frame)
+
+    # pelvis
+    cyc = 2 * np.pi * (phi + offsets[0])
+    root = np.empty((n, 3))
+    sway = (0.018 if g.duty > 0.5 else 0.008) * np.cos(cyc) * env
+    root[:, 0] = root_xz[:, 0] + lat_all[:, 0] * sway
+    root[:, 2] = root_xz[:, 1] + lat_all[:, 2] * sway
+    bob = g.bob * style.bounce * (0.5 + 0.5 * seg.intensity)
+    root[:, 1] = STAND_PELVIS - g.knee * env - style.crouch + bob * np.cos(2 * cyc) * env - abs(bob) * env * 0.5
+
+    fwd = forward_vector(heading)
+    sep = ((feet_ankle[:, 0] - feet_ankle[:, 1]) * fwd).sum(-1)
+    lifted = feet_ankle[:, :, 1] - ANKLE_HEIGHT
+    pelvis = np.zeros((n, 3))
+    cr = style.counter_rotation
+    pelvis[:, 1] = -0.22 * sep * cr
+    pelvis[:, 2] = -0.5 * (lifted[:, 0] - lifted[:, 1]) * cr
+    pelvis[:, 0] = 0.3 * g.lean * env
+    spine = np.zeros((n, 3, 3))
+    spine[:, :, 1] = (0.36 * sep * cr)[:, None] * np.array([0.25, 0.35, 0.4])
+    spine[:, :, 0] = (g.lean * env + person.lean)[:, None] * np.array([0.35, 0.35, 0.3])
+    neck = np.zeros((n, 3))
+    neck[:, 0] = -0.6 * g.lean * env + person.head
+    neck[:, 1] = -0.5 * spine[:, :, 1].sum(1) - pelvis[:, 1]
+
+    gain = g.arm_gain * style.swing * person.arm_swing * (0.8 + 0.2 * seg.intensity)
+    swing = np.stack([-gain * sep, gain * sep], -1)
+    if seg.action == "side_step":
+        swing = np.zeros((n, 2))
+    flex_base = g.elbow * env + 0.25 * (1 - env) + style.elbow * env + person.elbow
+    flex = flex_base[:, None] + 0.35 * np.maximum(swing, 0.0) + np.zeros((n, 2))
+    hand_g, pole_g = arm_angles(swing, np.clip(flex, 0.05, 2.3), abduct=0.12 + 0.05 * env[:, None])
+    hand, pole = hand_g, pole_g
+    ch = Channels(
+        root=root, heading=heading, pelvis=pelvis, spine=spine, neck=neck, collar=np.zeros((n, 2, 3)),
+        ankle=feet_ankle, foot_yaw=feet_yaw, foot_pitch=feet_pitch, knee_out=np.zeros((n, 2)),
+        hand=hand, elbow_pole=pole, hand_frame=np.zeros((n, 2)), contact=contact,
+    )
+    return Result(
+        channels=ch, state=end_state(ch), events=events, arm_busy=np.zeros((n, 2)),
+        gait_phase=phi - phi0, posture=np.ones(n),
+        params={"cadence": float(cadence), "step_length": float(step_len), "distance": float(distance),
+                "steps": len(events)},
+    )

@@ -1,0 +1,348 @@
+"""Pose channels and the solver that turns them into joint positions and local rotations.
+
+A motion is synthesised as a set of per-frame *channels* (root path, heading, trunk angles,
+world-space foot targets, hand targets, contact flags). :func:`solve` runs the trunk forward
+kinematics, analytic two-bone IK for both legs and both arms, and returns joint positions
+(T, 22, 3) that are exactly what :meth:`engine.skeleton.Skeleton.forward` gives for the local
+rotations returned by :func:`local_rotations` (bone lengths constant by construction).
+
+Angle convention (radians) for every trunk joint: ``(pitch, yaw, roll)`` about the parent
+frame's (X, Y, Z) axes, composed ``R = Ry(yaw) @ Rx(pitch) @ Rz(roll)``. With the body facing
++Z and its left at +X: positive pitch bends forward, positive yaw turns toward the left,
+positive roll tilts toward the right (the top moves to -X).
+
+Hands: ``hand`` is the wrist target relative to the shoulder joint, in a frame that blends
+the heading frame (yaw only; ``hand_frame`` = 0, arms hang with gravity when the trunk leans)
+and the chest frame (spine3; ``hand_frame`` = 1, gestures move with the trunk).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from engine.skeleton import PARENTS, Skeleton
+
+SKELETON = Skeleton.default()
+OFFSETS = SKELETON.offsets
+LEN = SKELETON.bone_lengths
+THIGH = float(LEN[4])
+SHIN = float(LEN[7])
+LEG = THIGH + SHIN
+UPPER_ARM = float(LEN[18])
+FOREARM = float(LEN[20])
+ARM = UPPER_ARM + FOREARM
+TOE_OFFSET = OFFSETS[10].copy()  # ankle -> toe in the flat foot frame
+ANKLE_HEIGHT = float(-TOE_OFFSET[1])  # ankle height when the foot is flat and the toe on the floor
+TOE_ANGLE = float(np.arctan2(-TOE_OFFSET[1], TOE_OFFSET[2]))  # toe below the ankle (rad)
+TOE_LENGTH = float(np.linalg.norm(TOE_OFFSET))
+HIP_DROP = float(-OFFSETS[1][1])  # hips sit this far below the pelvis joint
+HIP_HALF_WIDTH = float(OFFSETS[1][0])
+SHOULDER_HALF_WIDTH = float(OFFSETS[13][0] + OFFSETS[16][0])
+LEG_REACH = 0.985 * LEG  # longest hip-ankle distance used for planted feet
+FLAT_MAX_PELVIS = ANKLE_HEIGHT + HIP_DROP + 0.975 * LEG  # highest pelvis over a flat foot
+STAND_PELVIS = FLAT_MAX_PELVIS - 0.012  # relaxed standing height (knees nearly straight)
+SIDES = (0, 1)  # 0 = left, 1 = right
+SIDE_SIGN = np.array([1.0, -1.0])  # +X is the body's left
+
+_UP = np.array([0.0, 1.0, 0.0])
+
+
+# --------------------------------------------------------------------------- rotations
+def euler(angles: np.ndarray) -> np.ndarray:
+    """(..., 3) (pitch, yaw, roll) -> (..., 3, 3) = Ry(yaw) @ Rx(pitch) @ Rz(roll)."""
+    x, y, z = angles[..., 0], angles[..., 1], angles[..., 2]
+    cx, sx, cy, sy, cz, sz = np.cos(x), np.sin(x), np.cos(y), np.sin(y), np.cos(z), np.sin(z)
+    out = np.empty(angles.shape[:-1] + (3, 3))
+    out[..., 0, 0] = cy * cz + sy * sx * sz
+    out[..., 0, 1] = -cy * sz + sy * sx * cz
+    out[..., 0, 2] = sy * cx
+    out[..., 1, 0] = cx * sz
+    out[..., 1, 1] = cx * cz
+    out[..., 1, 2] = -sx
+    out[..., 2, 0] = -sy * cz + cy * sx * sz
+    out[..., 2, 1] = sy * sz + cy * sx * cz
+    out[..., 2, 2] = cy * cx
+    return out
+
+
+def yaw_rotation(angle: np.ndarray) -> np.ndarray:
+    """(...,) -> (..., 3, 3) rotation about +Y (positive turns +Z toward +X, the body's left)."""
+    c, s = np.cos(angle), np.sin(angle)
+    out = np.zeros(np.shape(angle) + (3, 3))
+    out[..., 0, 0] = c
+    out[..., 0, 2] = s
+    out[..., 1, 1] = 1.0
+    out[..., 2, 0] = -s
+    out[..., 2, 2] = c
+    return out
+
+
+def forward_vector(heading: np.ndarray) -> np.ndarray:
+    """Facing direction on the floor for a heading angle: (...,) -> (..., 3)."""
+    h = np.asarray(heading, dtype=np.float64)
+    return np.stack([np.sin(h), np.zeros_like(h), np.cos(h)], -1)
+
+
+def left_vector(heading: np.ndarray) -> np.ndarray:
+    """The body's left on the floor for a heading angle: (...,) -> (..., 3)."""
+    h = np.asarray(heading, dtype=np.float64)
+    return np.stack([np.cos(h), np.zeros_like(h), -np.sin(h)], -1)
+
+
+def foot_rotation(yaw: np.ndarray, pitch: np.ndarray) -> np.ndarray:
+    """World rotation of an ankle: yaw about +Y then pitch (positive = toe down, heel up)."""
+    return yaw_rotation(yaw) @ euler(np.stack([pitch, np.zeros_like(pitch), np.zeros_like(pitch)], -1))
+
+
+def toe_from_ankle(ankle: np.ndarray, yaw: np.ndarray, pitch: np.ndarray) -> np.ndarray:
+    """Toe position for an ankle position and foot orientation (closed form)."""
+    ang = TOE_ANGLE + pitch
+    horiz = TOE_LENGTH * np.cos(ang)
+    out = np.empty(np.broadcast_shapes(np.shape(ankle)))
+    out[..., 0] = ankle[..., 0] + horiz * np.sin(yaw)
+    out[..., 1] = ankle[..., 1] - TOE_LENGTH * np.sin(ang)
+    out[..., 2] = ankle[..., 2] + horiz * np.cos(yaw)
+    return out
+
+
+def ankle_from_toe(toe: np.ndarray, yaw: np.ndarray, pitch: np.ndarray) -> np.ndarray:
+    """Ankle position that puts the toe at ``toe`` for a foot orientation (pivot on the toe)."""
+    ang = TOE_ANGLE + pitch
+    horiz = TOE_LENGTH * np.cos(ang)
+    out = np.empty(np.shape(toe))
+    out[..., 0] = toe[..., 0] - horiz * np.sin(yaw)
+    out[..., 1] = toe[..., 1] + TOE_LENGTH * np.sin(ang)
+    out[..., 2] = toe[..., 2] - horiz * np.cos(yaw)
+    return out
+
+
+def pitch_for_ankle_height(height: np.ndarray) -> np.ndarray:
+    """Foot pitch that lifts the ankle to ``height`` with the toe on the floor (heel rise)."""
+    ratio = np.clip(np.asarray(height) / TOE_LENGTH, np.sin(TOE_ANGLE), 0.995)
+    return np.arcsin(ratio) - TOE_ANGLE
+
+
+# --------------------------------------------------------------------------- channels
+@dataclass
+class Channels:
+    """Per-frame control signals of one person; all arrays share the leading length T."""
+
+    root: np.ndarray  # (T, 3) pelvis position, world
+    heading: np.ndarray  # (T,) yaw of the facing direction
+    pelvis: np.ndarray  # (T, 3) pelvis angles relative to the heading
+    spine: np.ndarray  # (T, 3, 3) spine1, spine2, spine3 angles
+    neck: np.ndarray  # (T, 3) neck angles (moves the head)
+    collar: np.ndarray  # (T, 2, 3) left, right collar angles
+    ankle: np.ndarray  # (T, 2, 3) ankle targets, world
+    foot_yaw: np.ndarray  # (T, 2) world yaw of each foot
+    foot_pitch: np.ndarray  # (T, 2) foot pitch (positive = heel up)
+    knee_out: np.ndarray  # (T, 2) outward splay of the knee pole (rad)
+    hand: np.ndarray  # (T, 2, 3) wrist target relative to the shoulder
+    elbow_pole: np.ndarray  # (T, 2, 3) direction the elbow points to (same frame as hand)
+    hand_frame: np.ndarray  # (T, 2) 0 = heading frame, 1 = chest frame
+    contact: np.ndarray  # (T, 2, 2) bool [side, (ankle, toe)]
+
+    @property
+    def frames(self) -> int:
+        return int(self.root.shape[0])
+
+    def slice(self, start: int, stop: int) -> "Channels":
+        return Channels(**{f.name: getattr(self, f.name)[start:stop] for f in fields(self)})
+
+    def copy(self) -> "Channels":
+        return Channels(**{f.name: getattr(self, f.name).copy() for f in fields(self)})
+
+    @staticmethod
+    def concat(parts: list["Channels"]) -> "Channels":
+        return Channels(**{f.name: np.concatenate([getattr(p, f.name) for p in parts], 0) for f in fields(Channels)})
+
+
+def neutral_hands(frames: int) -> tuple[np.ndarray, np.ndarray]:
+    """Relaxed hanging arms: wrist targets and elbow poles (T, 2, 3), heading frame."""
+    hand = np.empty((frames, 2, 3))
+    hand[:, :, 0] = SIDE_SIGN * 0.045
+    hand[:, :, 1] = -0.505
+    hand[:, :, 2] = 0.035
+    pole = np.empty((frames, 2, 3))
+    pole[:, :, 0] = SIDE_SIGN * 0.35
+    pole[:, :, 1] = 0.0
+    pole[:, :, 2] = -1.0
+    return hand, pole
+
+
+def standing_channels(frames: int, *, root_xz: np.ndarray, heading: float, feet: np.ndarray,
+                      feet_yaw: np.ndarray) -> Channels:
+    """A still, relaxed standing pose held for ``frames`` frames with the feet at ``feet`` (2, 3)."""
+    hand, pole = neutral_hands(frames)
+    root = np.empty((frames, 3))
+    root[:, 0] = root_xz[0]
+    root[:, 1] = STAND_PELVIS
+    root[:, 2] = root_xz[1]
+    contact = np.ones((frames, 2, 2), dtype=bool)
+    return Channels(
+        root=root,
+        heading=np.full(frames, float(heading)),
+        pelvis=np.zeros((frames, 3)),
+        spine=np.zeros((frames, 3, 3)),
+        neck=np.zeros((frames, 3)),
+        collar=np.zeros((frames, 2, 3)),
+        ankle=np.broadcast_to(feet, (frames, 2, 3)).copy(),
+        foot_yaw=np.broadcast_to(feet_yaw, (frames, 2)).copy(),
+        foot_pitch=np.zeros((frames, 2)),
+        knee_out=np.zeros((frames, 2)),
+        hand=hand,
+        elbow_pole=pole,
+        hand_frame=np.zeros((frames, 2)),
+        contact=contact,
+    )
+
+
+# --------------------------------------------------------------------------- two-bone IK
+def two_bone(base: np.ndarray, target: np.ndarray, pole: np.ndarray, l1: float, l2: float
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Analytic two-bone IK (vectorised). Returns (mid, end, d1, d2): joint positions and unit
+    bone directions. The mid joint bends toward ``pole``; unreachable targets are clamped."""
+    d = target - base
+    dist = np.sqrt((d * d).sum(-1, keepdims=True))
+    u = d / np.maximum(dist, 1e-9)
+    dist = np.clip(dist, abs(l1 - l2) + 1e-3, (l1 + l2) * 0.9999)
+    p = pole - (pole * u).sum(-1, keepdims=True) * u
+    pn = np.sqrt((p * p).sum(-1, keepdims=True))
+    p = p / np.maximum(pn, 1e-9)
+    cos_a = np.clip((l1 * l1 + dist * dist - l2 * l2) / (2.0 * l1 * dist), -1.0, 1.0)
+    sin_a = np.sqrt(1.0 - cos_a * cos_a)
+    d1 = cos_a * u + sin_a * p
+    mid = base + l1 * d1
+    end = base + dist * u
+    d2 = (end - mid) / l2
+    return mid, end, d1, d2
+
+
+# --------------------------------------------------------------------------- solver
+@dataclass
+class Solved:
+    """Joint positions plus the global frames needed to build local rotations later."""
+
+    joints: np.ndarray  # (T, 22, 3)
+    trunk: dict[int, np.ndarray]  # joint -> global rotation (T, 3, 3) for pelvis/spine/neck/collars
+    limb_dirs: dict[int, tuple[np.ndarray, np.ndarray]]  # joint -> (bone dir, bend normal) (T, 3)
+    foot_rot: np.ndarray  # (T, 2, 3, 3) ankle world rotations
+
+
+def fit_pelvis_height(root: np.ndarray, pelvis_rot: np.ndarray, ankle: np.ndarray,
+                      contact: np.ndarray, *, softness: float = 0.01) -> np.ndarray:
+    """Lower the pelvis (smooth minimum) wherever a planted foot could not be reached.
+
+    root (T, 3), pelvis_rot (T, 3, 3), ankle (T, 2, 3), contact (T, 2) bool -> new root y (T,).
+    """
+    hips = root[:, None, :] + pelvis_rot[:, None] @ OFFSETS[[1, 2]][None, :, :, None]
+    hips = hips[..., 0]
+    dxz2 = (hips[..., 0] - ankle[..., 0]) ** 2 + (hips[..., 2] - ankle[..., 2]) ** 2
+    reach = np.sqrt(np.maximum(LEG_REACH**2 - dxz2, 0.05))
+    limit = ankle[..., 1] + reach - (hips[..., 1] - root[:, None, 1])  # (T, 2) max root y
+    limit = np.where(contact, limit, np.inf)
+    y = root[:, 1]
+    # smooth minimum of (desired, limits): -k log sum exp(-v / k), always <= the true minimum
+    stack = np.concatenate([y[:, None], limit], 1)
+    lo = stack.min(1, keepdims=True)
+    soft = lo[:, 0] - softness * np.log(np.exp(-(stack - lo) / softness).sum(1))
+    return soft
+
+
+def solve(ch: Channels) -> Solved:
+    """Channels -> joint positions (T, 22, 3) and the frames for local rotations."""
+    T = ch.frames
+    trunk_angles = np.concatenate([ch.pelvis[:, None], ch.spine, ch.neck[:, None], ch.collar], 1)
+    E = euler(trunk_angles)  # (T, 7, 3, 3): pelvis, spine1, spine2, spine3, neck, collar L, collar R
+    heading_rot = yaw_rotation(ch.heading)
+    G0 = heading_rot @ E[:, 0]
+    root = ch.root.copy()
+    contact_any = ch.contact.any(-1)
+    root[:, 1] = fit_pelvis_height(root, G0, ch.ankle, contact_any)
+
+    J = np.empty((T, 22, 3))
+    J[:, 0] = root
+    G3 = G0 @ E[:, 1]
+    G6 = G3 @ E[:, 2]
+    G9 = G6 @ E[:, 3]
+    G12 = G9 @ E[:, 4]
+    G13 = G9 @ E[:, 5]
+    G14 = G9 @ E[:, 6]
+    J[:, 3] = root + G0 @ OFFSETS[3]
+    J[:, 6] = J[:, 3] + G3 @ OFFSETS[6]
+    J[:, 9] = J[:, 6] + G6 @ OFFSETS[9]
+    J[:, 12] = J[:, 9] + G9 @ OFFSETS[12]
+    J[:, 15] = J[:, 12] + G12 @ OFFSETS[15]
+    J[:, 13] = J[:, 9] + G9 @ OFFSETS[13]
+    J[:, 14] = J[:, 9] + G9 @ OFFSETS[14]
+    J[:, 16] = J[:, 13] + G13 @ OFFSETS[16]
+    J[:, 17] = J[:, 14] + G14 @ OFFSETS[17]
+    J[:, 1] = root + G0 @ OFFSETS[1]
+    J[:, 2] = root + G0 @ OFFSETS[2]
+
+    # legs
+    fwd = forward_vector(ch.foot_yaw)  # (T, 2, 3)
+    lat = left_vector(ch.foot_yaw) * SIDE_SIGN[None, :, None]  # outward
+    knee_pole = fwd * np.cos(ch.knee_out)[..., None] + lat * np.sin(ch.knee_out)[..., None]
+    knee_pole = knee_pole + 0.15 * lat
+    hips = J[:, [1, 2]]
+    knee, ankle, d_thigh, d_shin = two_bone(hips, ch.ankle, knee_pole, THIGH, SHIN)
+    J[:, [4, 5]] = knee
+    J[:, [7, 8]] = ankle
+    J[:, [10, 11]] = toe_from_ankle(ankle, ch.foot_yaw, ch.foot_pitch)
+
+    # arms
+    shoulders = J[:, [16, 17]]
+    w = ch.hand_frame[..., None, None]
+    frame = (1.0 - w) * heading_rot[:, None] + w * G9[:, None]  # (T, 2, 3, 3)
+    target = shoulders + (frame @ ch.hand[..., None])[..., 0]
+    pole = (frame @ ch.elbow_pole[..., None])[..., 0]
+    elbow, wrist, d_upper, d_fore = two_bone(shoulders, target, pole, UPPER_ARM, FOREARM)
+    J[:, [18, 19]] = elbow
+    J[:, [20, 21]] = wrist
+
+    trunk = {0: G0, 3: G3, 6: G6, 9: G9, 12: G12, 13: G13, 14: G14}
+    limb = {
+        1: (d_thigh[:, 0], knee_pole[:, 0]), 2: (d_thigh[:, 1], knee_pole[:, 1]),
+        4: (d_shin[:, 0], knee_pole[:, 0]), 5: (d_shin[:, 1], knee_pole[:, 1]),
+        16: (d_upper[:, 0], pole[:, 0]), 17: (d_upper[:, 1], pole[:, 1]),
+        18: (d_fore[:, 0], pole[:, 0]), 19: (d_fore[:, 1], pole[:, 1]),
+    }
+    return Solved(joints=J, trunk=trunk, limb_dirs=limb, foot_rot=foot_rotation(ch.foot_yaw, ch.foot_pitch))
+
+
+def _frame_from(direction: np.ndarray, hint: np.ndarray) -> np.ndarray:
+    """Orthonormal frame (..., 3, 3) with columns (direction, n, direction x n); n ⟂ direction from hint."""
+    d = direction / np.linalg.norm(direction, axis=-1, keepdims=True)
+    n = hint - (hint * d).sum(-1, keepdims=True) * d
+    n = n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-9)
+    return np.stack([d, n, np.cross(d, n)], -1)
+
+
+# rest frames of the limb joints: (child offset direction, pole direction in the rest pose)
+_REST_POLE = {1: (0, 0, 1), 2: (0, 0, 1), 4: (0, 0, 1), 5: (0, 0, 1),
+              16: (0, 1, -1), 17: (0, 1, -1), 18: (0, 1, -1), 19: (0, 1, -1)}
+_LIMB_CHILD = {1: 4, 2: 5, 4: 7, 5: 8, 16: 18, 17: 19, 18: 20, 19: 21}
+
+
+def local_rotations(solved: Solved) -> np.ndarray:
+    """Local joint rotations (T, 22, 3, 3) such that ``Skeleton.forward(local, joints[:, 0])``
+    reproduces ``solved.joints`` (leaves: identity relative to their parent)."""
+    T = solved.joints.shape[0]
+    glob = np.broadcast_to(np.eye(3), (T, 22, 3, 3)).copy()
+    for j, g in solved.trunk.items():
+        glob[:, j] = g
+    for j, (direction, pole) in solved.limb_dirs.items():
+        child = _LIMB_CHILD[j]
+        rest = _frame_from(OFFSETS[child], np.asarray(_REST_POLE[j], dtype=np.float64))
+        glob[:, j] = _frame_from(direction, pole) @ rest.T
+    glob[:, 7] = solved.foot_rot[:, 0]
+    glob[:, 8] = solved.foot_rot[:, 1]
+    for j in (10, 11, 15, 20, 21):
+        glob[:, j] = glob[:, PARENTS[j]]
+    local = np.empty_like(glob)
+    local[:, 0] = glob[:, 0]
+    parents = np.array(PARENTS[1:])
+    local[:, 1:] = np.swapaxes(glob[:, parents], -1, -2) @ glob[:, 1:]
+    return local
