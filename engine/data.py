@@ -47,14 +47,27 @@ class CorpusSource:
 
 
 class FolderSource:
-    """A HumanML3D-layout folder (new_joint_vecs/, texts/, split lists); cycles over its samples."""
+    """A HumanML3D-layout folder (new_joint_vecs/, texts/, split lists); cycles over its samples.
 
-    def __init__(self, folder: str | Path, *, split: str = "train"):
-        from engine.io.humanml3d import read_folder
+    Whole-clip captions stay with their clip; a caption with a time interval becomes its own
+    item cropped to that interval, as HumanML3D's loaders do.
+    """
 
-        self.items = [(np.asarray(f, dtype=np.float32), tuple(c for c in caps)) for _, f, caps in read_folder(folder, split=split)]
+    def __init__(self, folder: str | Path, *, split: str = "train", min_frames: int = 20):
+        from engine.io.humanml3d import HumanML3DFolder
+
+        self.items: list[tuple[np.ndarray, tuple[str, ...]]] = []
+        for _, features, captions in HumanML3DFolder(folder).iter_samples(split, skip_missing=True):
+            features = np.asarray(features, dtype=np.float32)
+            whole = tuple(c.text for c in captions if c.whole_clip)
+            if whole and len(features) >= min_frames:
+                self.items.append((features, whole))
+            for c in captions:
+                span = c.frames()
+                if span is not None and span[1] - span[0] >= min_frames:
+                    self.items.append((features[span[0] : span[1]], (c.text,)))
         if not self.items:
-            raise ValueError(f"no samples in split {split!r} of {folder}")
+            raise ValueError(f"no usable samples in split {split!r} of {folder}")
 
     def get(self, index: int) -> MotionText:
         features, captions = self.items[index % len(self.items)]

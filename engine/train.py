@@ -242,5 +242,8 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
 
 
 def _fit_stats(source: MotionSource, config: TrainConfig) -> Normalizer:
+    """The folder's own Mean/Std when training on a HumanML3D folder that has them, else fitted."""
+    if config.data != "corpus" and (Path(config.data) / "Mean.npy").exists():
+        return Normalizer.load(config.data)
     feats = [source.get(10_000_000 + i).features for i in range(config.stats_samples)]
     return Normalizer.fit(np.concatenate(feats, axis=0))

@@ -1,0 +1,320 @@
+"""Jumps: in place, forward, hopping on one leg, jumping jacks.
+
+Every airborne phase is ballistic (g = 9.81): the take-off speed v0 = sqrt(2 g h) gives a
+flight of 2 v0 / g seconds in which the feet keep their take-off pose relative to the
+pelvis vertically, so the lowest foot joint rises exactly ``h`` at the apex. Take-off times
+are placed so that every apex falls on a whole frame. Before take-off the body crouches and
+extends (cubic Hermite reaching v0), rolling onto the toes; landing mirrors it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from engine.synth.physics import GRAVITY, flight_time, hermite, smoothstep, takeoff_speed
+from engine.synth.primitives.base import STANCE_HALF, Context, Event, Result, arm_angles, end_state
+from engine.synth.primitives.body import base_stand
+from engine.synth.rig import (ANKLE_HEIGHT, HIP_DROP, LEG, SIDE_SIGN, STAND_PELVIS, ankle_from_toe,
+                              forward_vector, left_vector, pitch_for_ankle_height, toe_from_ankle)
+
+LEG_EXT = 0.955 * LEG  # hip-ankle distance used on the toes before take-off / after landing
+TAKEOFF_PITCH = 0.8
+
+
+def ankle_height_at(pitch: float) -> float:
+    from engine.synth.rig import TOE_ANGLE, TOE_LENGTH
+    return float(TOE_LENGTH * np.sin(TOE_ANGLE + pitch))
+
+
+@dataclass
+class Rep:
+    """One airborne phase: feet toes before/after (2, 3), rise h (m), crouch depth (m)."""
+
+    before: np.ndarray
+    after: np.ndarray
+    height: float
+    crouch: float
+    kind: str
+    lean: float = 0.0  # pelvis ahead of the feet at take-off (m, along the heading)
+    spread_after: float = 0.0  # jacks: 1 when landing wide
+
+
+def _pelvis_takeoff_height(toes: np.ndarray, center: np.ndarray, lifted: int | None) -> float:
+    """Pelvis height at take-off/landing with the planted toes on the floor and heels up."""
+    a = ankle_height_at(TAKEOFF_PITCH)
+    hz = []
+    for side in (0, 1):
+        if side == lifted:
+            continue
+        horiz = max(abs(toes[side, 0] - center[0]), abs(toes[side, 2] - center[1]))
+        horiz = np.hypot(toes[side, 0] - center[0], toes[side, 2] - center[1])
+        off = max(horiz - 0.08, 0.0)
+        hz.append(np.sqrt(max(LEG_EXT**2 - off**2, 0.3)))
+    return a + HIP_DROP + float(min(hz))
+
+
+def ballistic_reps(ctx: Context, reps: list[Rep], *, lifted: int | None = None, free_offset=None,
+                   arms: str = "swing") -> Result:
+    seg = ctx.segment
+    n = seg.frames
+    fps = ctx.fps
+    ch = base_stand(ctx, idle=0.2)
+    heading = float(ctx.state.heading)
+    fwd = forward_vector(np.float64(heading))
+    t = np.arange(n, dtype=np.float64)
+    y_stand = STAND_PELVIS - ctx.style.crouch
+    y = np.full(n, y_stand)
+    pxz = ch.root[:, [0, 2]].copy()
+    yaw = ctx.state.feet_yaw.copy()
+    tempo = 1.0 / max(seg.speed, 0.4)
+    # durations (s)
+    c = len(reps)
+    period = n / fps / c
+    events: list[Event] = []
+    toe_plants = [np.asarray(reps[0].before)]
+    times = []
+    for k, rep in enumerate(reps):
+        v0 = takeoff_speed(rep.height)
+        tf = flight_time(rep.height)
+        center0 = rep.before[:, [0, 2]].mean(0) if lifted is None else rep.before[1 - lifted, [0, 2]] + 0.0
+        center1 = rep.after[:, [0, 2]].mean(0) if lifted is None else rep.after[1 - lifted, [0, 2]] + 0.0
+        if lifted is not None:
+            inward = left_vector(np.float64(heading))[[0, 2]] * SIDE_SIGN[lifted] * 0.03
+            center0 = center0 + inward
+            center1 = center1 + inward
+        y_to = _pelvis_takeoff_height(rep.before, center0, lifted)
+        y_land = _pelvis_takeoff_height(rep.after, center1, lifted)
+        y_low = y_stand - rep.crouch
+        y_low2 = y_stand - 0.7 * rep.crouch
+        dp = float(np.clip(2.0 * (y_to - y_low) / max(v0, 1e-3), 0.12, 0.4))
+        dl = float(np.clip(2.0 * (y_land - y_low2) / max(v0, 1e-3), 0.12, 0.4))
+        prep = 0.32 * tempo
+        rec = 0.28 * tempo
+        need = prep + dp + tf + dl + rec
+        if need > period:
+            squeeze = max((period - dp - tf - dl) / max(prep + rec, 1e-6), 0.25)
+            prep *= squeeze
+            rec *= squeeze
+            need = prep + dp + tf + dl + rec
+        slack = max(period - need, 0.0)
+        t_to = (k * period + slack * 0.5 + prep + dp) * fps
+        apex = int(round(t_to + tf * fps / 2))
+        t_to = apex - tf * fps / 2
+        t_land = t_to + tf * fps
+        tA0 = t_to - (prep + dp) * fps
+        tA1 = t_to - dp * fps
+        tD1 = t_land + dl * fps
+        tE1 = tD1 + rec * fps
+        times.append((tA0, tA1, t_to, apex, t_land, tD1, tE1))
+        lean = rep.lean * fwd[[0, 2]]
+        P_to = center0 + lean
+        P_land = center1 + lean
+        vxz = (P_land - P_to) / tf  # m/s
+        # --- vertical
+        m = (t >= tA0) & (t < tA1)
+        u = (t[m] - tA0) / max(tA1 - tA0, 1e-6)
+        y[m] = hermite(y_stand, 0.0, y_low, 0.0, u)
+        m = (t >= tA1) & (t < t_to)
+        D = t_to - tA1
+        u = (t[m] - tA1) / D
+        y[m] = hermite(y_low, 0.0, y_to, v0 * D / fps, u)
+        m = (t >= t_to) & (t <= t_land)
+        tau = (t[m] - t_to) / fps
+        uu = tau * fps / (t_land - t_to)
+        y[m] = y_to + (y_land - y_to) * smoothstep(uu) + v0 * tau - 0.5 * GRAVITY * tau * tau
+        m = (t > t_land) & (t < tD1)
+        D = tD1 - t_land
+        u = (t[m] - t_land) / D
+        y[m] = hermite(y_land, -v0 * D / fps, y_low2, 0.0, u)
+        m = (t >= tD1) & (t < tE1)
+        u = (t[m] - tD1) / max(tE1 - tD1, 1e-6)
+        y[m] = hermite(y_low2, 0.0, y_stand, 0.0, u)
+        # --- horizontal
+        m = (t >= tA0) & (t < t_to)
+        D = t_to - tA0
+        u = ((t[m] - tA0) / D)[:, None]
+        pxz[m] = hermite(center0, 0.0, P_to, vxz * D / fps, u)
+        m = (t >= t_to) & (t <= t_land)
+        u = ((t[m] - t_to) / (t_land - t_to))[:, None]
+        pxz[m] = P_to + (P_land - P_to) * u
+        m = (t > t_land) & (t < tE1)
+        D = tE1 - t_land
+        u = ((t[m] - t_land) / D)[:, None]
+        pxz[m] = hermite(P_land, vxz * D / fps, center1, 0.0, u)
+        m = t >= tE1
+        pxz[m] = center1
+        events.append(Event(kind=rep.kind, frame=apex, start=int(np.floor(tA0)), end=int(np.ceil(tE1)),
+                            height=float(rep.height),
+                            extra={"takeoff": round(float(t_to), 3), "landing": round(float(t_land), 3),
+                                   "flight_s": round(float(tf), 4)}))
+        toe_plants.append(np.asarray(rep.after))
+    ch.root[:, 1] = y
+    ch.root[:, 0] = pxz[:, 0]
+    ch.root[:, 2] = pxz[:, 1]
+
+    # --- feet
+    yaw_b = np.broadcast_to(yaw, (n, 2))
+    ankle = np.empty((n, 2, 3))
+    pitch = np.zeros((n, 2))
+    contact = np.ones((n, 2, 2), dtype=bool)
+    # which ground interval / flight each frame is in
+    to_times = np.array([tt[2] for tt in times])
+    land_times = np.array([tt[4] for tt in times])
+    k_after = np.searchsorted(land_times, t, side="left")  # number of landings strictly before t... (<= t)
+    k_after = np.searchsorted(land_times, t, side="right")
+    in_air = np.zeros(n, dtype=bool)
+    air_k = np.zeros(n, dtype=int)
+    for k in range(c):
+        m = (t > to_times[k]) & (t < land_times[k])
+        in_air |= m
+        air_k[m] = k
+    # ground: toe plant index = number of landings at or before t
+    plants = np.stack(toe_plants, 0)  # (c+1, 2, 3)
+    ground_toe = plants[k_after]  # (n, 2, 3)
+    need = np.clip(y[:, None] - HIP_DROP - LEG_EXT * np.ones((n, 2)), ANKLE_HEIGHT, None)
+    # horizontal offset between hip and ankle reduces the available vertical reach
+    g_pitch = pitch_for_ankle_height(need)
+    g_pitch = np.where(need <= ANKLE_HEIGHT + 1e-6, 0.0, g_pitch)
+    g_pitch = np.minimum(g_pitch, TAKEOFF_PITCH)
+    ground_ankle = ankle_from_toe(ground_toe, yaw_b, g_pitch)
+    ankle[:] = ground_ankle
+    pitch[:] = g_pitch
+    if in_air.any():
+        ka = air_k[in_air]
+        ta = t[in_air]
+        u = (ta - to_times[ka]) / (land_times[ka] - to_times[ka])
+        tau = (ta - to_times[ka]) / fps
+        v0s = np.array([takeoff_speed(r.height) for r in reps])[ka]
+        rise = v0s * tau - 0.5 * GRAVITY * tau * tau
+        pitch_air = np.full((len(ta), 2), TAKEOFF_PITCH)
+        a_to = ankle_from_toe(plants[ka], yaw_b[in_air], pitch_air)
+        a_land = ankle_from_toe(plants[ka + 1], yaw_b[in_air], pitch_air)
+        shift = a_land - a_to
+        common = shift.mean(1, keepdims=True)
+        a = a_to + common * u[:, None, None] + (shift - common) * smoothstep(u)[:, None, None]
+        a[..., 1] += rise[:, None]
+        ankle[in_air] = a
+        pitch[in_air] = TAKEOFF_PITCH
+    contact[:, :, 1] = ~in_air[:, None]
+    contact[:, :, 0] = (~in_air[:, None]) & (pitch < 1e-3)
+    if lifted is not None:
+        # the free leg: lifted behind, carried with the pelvis; lifts at the start, lands at the end
+        off = free_offset
+        carried = ch.root[:, :] + off
+        first = times[0][0]
+        last = times[-1][6]
+        t_up0, t_up1 = max(first - 0.35 * fps, 0.0), max(first - 0.05 * fps, 1.0)
+        t_dn0, t_dn1 = min(last + 0.05 * fps, n - 2.0), min(last + 0.4 * fps, n - 1.0)
+        w = smoothstep((t - t_up0) / max(t_up1 - t_up0, 1e-6)) * (1 - smoothstep((t - t_dn0) / max(t_dn1 - t_dn0, 1e-6)))
+        plant = ctx.state.feet[lifted]
+        end_plant = plant + (plants[-1][1 - lifted] - plants[0][1 - lifted])
+        end_plant[1] = ANKLE_HEIGHT
+        base = np.where((t < t_dn0)[:, None], plant, end_plant)
+        bump = np.sin(np.pi * np.clip(w, 0, 1)) * 0.0
+        ankle[:, lifted] = base + (carried - base) * w[:, None]
+        ankle[:, lifted, 1] += bump
+        pitch[:, lifted] = 0.5 * w
+        free_contact = w <= 1e-6
+        contact[:, lifted, 0] = free_contact
+        contact[:, lifted, 1] = free_contact
+        ankle[:, lifted, 1] = np.maximum(ankle[:, lifted, 1], ANKLE_HEIGHT + 0.0)
+    ch.ankle = ankle
+    ch.foot_pitch = pitch
+    ch.foot_yaw = yaw_b.copy()
+    ch.contact = contact
+
+    # --- trunk and arms, from the crouch depth and the airborne state
+    crouch = np.clip((y_stand - y) / 0.18, 0.0, 1.2)
+    rising = np.zeros(n)
+    for (tA0, tA1, t_to, apex, t_land, tD1, tE1), rep in zip(times, reps):
+        k = np.interp(t, [tA0, tA1, t_to, apex, t_land, tD1, tE1],
+                      [0.0, -0.8, 0.9, 1.2, 0.7, 0.2, 0.0], left=0.0, right=0.0)
+        rising += k * min(1.0, 0.5 + rep.height / 0.3)
+    rising = np.convolve(np.pad(rising, 2, mode="edge"), np.ones(5) / 5, mode="valid")
+    ch.spine[:, :, 0] += (0.35 * crouch)[:, None] * np.array([0.4, 0.35, 0.25])
+    ch.pelvis[:, 0] += 0.3 * crouch
+    ch.neck[:, 0] -= 0.35 * crouch
+    if arms == "swing":
+        swing = np.stack([rising, rising], -1)
+        hand, pole = arm_angles(swing, 0.35 + 0.2 * np.abs(swing), abduct=0.15)
+        ch.hand, ch.elbow_pole = hand, pole
+    elif arms == "jacks":
+        feet_lat = np.abs(((ankle[:, 0] - ankle[:, 1]) * left_vector(np.float64(heading))).sum(-1))
+        spread = np.clip((feet_lat - 2 * STANCE_HALF) / 0.4, 0.0, 1.0)
+        hand, pole = arm_angles(np.zeros((n, 2)), 0.15 + 0.25 * spread[:, None] * np.ones(2),
+                                abduct=(0.15 + 2.75 * spread)[:, None] * np.ones(2))
+        ch.hand, ch.elbow_pole = hand, pole
+    elif arms == "balance":
+        out_ = np.stack([np.full(n, 0.6), np.full(n, 0.6)], -1)
+        hand, pole = arm_angles(0.25 + 0.3 * np.stack([rising, rising], -1), 0.6 + np.zeros((n, 2)), abduct=out_)
+        ch.hand, ch.elbow_pole = hand, pole
+    st = end_state(ch)
+    return Result(channels=ch, state=st, events=events, arm_busy=np.zeros((n, 2)),
+                  gait_phase=np.arange(n) / fps * 0.8, posture=np.ones(n) - 0.5 * np.clip(crouch, 0, 1))
+
+
+def _toes(ctx: Context) -> np.ndarray:
+    st = ctx.state
+    return toe_from_ankle(st.feet, st.feet_yaw, np.zeros(2))
+
+
+def jump_height(ctx: Context, base: float) -> float:
+    """Monotone in intensity: the emphasis benchmark relies on it."""
+    return float(np.clip(base * ctx.segment.intensity * ctx.style.jump, 0.05, 0.6))
+
+
+def jump(ctx: Context) -> Result:
+    seg = ctx.segment
+    forward = seg.action == "jump_forward"
+    h = jump_height(ctx, 0.2 if forward else 0.25)
+    d = 0.55 * seg.intensity ** 0.5 * ctx.style.stride if forward else 0.0
+    fwd = forward_vector(np.float64(ctx.state.heading))
+    toes = _toes(ctx)
+    reps = []
+    for k in range(seg.count):
+        after = toes + fwd * d
+        reps.append(Rep(before=toes, after=after, height=h, crouch=0.1 + 0.25 * h + 0.05 * forward,
+                        kind="jump", lean=0.07 if forward else 0.0))
+        toes = after
+    res = ballistic_reps(ctx, reps)
+    res.params = {"height": h, "distance": d}
+    return res
+
+
+def hop(ctx: Context) -> Result:
+    seg = ctx.segment
+    stance = 0 if seg.side == "left" else 1
+    lifted = 1 - stance
+    h = jump_height(ctx, 0.12)
+    toes = _toes(ctx)
+    reps = [Rep(before=toes, after=toes, height=h, crouch=0.05 + 0.2 * h, kind="hop") for _ in range(seg.count)]
+    heading = np.float64(ctx.state.heading)
+    off = (forward_vector(heading) * -0.18 + left_vector(heading) * SIDE_SIGN[lifted] * 0.1
+           + np.array([0.0, -(STAND_PELVIS - 0.3), 0.0]))
+    res = ballistic_reps(ctx, reps, lifted=lifted, free_offset=off, arms="balance")
+    res.params = {"height": h, "stance_leg": ("left", "right")[stance]}
+    return res
+
+
+def jumping_jacks(ctx: Context) -> Result:
+    seg = ctx.segment
+    h = jump_height(ctx, 0.08)
+    heading = np.float64(ctx.state.heading)
+    lat = left_vector(heading)
+    toes = _toes(ctx)
+    center = toes.mean(0)
+    narrow = np.stack([center + lat * STANCE_HALF, center - lat * STANCE_HALF])
+    wide_half = STANCE_HALF + 0.22 * min(seg.intensity, 1.3)
+    wide = np.stack([center + lat * wide_half, center - lat * wide_half])
+    narrow[:, 1] = toes[:, 1]
+    wide[:, 1] = toes[:, 1]
+    reps = []
+    cur = toes
+    for k in range(seg.count):
+        reps.append(Rep(before=cur, after=wide, height=h, crouch=0.04 + 0.2 * h, kind="jack"))
+        reps.append(Rep(before=wide, after=narrow, height=h, crouch=0.04 + 0.2 * h, kind="jack_in"))
+        cur = narrow
+    res = ballistic_reps(ctx, reps, arms="jacks")
+    res.params = {"height": h}
+    return res

@@ -1,0 +1,114 @@
+"""Training on tiny models: loss goes down, checkpoints resume, a HumanML3D folder trains, DDP with 2 processes."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from engine.checkpoint import load_model
+from engine.data import MotionText
+from engine.io.humanml3d import write_normalizer, write_sample, write_split
+from engine.model.denoiser import ModelConfig
+from engine.representation import Normalizer
+from engine.train import TrainConfig, train
+
+TINY = ModelConfig(width=32, layers=2, heads=2, text_layers=1, dropout=0.0)
+
+
+class ToySource:
+    """Two kinds of motion: features ramp up for 'rise', down for 'fall' (deterministic by index)."""
+
+    def get(self, index: int) -> MotionText:
+        rng = np.random.default_rng(index)
+        frames = int(rng.integers(20, 40))
+        up = index % 2 == 0
+        ramp = np.linspace(0, 1, frames)[:, None] * (1 if up else -1)
+        features = (ramp + 0.05 * rng.normal(size=(frames, 263))).astype(np.float32)
+        return MotionText(features=features, captions=("a person rises",) if up else ("a person falls",))
+
+    def words(self):
+        return ["a", "person", "rises", "falls"]
+
+
+def config(tmp_path: Path, **kw) -> TrainConfig:
+    base = dict(out=str(tmp_path / "run"), steps=60, batch_size=8, max_frames=40, lr=2e-3, warmup=5, log_every=10,
+                ckpt_every=30, snapshot_every=0, stats_samples=20, threads=1, bf16=False, model=TINY)
+    base.update(kw)
+    return TrainConfig(**base)
+
+
+def test_training_reduces_loss_and_writes_a_loadable_model(tmp_path):
+    result = train(config(tmp_path), source=ToySource(), progress=False)
+    assert result["step"] == 60
+    log = [json.loads(line) for line in (tmp_path / "run" / "log.jsonl").read_text().splitlines()]
+    assert log[-1]["mse"] < 0.7 * log[0]["mse"]
+    loaded = load_model(tmp_path / "run")
+    assert loaded.tokenizer.encode("a person rises").words == ("a", "person", "rises")
+    weights = torch.load(tmp_path / "run" / "weights.pt", weights_only=True)
+    assert all(v.dtype == torch.float16 for v in weights.values() if v.is_floating_point())
+
+
+def test_resume_continues_from_the_checkpoint(tmp_path):
+    train(config(tmp_path, steps=30), source=ToySource(), progress=False)
+    state = torch.load(tmp_path / "run" / "train_state.pt", weights_only=True)
+    assert state["step"] == 30
+    result = train(config(tmp_path, steps=50), source=ToySource(), progress=False, resume=True)
+    assert result["step"] == 50
+    steps = [json.loads(line)["step"] for line in (tmp_path / "run" / "log.jsonl").read_text().splitlines()]
+    assert steps == [10, 20, 30, 40, 50]
+
+
+def test_resume_with_a_grown_vocabulary_keeps_word_ids(tmp_path):
+    train(config(tmp_path, steps=10), source=ToySource(), progress=False)
+    before = load_model(tmp_path / "run").tokenizer
+
+    class Grown(ToySource):
+        def words(self):
+            return [*super().words(), "jumps"]
+
+    train(config(tmp_path, steps=20), source=Grown(), progress=False, resume=True)
+    after = load_model(tmp_path / "run").tokenizer
+    assert after.words[: len(before)] == before.words and "jumps" in after
+
+
+def _write_folder(root: Path) -> None:
+    source = ToySource()
+    names = []
+    for i in range(12):
+        item = source.get(i)
+        write_sample(root, f"m{i:03d}", item.features, None, list(item.captions))
+        names.append(f"m{i:03d}")
+    write_split(root, "train", names)
+    write_normalizer(root, Normalizer.fit(np.concatenate([source.get(i).features for i in range(12)])))
+
+
+def test_trains_on_a_humanml3d_folder(tmp_path):
+    folder = tmp_path / "hml"
+    _write_folder(folder)
+    result = train(config(tmp_path, data=str(folder), steps=20), progress=False)
+    assert result["step"] == 20 and (tmp_path / "run" / "weights.pt").exists()
+
+
+def test_torchrun_two_processes(tmp_path):
+    folder = tmp_path / "hml"
+    _write_folder(folder)
+    out = tmp_path / "ddp"
+    cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2", "-m", "engine.cli",
+           "train", "--data", str(folder), "--out", str(out), "--steps", "12", "--batch-size", "4", "--max-frames", "40",
+           "--width", "32", "--layers", "2", "--heads", "2", "--text-layers", "1", "--log-every", "4",
+           "--ckpt-every", "6", "--snapshot-every", "0", "--stats-samples", "8", "--threads", "1", "--no-bf16",
+           "--no-progress"]
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env, cwd=Path(__file__).resolve().parents[1])
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    state = torch.load(out / "train_state.pt", weights_only=True)
+    assert state["step"] == 12
+    # each step consumed batch_size items on each of the 2 ranks
+    assert state["next_index"] == 12 * 4 * 2
+    log = [json.loads(line) for line in (out / "log.jsonl").read_text().splitlines()]
+    assert [r["step"] for r in log] == [4, 8, 12]
