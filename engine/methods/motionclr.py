@@ -1,0 +1,281 @@
+"""MotionCLR's training-free edits as attention controllers.
+
+Every edit = a typed config (every field used) + a controller built for a run of ``num_steps``.
+Batch slots are found by role name; words by word (never by raw token index).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+import torch
+
+from engine.attention.context import AttnCtx
+from engine.attention.controller import Controller
+from engine.methods.windows import BoundWindow, Window
+
+
+def _frame_slice(frames: tuple[int, int] | None, n: int) -> slice:
+    if frames is None:
+        return slice(0, n)
+    start, end = frames
+    if not 0 <= start < end:
+        raise ValueError(f"frame window must satisfy 0 <= start < end, got {frames}")
+    return slice(min(start, n), min(end, n))
+
+
+def halves(ctx: AttnCtx, *roles: str) -> list[tuple[int, ...]]:
+    """One slot per role for the conditional half and, under CFG, the unconditional half.
+
+    Self-attention edits must reach both halves, or guidance would pull the edit back.
+    """
+    out = []
+    for cond in (True, False):
+        found = [ctx.roles.slots(r, cond=cond) for r in roles]
+        if all(len(f) == 1 for f in found):
+            out.append(tuple(f[0] for f in found))
+        elif any(len(f) > 1 for f in found):
+            raise KeyError(f"roles {roles} must each name one slot; the batch has {ctx.roles.names}")
+    if not out:
+        raise KeyError(f"the batch has no slots for roles {roles}: its roles are {ctx.roles.names}")
+    return out
+
+
+# ----------------------------------------------------------------------------- (de-)emphasis, erasing
+@dataclass(frozen=True)
+class ReweightConfig:
+    """(De-)emphasise a word: its cross-attention column gets +weight ("add") or ×weight ("mul").
+
+    ``frames`` limits the change to a frame interval [start, end) (None = all frames);
+    ``role`` names the batch slots edited; ``occurrence`` picks a repeated word.
+    """
+
+    word: str
+    weight: float = 0.3
+    mode: Literal["add", "mul"] = "add"
+    window: Window = field(default_factory=Window)
+    frames: tuple[int, int] | None = None
+    role: str = "out"
+    occurrence: int = 0
+
+    def __post_init__(self) -> None:
+        if self.mode not in ("add", "mul"):
+            raise ValueError(f"mode must be 'add' or 'mul', got {self.mode!r}")
+        if self.mode == "add" and not -1.0 <= self.weight <= 1.0:
+            raise ValueError(f"additive weights are meaningful in [-1, 1], got {self.weight}")
+        if self.mode == "mul" and not 0.0 <= self.weight <= 10.0:
+            raise ValueError(f"multiplicative weights must be in [0, 10], got {self.weight}")
+
+
+class Reweight(Controller):
+    needs_maps = True
+
+    def __init__(self, config: ReweightConfig, *, num_steps: int):
+        self.config = config
+        self.window: BoundWindow = config.window.bind(num_steps)
+
+    def on_probs(self, probs, ctx: AttnCtx):
+        c = self.config
+        if ctx.kind != "cross" or not self.window.covers(ctx) or ctx.words is None:
+            return None
+        slots = ctx.roles.slots(c.role)
+        if not slots:
+            return None
+        probs = probs.clone()
+        rows = _frame_slice(c.frames, probs.shape[2])
+        for slot in slots:
+            col = ctx.words.index(slot, c.word, c.occurrence)
+            if c.mode == "add":
+                probs[slot, :, rows, col] += c.weight
+            else:
+                probs[slot, :, rows, col] *= c.weight
+        return probs
+
+
+def erase_config(word: str, *, frames: tuple[int, int] | None = None, factor: float = 0.1,
+                 window: Window = Window(), role: str = "out") -> ReweightConfig:
+    """Erasing = strong multiplicative de-emphasis (MotionCLR's code: ×0.1 inside a time window)."""
+    return ReweightConfig(word=word, weight=factor, mode="mul", window=window, frames=frames, role=role)
+
+
+# ----------------------------------------------------------------------------- grounded generation
+@dataclass(frozen=True)
+class GroundingConfig:
+    """Ground a word in time: +weight on its column inside ``mask`` frames, -weight outside."""
+
+    word: str
+    mask: tuple[bool, ...]  # per frame
+    weight: float = 0.3
+    window: Window = field(default_factory=Window)
+    role: str = "out"
+
+    def __post_init__(self) -> None:
+        if not any(self.mask):
+            raise ValueError("the grounding mask selects no frame")
+        if not 0.0 < self.weight <= 1.0:
+            raise ValueError("the grounding weight must be in (0, 1]")
+
+
+class Ground(Controller):
+    needs_maps = True
+
+    def __init__(self, config: GroundingConfig, *, num_steps: int):
+        self.config = config
+        self.window = config.window.bind(num_steps)
+        self.mask = torch.tensor(config.mask, dtype=torch.bool)
+
+    def on_probs(self, probs, ctx: AttnCtx):
+        c = self.config
+        if ctx.kind != "cross" or not self.window.covers(ctx) or ctx.words is None:
+            return None
+        n = probs.shape[2]
+        mask = torch.zeros(n, dtype=torch.bool)
+        mask[: min(n, len(self.mask))] = self.mask[:n]
+        delta = torch.where(mask, c.weight, -c.weight).to(probs.dtype)
+        probs = probs.clone()
+        for slot in ctx.roles.slots(c.role):
+            col = ctx.words.index(slot, c.word)
+            probs[slot, :, :, col] = (probs[slot, :, :, col] + delta[None, :]).clamp_min(0.0)
+        return probs
+
+
+# ----------------------------------------------------------------------------- in-place replacement
+@dataclass(frozen=True)
+class ReplaceConfig:
+    """The edited prompt's cross-attention maps ← the reference's for the first steps.
+
+    Reference ("ref") and edited ("edit") prompts share the noise and must have the same number
+    of words (aligned word by word). ``self_attention`` also copies the self-attention maps.
+    """
+
+    window: Window = field(default_factory=lambda: Window(0.0, 0.5))
+    self_attention: bool = True
+    source: str = "ref"
+    target: str = "edit"
+
+
+class Replace(Controller):
+    needs_maps = True
+
+    def __init__(self, config: ReplaceConfig, *, num_steps: int):
+        self.config = config
+        self.window = config.window.bind(num_steps)
+
+    def on_probs(self, probs, ctx: AttnCtx):
+        c = self.config
+        if not self.window.covers(ctx) or (ctx.kind == "self" and not c.self_attention):
+            return None
+        probs = probs.clone()
+        for src, dst in halves(ctx, c.source, c.target):
+            if ctx.kind == "cross" and ctx.roles.uncond[dst]:
+                continue  # the unconditional pass has no cross-attention
+            if ctx.kind == "cross" and ctx.words is not None and len(ctx.words.words[src]) != len(ctx.words.words[dst]):
+                raise ValueError(
+                    "in-place replacement needs prompts with the same number of words, aligned word by word: "
+                    f"{' '.join(ctx.words.words[src])!r} vs {' '.join(ctx.words.words[dst])!r}")
+            probs[dst] = probs[src]
+        return probs
+
+
+# ----------------------------------------------------------------------------- sequence shifting
+@dataclass(frozen=True)
+class ShiftConfig:
+    """Q, K, V of the edited slot ← the reference's, rolled in time: the first ``fraction`` moves to the end."""
+
+    fraction: float = 0.5
+    window: Window = field(default_factory=lambda: Window(0.0, 0.4))
+    source: str = "ref"
+    target: str = "edit"
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.fraction < 1.0:
+            raise ValueError("the shift fraction must be in (0, 1)")
+
+
+class Shift(Controller):
+    def __init__(self, config: ShiftConfig, *, num_steps: int, frames: int):
+        self.config = config
+        self.window = config.window.bind(num_steps)
+        self.frames = frames  # real length of the motion (padding stays in place)
+
+    def on_qkv(self, q, k, v, ctx: AttnCtx):
+        c = self.config
+        if ctx.kind != "self" or not self.window.covers(ctx):
+            return None
+        n = self.frames
+        shift = -int(round(c.fraction * n))
+        q, k, v = q.clone(), k.clone(), v.clone()
+        for src, dst in halves(ctx, c.source, c.target):
+            for t in (q, k, v):
+                t[dst, :, :n] = torch.roll(t[src, :, :n], shifts=shift, dims=1)
+        return q, k, v
+
+
+# ----------------------------------------------------------------------------- example-based generation
+@dataclass(frozen=True)
+class ExampleConfig:
+    """Each "out" slot takes the example's Q with its 1-s chunks shuffled (per-slot seed)."""
+
+    chunk_frames: int = 20
+    window: Window = field(default_factory=lambda: Window(0.0, 0.6))
+    seed: int = 0
+    example: str = "ref"
+    target: str = "out"
+
+
+class ExampleBased(Controller):
+    def __init__(self, config: ExampleConfig, *, num_steps: int, frames: int):
+        self.config = config
+        self.window = config.window.bind(num_steps)
+        self.frames = frames
+        self._orders: dict[int, np.ndarray] = {}
+
+    def order(self, slot: int) -> np.ndarray:
+        """Frame permutation for a slot: whole chunks shuffled, the same at every step and layer."""
+        if slot not in self._orders:
+            n, size = self.frames, self.config.chunk_frames
+            chunks = [np.arange(s, min(s + size, n)) for s in range(0, n, size)]
+            rng = np.random.default_rng(self.config.seed * 1009 + slot)
+            self._orders[slot] = np.concatenate([chunks[i] for i in rng.permutation(len(chunks))])
+        return self._orders[slot]
+
+    def on_qkv(self, q, k, v, ctx: AttnCtx):
+        c = self.config
+        if ctx.kind != "self" or not self.window.covers(ctx):
+            return None
+        q = q.clone()
+        for cond in (True, False):
+            examples = ctx.roles.slots(c.example, cond=cond)
+            if len(examples) != 1:
+                continue
+            # the k-th target slot gets the k-th permutation in both halves
+            for k_th, slot in enumerate(ctx.roles.slots(c.target, cond=cond)):
+                q[slot, :, : self.frames] = q[examples[0], :, torch.as_tensor(self.order(k_th))]
+        return q, k, v
+
+
+# ----------------------------------------------------------------------------- style transfer
+@dataclass(frozen=True)
+class StyleTransferConfig:
+    """The output's self-attention uses Q from the style motion and K, V from the content motion."""
+
+    window: Window = field(default_factory=lambda: Window(0.0, 0.5))
+    style: str = "style"
+    content: str = "content"
+    target: str = "out"
+
+
+class StyleTransfer(Controller):
+    def __init__(self, config: StyleTransferConfig, *, num_steps: int):
+        self.config = config
+        self.window = config.window.bind(num_steps)
+
+    def on_qkv(self, q, k, v, ctx: AttnCtx):
+        c = self.config
+        if ctx.kind != "self" or not self.window.covers(ctx):
+            return None
+        q, k, v = q.clone(), k.clone(), v.clone()
+        for style, content, out in halves(ctx, c.style, c.content, c.target):
+            q[out], k[out], v[out] = q[style], k[content], v[content]
+        return q, k, v

@@ -1,0 +1,166 @@
+"""MotionCLR controllers on a tiny seeded model: each map changes where it should and nowhere else."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from engine.analysis.counting import count_from_attention, count_from_root_height
+from engine.attention import AttentionStore, BatchRoles, stack
+from engine.attention.context import WordIndex
+from engine.methods.motionclr import (
+    ExampleBased, ExampleConfig, Ground, GroundingConfig, Replace, ReplaceConfig, Reweight, ReweightConfig,
+    Shift, ShiftConfig, StyleTransfer, StyleTransferConfig, erase_config,
+)
+from engine.methods.windows import Window
+from engine.model import Condition, Denoiser, ModelConfig
+
+FRAMES = 24
+
+
+def tiny():
+    torch.manual_seed(0)
+    return Denoiser(ModelConfig(width=32, layers=3, heads=2, text_layers=1, vocab_size=16, dropout=0.0)).eval()
+
+
+def cond(roles, words=("a", "man", "jumps", "high")):
+    b = len(roles)
+    g = torch.Generator().manual_seed(1)
+    return Condition(text_ids=torch.randint(1, 16, (b, len(words)), generator=g),
+                     text_mask=torch.ones(b, len(words), dtype=torch.bool),
+                     frame_mask=torch.ones(b, FRAMES, dtype=torch.bool), use_text=torch.ones(b, dtype=torch.bool),
+                     roles=BatchRoles.of(*roles), words=WordIndex(words=tuple(words for _ in roles)))
+
+
+def run(model, c, controller, step=0):
+    x = torch.randn(len(c), FRAMES, 263, generator=torch.Generator().manual_seed(2))
+    store = AttentionStore(record_qkv=True)
+    out = model(x, torch.full((len(c),), 300), c, controller=stack(controller, store), step=step)
+    return out, store
+
+
+def test_reweight_adds_to_the_word_column_only_in_its_window():
+    model, c = tiny(), cond(("ref", "out"))
+    _, base = run(model, c, None)
+    cfg = ReweightConfig(word="jumps", weight=0.5, frames=(5, 15), window=Window(0.0, 0.5, layers=(1,)))
+    _, edited = run(model, c, Reweight(cfg, num_steps=10), step=2)
+    # layer 0 is outside the layer window: identical maps
+    assert torch.equal(edited.map(step=2, layer=0, kind="cross", slot=1), base.map(step=0, layer=0, kind="cross", slot=1))
+    # the store sees maps after the edit only for later controllers; check the model output path instead
+    out_base, _ = run(model, c, None)
+    out_edit, _ = run(model, c, Reweight(cfg, num_steps=10), step=2)
+    assert torch.allclose(out_edit[0], out_base[0], atol=1e-6)  # the ref slot is untouched
+    assert (out_edit[1] - out_base[1]).abs().max() > 1e-4
+    out_late, _ = run(model, c, Reweight(cfg, num_steps=10), step=7)  # outside the step window
+    assert torch.equal(out_late, out_base)
+
+
+def test_reweight_map_values():
+    model, c = tiny(), cond(("out",))
+    cfg = ReweightConfig(word="jumps", weight=0.5, frames=(5, 15))
+    # a store stacked after the edit records the edited maps
+    _, before = run(model, c, None)
+    x = torch.randn(1, FRAMES, 263, generator=torch.Generator().manual_seed(2))
+    after = AttentionStore()
+    model(x, torch.full((1,), 300), c, controller=stack(Reweight(cfg, num_steps=10), after))
+    a, b = after.map(step=0, layer=0, kind="cross"), before.map(step=0, layer=0, kind="cross")
+    diff = (a - b).numpy()
+    assert np.allclose(diff[5:15, 2], 0.5, atol=2e-3)
+    assert np.abs(np.delete(diff, 2, axis=1)).max() < 2e-3
+    assert np.abs(diff[:5, 2]).max() < 2e-3 and np.abs(diff[15:, 2]).max() < 2e-3
+
+
+def test_erase_multiplies_by_a_tenth():
+    model, c = tiny(), cond(("out",))
+    x = torch.randn(1, FRAMES, 263, generator=torch.Generator().manual_seed(2))
+    plain, erased = AttentionStore(), AttentionStore()
+    model(x, torch.full((1,), 300), c, controller=plain)
+    model(x, torch.full((1,), 300), c, controller=stack(Reweight(erase_config("jumps", frames=(12, 24)), num_steps=10), erased))
+    a, b = erased.map(step=0, layer=1, kind="cross"), plain.map(step=0, layer=1, kind="cross")
+    assert torch.allclose(a[12:, 2], 0.1 * b[12:, 2], atol=1e-3)
+    assert torch.allclose(a[:12], b[:12], atol=1e-3)
+
+
+def test_word_must_exist():
+    model, c = tiny(), cond(("out",))
+    with pytest.raises(KeyError, match="walks"):
+        run(model, c, Reweight(ReweightConfig(word="walks"), num_steps=10))
+
+
+def test_replace_copies_reference_maps_into_the_edit_slot():
+    model = tiny()
+    c = cond(("ref", "edit"))
+    c.text_ids[1, 2] = (c.text_ids[0, 2] % 15) + 1  # a different verb in the edit prompt
+    x = torch.randn(2, FRAMES, 263, generator=torch.Generator().manual_seed(2))
+    store = AttentionStore()
+    model(x, torch.full((2,), 300), c, controller=stack(Replace(ReplaceConfig(), num_steps=10), store), step=1)
+    for kind in ("cross", "self"):
+        assert torch.equal(store.map(step=1, layer=2, kind=kind, slot=0), store.map(step=1, layer=2, kind=kind, slot=1))
+    late = AttentionStore()
+    model(x, torch.full((2,), 300), c, controller=stack(Replace(ReplaceConfig(), num_steps=10), late), step=8)
+    assert not torch.equal(late.map(step=8, layer=2, kind="cross", slot=0), late.map(step=8, layer=2, kind="cross", slot=1))
+
+
+def test_shift_rolls_q_k_v():
+    model, c = tiny(), cond(("ref", "edit"))
+    cfg = ShiftConfig(fraction=0.25)
+    x = torch.randn(2, FRAMES, 263, generator=torch.Generator().manual_seed(2))
+    store = AttentionStore(record_qkv=True)
+    # the store before the shift sees the originals, one after sees the shifted tensors
+    after = AttentionStore(record_qkv=True, kinds=("self",))
+    model(x, torch.full((2,), 300), c, controller=stack(store, Shift(cfg, num_steps=10, frames=FRAMES), after))
+    q_ref = store.get(step=0, layer=0, kind="self").q[0].float()
+    q_edit = after.get(step=0, layer=0, kind="self").q[1].float()
+    assert torch.equal(q_edit, torch.roll(q_ref, shifts=-6, dims=1))
+
+
+def test_example_based_shuffles_whole_chunks():
+    model, c = tiny(), cond(("ref", "out", "out"))
+    ctrl = ExampleBased(ExampleConfig(chunk_frames=6, seed=3), num_steps=10, frames=FRAMES)
+    x = torch.randn(3, FRAMES, 263, generator=torch.Generator().manual_seed(2))
+    before, after = AttentionStore(record_qkv=True, kinds=("self",)), AttentionStore(record_qkv=True, kinds=("self",))
+    model(x, torch.full((3,), 300), c, controller=stack(before, ctrl, after))
+    q_ref = before.get(step=0, layer=1, kind="self").q[0]
+    for k_th, slot in enumerate((1, 2)):
+        order = ctrl.order(k_th)
+        assert sorted(order.tolist()) == list(range(FRAMES))
+        assert all(order[i + 1] == order[i] + 1 for i in range(0, FRAMES, 6) for _ in [0] if i + 1 < FRAMES)
+        assert torch.equal(after.get(step=0, layer=1, kind="self").q[slot], q_ref[:, torch.as_tensor(order)])
+    assert not np.array_equal(ctrl.order(0), ctrl.order(1))
+
+
+def test_style_transfer_mixes_q_and_kv():
+    model, c = tiny(), cond(("style", "content", "out"))
+    x = torch.randn(3, FRAMES, 263, generator=torch.Generator().manual_seed(2))
+    before, after = AttentionStore(record_qkv=True, kinds=("self",)), AttentionStore(record_qkv=True, kinds=("self",))
+    model(x, torch.full((3,), 300), c, controller=stack(before, StyleTransfer(StyleTransferConfig(), num_steps=10), after))
+    b, a = before.get(step=0, layer=0, kind="self"), after.get(step=0, layer=0, kind="self")
+    assert torch.equal(a.q[2], b.q[0]) and torch.equal(a.k[2], b.k[1]) and torch.equal(a.v[2], b.v[1])
+    assert torch.equal(a.q[0], b.q[0]) and torch.equal(a.k[1], b.k[1])
+
+
+def test_grounding_raises_inside_and_lowers_outside():
+    model, c = tiny(), cond(("out",))
+    mask = tuple(8 <= i < 16 for i in range(FRAMES))
+    x = torch.randn(1, FRAMES, 263, generator=torch.Generator().manual_seed(2))
+    plain, grounded = AttentionStore(), AttentionStore()
+    model(x, torch.full((1,), 300), c, controller=plain)
+    model(x, torch.full((1,), 300), c, controller=stack(Ground(GroundingConfig(word="jumps", mask=mask), num_steps=10), grounded))
+    diff = (grounded.map(step=0, layer=0, kind="cross") - plain.map(step=0, layer=0, kind="cross"))[:, 2]
+    assert (diff[8:16] > 0.25).all() and (diff[:8] <= 0).all() and (diff[16:] <= 0).all()
+
+
+def test_counting_on_a_synthetic_action_map():
+    """Action frames attend to every repetition of the action; standing frames attend evenly."""
+    t = np.arange(120)
+    for reps in (2, 3, 4):  # (with 5 narrow bumps in 6 s the row mean x3 threshold hides the peaks)
+        centres = (np.arange(reps) + 0.5) * 120 / reps
+        bump = np.exp(-0.5 * ((t[:, None] - centres[None]) / 3.0) ** 2).max(1)  # (T,) action strength
+        attn = 0.05 + np.outer(bump, bump)
+        attn /= attn.sum(1, keepdims=True)
+        res = count_from_attention(attn)
+        assert res.rounded == reps, (reps, res.count)
+        assert all(0 <= r < 120 and 0 <= c < 120 for r, c in res.peaks)
+        assert count_from_root_height(0.9 + 0.2 * bump) == reps
+    with pytest.raises(ValueError):
+        count_from_attention(np.zeros((5, 6)))
