@@ -19,6 +19,7 @@ SUBCOMMANDS: dict[str, str] = {
     "eval": "engine.cli_eval",
     "evaluator": "engine.cli_eval",
     "serve": "app.cli_serve",
+    "bench": "app.cli_bench",
 }
 
 

@@ -312,3 +312,79 @@ def test_unit_detection_and_resampling_helpers():
 def test_canonical_placement_matches_canonicalize_on_floored_data(real_joints):
     placed = canonical_placement(real_joints, fps=20)
     assert np.abs(placed - canonicalize(real_joints)).max() < 1e-6
+
+
+def _rest_bvh(tree: list, frames: int = 2) -> str:
+    """A BVH in its rest pose from nested (name, offset, children) tuples; every joint has 3 rotations."""
+    lines, count = ["HIERARCHY"], [0]
+
+    def write(node, depth):
+        name, offset, children = node
+        pad = "  " * depth
+        lines.append(f"{pad}{'ROOT' if depth == 0 else 'JOINT'} {name}\n{pad}{{")
+        lines.append(f"{pad}  OFFSET {offset[0]} {offset[1]} {offset[2]}")
+        extra = "Xposition Yposition Zposition " if depth == 0 else ""
+        lines.append(f"{pad}  CHANNELS {6 if depth == 0 else 3} {extra}Zrotation Xrotation Yrotation")
+        count[0] += 6 if depth == 0 else 3
+        for child in children:
+            write(child, depth + 1)
+        if not children:
+            lines.append(f"{pad}  End Site\n{pad}  {{\n{pad}    OFFSET 0 1 0\n{pad}  }}")
+        lines.append(f"{pad}}}")
+
+    write(tree, 0)
+    lines += ["MOTION", f"Frames: {frames}", "Frame Time: 0.0333333"]
+    row = ["0", "37", "0"] + ["0"] * (count[0] - 3)
+    lines += [" ".join(row)] * frames
+    return "\n".join(lines) + "\n"
+
+
+def _leg(side: str, sign: int, names: tuple[str, ...], hip_joint: str | None) -> tuple:
+    upleg, leg, foot, toe = (side + n for n in names)
+    chain = (upleg, (sign * 3.4, -3.0, 0), [(leg, (0, -16.5, 0), [(foot, (0, -15.5, 0), [(toe, (0, -1.5, 5.4), [])])])])
+    return (hip_joint, (0, 0, 0), [chain]) if hip_joint else chain
+
+
+def _arm(side: str, sign: int, collar: str, collar_offset, names: tuple[str, ...]) -> tuple:
+    arm, fore, hand = (side + n for n in names)
+    return (side + collar, collar_offset(sign), [(arm, (sign * 5.0, 0.5, 0), [(fore, (sign * 10.7, 0, 0), [(hand, (sign * 8.5, 0, 0), [])])])])
+
+
+def test_cgspeed_cmu_names_map_structurally():
+    """CMU as converted by cgspeed: zero-length LHipJoint/LowerBack/Neck/LeftShoulder, inches-like units."""
+    leg_names = ("UpLeg", "Leg", "Foot", "ToeBase")
+    arm_names = ("Arm", "ForeArm", "Hand")
+    tree = ("Hips", (0, 0, 0), [
+        _leg("Left", 1, leg_names, "LHipJoint"), _leg("Right", -1, leg_names, "RHipJoint"),
+        ("LowerBack", (0, 0, 0), [("Spine", (0, 8.0, 0), [("Spine1", (0, 8.0, 0), [
+            ("Neck", (0, 0, 0), [("Neck1", (0, 3.5, 0), [("Head", (0, 3.5, 0), [])])]),
+            _arm("Left", 1, "Shoulder", lambda s: (0, 0, 0), arm_names),
+            _arm("Right", -1, "Shoulder", lambda s: (0, 0, 0), arm_names),
+        ])])]),
+    ])
+    imported = import_bvh_from_text(_rest_bvh(tree))
+    mapping = imported.mapping
+    assert imported.unit == "in" and imported.source_fps == 30.0
+    assert mapping["neck"] == "Neck1" and mapping["left_shoulder"] == "LeftArm"
+    assert mapping["left_hip"] == "LeftUpLeg" and mapping["left_foot"] == "LeftToeBase"
+    assert mapping["left_collar"].startswith("derived") and mapping["spine3"].startswith("derived")
+    assert "Spine -> Spine1" in mapping["spine2"]
+
+
+def test_mixamo_names_map_spine_and_collars():
+    leg_names = ("UpLeg", "Leg", "Foot", "ToeBase")
+    arm_names = ("Arm", "ForeArm", "Hand")
+    tree = ("mixamorig:Hips", (0, 0, 0), [
+        _leg("mixamorig:Left", 1, leg_names, None), _leg("mixamorig:Right", -1, leg_names, None),
+        ("mixamorig:Spine", (0, 4.0, 0), [("mixamorig:Spine1", (0, 4.5, 0), [("mixamorig:Spine2", (0, 5.0, 0), [
+            ("mixamorig:Neck", (0, 6.0, 0), [("mixamorig:Head", (0, 4.0, 0), [])]),
+            _arm("mixamorig:Left", 1, "Shoulder", lambda s: (s * 2.5, 4.0, 0), arm_names),
+            _arm("mixamorig:Right", -1, "Shoulder", lambda s: (s * 2.5, 4.0, 0), arm_names),
+        ])])]),
+    ])
+    mapping = import_bvh_from_text(_rest_bvh(tree)).mapping
+    assert [mapping[f"spine{i}"].split(" ")[0] for i in (1, 2, 3)] == [
+        "mixamorig:Spine", "mixamorig:Spine1", "mixamorig:Spine2"]
+    assert mapping["left_collar"] == "mixamorig:LeftShoulder"
+    assert mapping["right_shoulder"] == "mixamorig:RightArm"
+    assert mapping["right_ankle"] == "mixamorig:RightFoot"

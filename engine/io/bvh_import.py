@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -32,15 +31,24 @@ from engine.io.retarget import (
 )
 from engine.skeleton import JOINT_INDEX
 
-_EXAMPLES = {
-    "left_hip": "LeftUpLeg / LeftHip / L_Hip / left_hip / L Thigh",
-    "left_knee": "LeftLeg / LeftKnee / L_Knee / L Calf",
-    "left_ankle": "LeftFoot / LeftAnkle / left_ankle",
-    "left_shoulder": "LeftArm / LeftUpArm / left_shoulder / L UpperArm",
-    "left_elbow": "LeftForeArm / LeftElbow / L Forearm",
-    "left_wrist": "LeftHand / LeftWrist / left_wrist",
+_EXAMPLES = {  # names the matcher accepts, for error messages (left side; the right is mirrored)
+    "hip": "LeftUpLeg / LeftHip / L_Hip / left_hip / Bip01 L Thigh",
+    "knee": "LeftLeg / LeftKnee / L_Knee / Bip01 L Calf",
+    "ankle": "LeftFoot / LeftAnkle / L_Ankle / left_ankle",
+    "shoulder": "LeftArm / LeftUpArm / L_Shoulder / Bip01 L UpperArm",
+    "elbow": "LeftForeArm / LeftElbow / L_Elbow / Bip01 L Forearm",
+    "wrist": "LeftHand / LeftWrist / L_Wrist / left_wrist",
     "head": "Head",
 }
+
+
+def _example_names(our_name: str) -> str:
+    side, _, part = our_name.rpartition("_")
+    text = _EXAMPLES[part]
+    if side == "right":
+        for left, right in (("Left", "Right"), ("L_", "R_"), ("left_", "right_"), (" L ", " R ")):
+            text = text.replace(left, right)
+    return text
 
 
 @dataclass(frozen=True)
@@ -51,7 +59,8 @@ class BVHImport:
     fps:           frame rate of ``joints``
     source_fps:    frame rate of the file (snapped to a whole number when within 0.05 %)
     source_frames: number of frames in the file
-    unit:          detected (or given) unit of the file: "m", "cm", "mm", "in", "ft" or "cmu"
+    unit:          detected (or given) unit of the file: "m", "cm", "mm", "in", "ft", "cmu", or
+                   "custom" when a scale was passed
     scale:         metres per file unit
     up_axis:       the file's up axis ("+Y" for almost every BVH)
     mapping:       our joint name -> the BVH joint it came from, or "derived: ..." how it was made
@@ -133,10 +142,7 @@ def import_bvh_data(
     found = match_joint_names(data)
     missing = missing_essentials(found)
     if missing:
-        hints = "; ".join(
-            f"{name} (e.g. {_EXAMPLES[name.replace('right', 'left')].replace('Left', 'Right' if 'right' in name else 'Left')})"
-            for name in missing
-        )
+        hints = "; ".join(f"{name} (e.g. {_example_names(name)})" for name in missing)
         present = ", ".join(n for n, e in zip(data.names, data.end_site) if not e)
         raise BVHError(
             f"cannot map this skeleton onto the 22 joints: no joint found for {hints}. "
@@ -154,7 +160,10 @@ def import_bvh_data(
     joints, mapping = assemble_joints(data, positions, found)
 
     if unit is None:
-        unit_name, scale = detect_unit(stature_chain(joints))
+        try:
+            unit_name, scale = detect_unit(stature_chain(joints))
+        except ValueError as exc:
+            raise BVHError(str(exc), source=data.source) from None
     elif isinstance(unit, str):
         if unit not in UNITS:
             raise ValueError(f"unknown unit {unit!r}; use one of {', '.join(UNITS)} or metres per unit")

@@ -55,9 +55,11 @@ class Caption:
         return int(math.floor(self.start * fps)), int(math.floor(self.end * fps))
 
     def to_line(self) -> str:
-        for field_name, value in (("text", self.text), *((f"token {t!r}", t) for t in self.tokens)):
-            if "#" in value or "\n" in value or "\r" in value:
-                raise MotionIOError(f"caption {field_name} must not contain '#' or line breaks: {value!r}")
+        if "#" in self.text or "\n" in self.text or "\r" in self.text:
+            raise MotionIOError(f"caption text must not contain '#' or line breaks: {self.text!r}")
+        for token in self.tokens:
+            if not token or "#" in token or any(c.isspace() for c in token):
+                raise MotionIOError(f"caption token {token!r} must be non-empty, without '#' or spaces")
         tokens = self.tokens or default_tokens(self.text)
         return f"{self.text.strip()}#{' '.join(tokens)}#{self.start:g}#{self.end:g}"
 
