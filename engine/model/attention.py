@@ -50,14 +50,17 @@ class Attention(nn.Module):
         # fully masked rows (e.g. no words) attend to nothing: guard against NaN
         safe_mask = key_mask.clone()
         safe_mask[~key_mask.any(-1), 0] = True
-        if ctx is not None and controller.needs_maps:
-            scores = torch.einsum("bhnd,bhmd->bhnm", q, k) / math.sqrt(q.shape[-1])
+        wants_maps = ctx is not None and controller.needs_maps
+        # training takes the explicit path too: on CPU its backward is about twice as fast as SDPA's
+        if wants_maps or (self.training and torch.is_grad_enabled()):
+            scores = torch.matmul(q, k.transpose(-1, -2)) / math.sqrt(q.shape[-1])
             scores = scores.masked_fill(~safe_mask[:, None, None, :], float("-inf"))
             probs = scores.softmax(dim=-1)
-            edited = controller.on_probs(probs, ctx)
-            if edited is not None:
-                probs = edited
-            out = torch.einsum("bhnm,bhmd->bhnd", probs, v)
+            if wants_maps:
+                edited = controller.on_probs(probs, ctx)
+                if edited is not None:
+                    probs = edited
+            out = torch.matmul(probs, v)
         else:
             out = F.scaled_dot_product_attention(q, k, v, attn_mask=safe_mask[:, None, None, :])
         return self.to_out(rearrange(out, "b h n d -> b n (h d)"))

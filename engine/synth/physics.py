@@ -137,7 +137,7 @@ def foot_track(plan: StepPlan, frames: int) -> tuple[np.ndarray, np.ndarray, np.
     a0 = ankle_from_toe(toe_from_ankle(a0_flat, y0, np.zeros_like(y0)), y0, np.full_like(y0, plan.toe_off))
     a1 = plants[kk + 1]
     y1 = yaws[kk + 1]
-    s = minjerk(u)
+    s = smoothstep(u)
     swing = a0 + (a1 - a0) * s[:, None]
     bump = np.sin(np.pi * u ** (np.log(0.5) / np.log(plan.lift_peak))) ** 2
     swing[:, 1] += plan.height[kk] * bump

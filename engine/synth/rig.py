@@ -236,8 +236,7 @@ def fit_pelvis_height(root: np.ndarray, pelvis_rot: np.ndarray, ankle: np.ndarra
 
     root (T, 3), pelvis_rot (T, 3, 3), ankle (T, 2, 3), contact (T, 2) bool -> new root y (T,).
     """
-    hips = root[:, None, :] + pelvis_rot[:, None] @ OFFSETS[[1, 2]][None, :, :, None]
-    hips = hips[..., 0]
+    hips = root[:, None, :] + (pelvis_rot[:, None] @ OFFSETS[[1, 2]][None, :, :, None])[..., 0]
     dxz2 = (hips[..., 0] - ankle[..., 0]) ** 2 + (hips[..., 2] - ankle[..., 2]) ** 2
     reach = np.sqrt(np.maximum(LEG_REACH**2 - dxz2, 0.05))
     limit = ankle[..., 1] + reach - (hips[..., 1] - root[:, None, 1])  # (T, 2) max root y
@@ -250,6 +249,22 @@ def fit_pelvis_height(root: np.ndarray, pelvis_rot: np.ndarray, ankle: np.ndarra
     return soft
 
 
+def fit_pelvis_reach(root: np.ndarray, pelvis_rot: np.ndarray, ankle: np.ndarray, contact: np.ndarray,
+                     *, limit: float = 0.55, softness: float = 0.02) -> np.ndarray:
+    """Pull the pelvis (on the floor plane) toward planted feet that are too far away to reach.
+
+    A smooth hinge: feet within ``limit`` metres (horizontally, from their hip) are untouched.
+    Returns the new root x, z (T, 2).
+    """
+    hips = root[:, None, :] + (pelvis_rot[:, None] @ OFFSETS[[1, 2]][None, :, :, None])[..., 0]
+    d = ankle[..., [0, 2]] - hips[..., [0, 2]]
+    dist = np.sqrt((d * d).sum(-1))
+    x = dist - limit
+    excess = 0.5 * (x + np.sqrt(x * x + softness * softness)) * contact
+    pull = (d / np.maximum(dist, 1e-9)[..., None] * excess[..., None]).sum(1)
+    return root[:, [0, 2]] + pull
+
+
 def solve(ch: Channels) -> Solved:
     """Channels -> joint positions (T, 22, 3) and the frames for local rotations."""
     T = ch.frames
@@ -259,6 +274,7 @@ def solve(ch: Channels) -> Solved:
     G0 = heading_rot @ E[:, 0]
     root = ch.root.copy()
     contact_any = ch.contact.any(-1)
+    root[:, [0, 2]] = fit_pelvis_reach(root, G0, ch.ankle, contact_any)
     root[:, 1] = fit_pelvis_height(root, G0, ch.ankle, contact_any)
 
     J = np.empty((T, 22, 3))
@@ -287,7 +303,15 @@ def solve(ch: Channels) -> Solved:
     knee_pole = fwd * np.cos(ch.knee_out)[..., None] + lat * np.sin(ch.knee_out)[..., None]
     knee_pole = knee_pole + 0.15 * lat
     hips = J[:, [1, 2]]
-    knee, ankle, d_thigh, d_shin = two_bone(hips, ch.ankle, knee_pole, THIGH, SHIN)
+    # a leg raised forward (kick, high knee) bends its knee upward, not into the pole's line
+    leg = ch.ankle - hips
+    ahead = np.maximum((leg * fwd).sum(-1) / np.maximum(np.linalg.norm(leg, axis=-1), 1e-9), 0.0)
+    knee_pole = knee_pole + 2.0 * ahead[..., None] * _UP
+    # never put a toe or heel under the floor (planted feet sit exactly on it already)
+    target = ch.ankle.copy()
+    floor = np.where(ch.foot_pitch < 0, ANKLE_HEIGHT, TOE_LENGTH * np.sin(TOE_ANGLE + ch.foot_pitch))
+    target[..., 1] = np.maximum(target[..., 1], floor - 1e-9)
+    knee, ankle, d_thigh, d_shin = two_bone(hips, target, knee_pole, THIGH, SHIN)
     J[:, [4, 5]] = knee
     J[:, [7, 8]] = ankle
     J[:, [10, 11]] = toe_from_ankle(ankle, ch.foot_yaw, ch.foot_pitch)

@@ -45,7 +45,7 @@ def bow(ctx: Context) -> Result:
     fps = ctx.fps
     count = seg.count
     period = n / count
-    depth = np.clip(0.55 * seg.intensity, 0.25, 1.0)
+    depth = np.clip(0.85 * seg.intensity, 0.35, 1.3)
     t = np.arange(n, dtype=np.float64)
     bend = np.zeros(n)
     events = []
@@ -61,10 +61,10 @@ def bow(ctx: Context) -> Result:
                             end=int(min(n - 1, t0 + down + hold + up))))
     angle = depth * bend
     fwd = forward_vector(np.float64(ctx.state.heading))
-    ch.pelvis[:, 0] += 0.75 * angle
+    ch.pelvis[:, 0] += 0.7 * angle
     ch.spine[:, :, 0] += angle[:, None] * np.array([0.12, 0.1, 0.08])
-    ch.neck[:, 0] += 0.25 * angle
-    back = -0.12 * angle
+    ch.neck[:, 0] += 0.35 * angle
+    back = -0.16 * angle
     ch.root[:, 0] += fwd[0] * back
     ch.root[:, 2] += fwd[2] * back
     ch.root[:, 1] = np.minimum(ch.root[:, 1], STAND_PELVIS) - 0.02 * angle

@@ -93,10 +93,12 @@ def ballistic_reps(ctx: Context, reps: list[Rep], *, lifted: int | None = None, 
         rec = 0.28 * tempo
         need = prep + dp + tf + dl + rec
         if need > period:
-            squeeze = max((period - dp - tf - dl) / max(prep + rec, 1e-6), 0.25)
+            squeeze = max((period - dp - tf - dl) / max(prep + rec, 1e-6), 0.05)
             prep *= squeeze
             rec *= squeeze
             need = prep + dp + tf + dl + rec
+        if need > period + 1e-6:  # still too long: the phases would overlap, so the segment is invalid
+            raise ValueError(f"{seg.action}: {c} repetitions do not fit in {n} frames")
         slack = max(period - need, 0.0)
         t_to = (k * period + slack * 0.5 + prep + dp) * fps
         apex = int(round(t_to + tf * fps / 2))
@@ -291,7 +293,7 @@ def hop(ctx: Context) -> Result:
     reps = [Rep(before=toes, after=toes, height=h, crouch=0.05 + 0.2 * h, kind="hop") for _ in range(seg.count)]
     heading = np.float64(ctx.state.heading)
     off = (forward_vector(heading) * -0.18 + left_vector(heading) * SIDE_SIGN[lifted] * 0.1
-           + np.array([0.0, -(STAND_PELVIS - 0.3), 0.0]))
+           + np.array([0.0, -(STAND_PELVIS - ctx.style.crouch - 0.3), 0.0]))
     res = ballistic_reps(ctx, reps, lifted=lifted, free_offset=off, arms="balance")
     res.params = {"height": h, "stance_leg": ("left", "right")[stance]}
     return res

@@ -36,8 +36,8 @@ class GaitParams:
 
 GAITS: dict[str, GaitParams] = {
     "walk": GaitParams(1.3, 1.85, 0.62, 0.09, 0.022, 0.01, 0.65, 0.25, 0.03, 0.55, -0.25, 1.0, 0.0),
-    "jog": GaitParams(2.4, 2.6, 0.42, 0.16, -0.035, 0.05, 0.7, 1.35, 0.1, 0.6, -0.12, 0.9, 0.0),
-    "run": GaitParams(3.4, 2.9, 0.36, 0.22, -0.045, 0.06, 0.75, 1.45, 0.16, 0.7, -0.1, 0.85, 0.0),
+    "jog": GaitParams(2.2, 2.6, 0.42, 0.16, -0.035, 0.05, 0.7, 1.35, 0.1, 0.6, -0.12, 0.9, 0.0),
+    "run": GaitParams(2.9, 2.8, 0.36, 0.22, -0.045, 0.06, 0.75, 1.45, 0.16, 0.7, -0.1, 0.85, 0.0),
     "walk_backward": GaitParams(0.75, 1.7, 0.64, 0.07, 0.015, 0.03, 0.5, 0.3, -0.02, 0.25, 0.0, 1.05, np.pi),
     "side_step": GaitParams(0.5, 2.1, 0.62, 0.06, 0.012, 0.05, 0.0, 0.3, 0.04, 0.2, 0.0, 1.9, 0.0),
     "turn": GaitParams(0.0, 1.7, 0.64, 0.05, 0.01, 0.02, 0.2, 0.3, 0.02, 0.25, -0.05, 1.0, 0.0),
@@ -68,22 +68,22 @@ def _path_points(ctx: Context, distance: float, heading_offset: float) -> tuple[
         return world, length, heading_offset
     if seg.action == "side_step":
         travel = h0 + (np.pi / 2 if seg.direction != "right" else -np.pi / 2)
-        heading_offset = -np.pi / 2 if seg.direction != "right" else np.pi / 2
+        heading_offset = np.pi / 2 if seg.direction != "right" else -np.pi / 2
     else:
         travel = h0 + heading_offset
     turn_total = {"left": np.pi / 2, "right": -np.pi / 2, "circle_left": 2 * np.pi,
                   "circle_right": -2 * np.pi}.get(seg.direction, 0.0)
     if seg.action in ("side_step", "walk_backward"):
         turn_total = 0.0
-    if abs(turn_total) >= 2 * np.pi - 1e-6:
-        radius = max(distance / (2 * np.pi), 0.75)
-        distance = 2 * np.pi * radius
+    if abs(turn_total) >= 2 * np.pi - 1e-6 and distance / (2 * np.pi) < 0.5:
+        # too short for a full circle at this pace: walk the arc of a 0.5 m circle
+        turn_total = np.sign(turn_total) * distance / 0.5
     s = np.linspace(0.0, distance, M)
     alpha = travel + turn_total * s / max(distance, 1e-9)
     ds = distance / (M - 1)
     steps = np.stack([np.sin(alpha), np.cos(alpha)], -1) * ds
     pts = np.concatenate([[r0], r0 + np.cumsum(0.5 * (steps[1:] + steps[:-1]), 0)], 0)
-    if ctx.style.wobble > 0 and distance > 0:
+    if ctx.style.wobble > 0 and distance > 0 and abs(turn_total) < np.pi:
         rng = np.random.default_rng(ctx.seed + 7)
         normal = np.stack([np.cos(alpha), -np.sin(alpha)], -1)
         env = np.sin(np.pi * s / distance)
@@ -111,14 +111,20 @@ def gait(ctx: Context) -> Result:
     fps = ctx.fps
     g = GAITS[seg.action]
     dur = n / fps
-    tempo = style.tempo * person.tempo * np.sqrt(seg.speed)
+    speed_mult = min(seg.speed, 1.15) if seg.action in ("run", "jog") else seg.speed
+    tempo = style.tempo * person.tempo * np.sqrt(speed_mult)
     cadence = seg.cadence if seg.cadence > 0 else g.cadence * tempo
-    step_len = g.speed / g.cadence * np.sqrt(seg.speed) * style.stride
+    cadence = float(min(cadence, 2.9 if g.duty < 0.5 else 2.4))
+    step_len = g.speed / g.cadence * np.sqrt(speed_mult) * style.stride
     K = max(2, int(round(dur * cadence)))
-    distance = step_len * K * 0.8 if seg.action != "turn" else 0.0
     t = np.arange(n, dtype=np.float64)
     ramp_s = min(0.45, (0.55 if seg.action in ("walk", "walk_backward", "side_step", "turn") else 0.8) / dur)
-    s_prof = ramp_profile(n, ramp_s)
+    # the root settles one step before the end, so the last step closes the feet beside it
+    settle = int(min(fps / cadence, n / 4)) if seg.action != "turn" else 0
+    ramp_m = min(0.45, ramp_s * n / max(n - settle, 1))
+    s_prof = np.concatenate([ramp_profile(n - settle, ramp_m), np.ones(settle)])
+    move_s = (n - settle) / fps * (1.0 - ramp_m)
+    distance = min(step_len * cadence * move_s, step_len * 0.85 * K) if seg.action != "turn" else 0.0
     env = np.gradient(s_prof)
     env = env / max(env.max(), 1e-9)
     if seg.action == "turn":
@@ -133,13 +139,16 @@ def gait(ctx: Context) -> Result:
         # same branch of the angle as the state (compose bridges any small residue)
         heading = heading - 2 * np.pi * np.round((heading[0] - ctx.state.heading) / (2 * np.pi))
     phi0 = 0.25
-    phi = phi0 + 0.5 * K * ramp_profile(n, min(0.3, 0.3 / dur))
+    # the phase follows the distance walked (even steps) plus a share of time (steps also
+    # happen while starting, stopping and turning in place)
+    time_prof = ramp_profile(n, min(0.3, 0.3 / dur))
+    phi = phi0 + 0.5 * K * ((0.7 * s_prof + 0.3 * time_prof) if seg.action != "turn" else time_prof)
     phi_end = phi0 + 0.5 * K
     lead = 0 if seg.lead != "right" else 1
     offsets = np.zeros(2)
     offsets[1 - lead] = 0.5
     half = STANCE_HALF * g.stance * style.stance * person.stance
-    lift = g.lift * style.lift * (0.7 + 0.3 * seg.intensity)
+    lift = min(g.lift * style.lift * (0.7 + 0.3 * seg.intensity), 0.26 if g.duty < 0.5 else 0.3)
     rng = np.random.default_rng(ctx.seed + 11) if style.wobble > 0 else None
     feet_ankle = np.empty((n, 2, 3))
     feet_yaw = np.empty((n, 2))
@@ -168,7 +177,7 @@ def gait(ctx: Context) -> Result:
         plant[:, 1] = ANKLE_HEIGHT
         plant[:, 2] = rxz[:, 1] + lat[:, 2] * SIDE_SIGN[side] * half
         if rng is not None and len(ks) > 1:
-            jitter = rng.normal(0, 0.04, len(ks))
+            jitter = rng.normal(0, 0.025, len(ks))
             jitter[-1] = 0.0
             plant[:, 0] += lat[:, 0] * jitter
             plant[:, 2] += lat[:, 2] * jitter
@@ -216,7 +225,9 @@ def gait(ctx: Context) -> Result:
     neck[:, 1] = -0.5 * spine[:, :, 1].sum(1) - pelvis[:, 1]
 
     gain = g.arm_gain * style.swing * person.arm_swing * (0.8 + 0.2 * seg.intensity)
-    swing = np.stack([-gain * sep, gain * sep], -1)
+    limit = 0.35 + 0.25 * (g.duty < 0.5)  # saturate the swing (rad) for long strides
+    sat = limit * np.tanh(gain * sep / limit)
+    swing = np.stack([-sat, sat], -1) * max(style.swing, 1.0) ** 0.5
     if seg.action == "side_step":
         swing = np.zeros((n, 2))
     flex_base = g.elbow * env + 0.25 * (1 - env) + style.elbow * env + person.elbow
