@@ -1,0 +1,72 @@
+"""Captions, vocabulary and the held-out split."""
+from __future__ import annotations
+
+import re
+
+from engine.synth import Corpus, vocabulary
+from engine.synth.grammar import HELD_OUT_TEMPLATES, VOCABULARY_FILE, tokens, words
+from engine.synth.splits import HELD_OUT_COMBOS, program_pairs
+
+N = 150
+
+
+def test_vocabulary_file_is_current():
+    assert VOCABULARY_FILE.read_text().split() == list(vocabulary())
+    assert list(vocabulary()) == sorted(set(vocabulary()))
+
+
+def test_vocabulary_covers_all_captions_of_all_splits():
+    vocab = set(vocabulary())
+    for split in ("train", "test", "ood"):
+        c = Corpus(split)
+        for i in range(N):
+            for cap in c.sample(i, with_features=False).captions:
+                unknown = set(words(cap)) - vocab
+                assert not unknown, (split, i, cap, unknown)
+
+
+def test_captions_are_paraphrases():
+    c = Corpus("train")
+    for i in range(30):
+        caps = c.sample(i, with_features=False).captions
+        assert len(caps) >= 3 and len(set(caps)) == len(caps)
+        assert all(cap == cap.strip() and "  " not in cap for cap in caps)
+
+
+def _held_out_template(cap: str) -> bool:
+    pats = [re.escape(t).replace(r"\{s\}", ".+").replace(r"\{ing\}", ".+").replace(r"\{vp\}", ".+")
+            for t in HELD_OUT_TEMPLATES.values()]
+    return any(re.fullmatch(p, cap) for p in pats)
+
+
+def test_ood_pairs_and_templates_never_in_train_or_test():
+    seen_actions, seen_styles = set(), set()
+    for split in ("train", "test"):
+        c = Corpus(split)
+        for i in range(N * 2):
+            s = c.sample(i, with_features=False)
+            pairs = program_pairs(s.program)
+            assert not pairs & HELD_OUT_COMBOS
+            assert not any(_held_out_template(cap) for cap in s.captions)
+            for a, st in pairs:
+                seen_actions.add(a)
+                seen_styles.add(st)
+    # each held-out pair's action and style are seen separately (MoMo's OOD case)
+    for a, st in HELD_OUT_COMBOS:
+        assert a in seen_actions and st in seen_styles
+
+
+def test_ood_split_is_all_held_out():
+    c = Corpus("ood")
+    for i in range(N):
+        s = c.sample(i, with_features=False)
+        assert s.labels.held_out_pair or s.labels.held_out_template
+        if s.labels.held_out_template:
+            assert all(_held_out_template(cap) for cap in s.captions)
+
+
+def test_tokens_are_word_pos_pairs():
+    tok = tokens("a person walks forward while waving the left hand twice")
+    parts = tok.split()
+    assert all(re.fullmatch(r"[a-z]+/[A-Z]+", p) for p in parts)
+    assert "walk/VERB" in parts and "hand/NOUN" in parts
