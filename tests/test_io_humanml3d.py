@@ -46,7 +46,7 @@ def test_folder_round_trip(tmp_path, real_joints):
     assert folder.read_joints("M000002") is None
     assert np.allclose(folder.normalizer().mean, features.mean(0), atol=1e-5)
     text = (tmp_path / "texts" / "000001.txt").read_text().splitlines()
-    assert text[0] == "a person walks forward#a/DET person/NOUN walk/VERB forward/ADV#0#0"
+    assert text[0] == "a person walks forward#a/DET person/NOUN walk/VERB forward/ADV#0.0#0.0"
 
 
 def test_reads_the_real_humanml3d_files(tmp_path, real_vecs):

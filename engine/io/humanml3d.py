@@ -61,7 +61,7 @@ class Caption:
             if not token or "#" in token or any(c.isspace() for c in token):
                 raise MotionIOError(f"caption token {token!r} must be non-empty, without '#' or spaces")
         tokens = self.tokens or default_tokens(self.text)
-        return f"{self.text.strip()}#{' '.join(tokens)}#{self.start:g}#{self.end:g}"
+        return f"{self.text.strip()}#{' '.join(tokens)}#{float(self.start)!r}#{float(self.end)!r}"
 
 
 def default_tokens(text: str) -> tuple[str, ...]:
