@@ -19,7 +19,7 @@ import numpy as np
 import torch
 from scipy.ndimage import gaussian_filter1d
 
-from engine.rotations import cross, matrix_to_cont6d, qbetween, qinv, qmul, qrot, quat_to_matrix
+from engine.rotations import cross, qbetween, qinv, qmul
 from engine.skeleton import CHAINS, FACE_JOINTS, FOOT_JOINTS, NUM_JOINTS
 
 FEATURE_DIM = 263
@@ -80,13 +80,38 @@ def facing_direction(joints: np.ndarray) -> np.ndarray:
     return forward / np.linalg.norm(forward, axis=-1, keepdims=True)
 
 
+def yaw_quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate vectors v (..., 3) by pure-yaw quaternions q = (w, 0, y, 0) (..., 4): a cheap qrot."""
+    w, y = q[..., 0], q[..., 2]
+    c, s = 1.0 - 2.0 * y * y, 2.0 * w * y
+    out = np.empty(np.broadcast_shapes(q.shape[:-1], v.shape[:-1]) + (3,))
+    out[..., 0] = c * v[..., 0] + s * v[..., 2]
+    out[..., 1] = v[..., 1]
+    out[..., 2] = -s * v[..., 0] + c * v[..., 2]
+    return out
+
+
+def quat_to_cont6d(q: np.ndarray) -> np.ndarray:
+    """The first two columns of a unit quaternion's rotation matrix, (..., 4) -> (..., 6)."""
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    out = np.empty(q.shape[:-1] + (6,))
+    out[..., 0] = 1 - 2 * (y * y + z * z)
+    out[..., 1] = 2 * (x * y + w * z)
+    out[..., 2] = 2 * (x * z - w * y)
+    out[..., 3] = 2 * (x * y - w * z)
+    out[..., 4] = 1 - 2 * (x * x + z * z)
+    out[..., 5] = 2 * (y * z + w * x)
+    return out
+
+
 def canonicalize(joints: np.ndarray) -> np.ndarray:
     """Floor at y=0, the root's first position at the XZ origin, first pose facing +Z."""
     joints = _check_joints(joints).copy()
     joints[..., 1] -= joints[..., 1].min()
     joints -= joints[0, 0] * np.array([1.0, 0.0, 1.0])
-    turn = qbetween(facing_direction(joints[0]), _FORWARD)
-    return qrot(np.broadcast_to(turn, joints.shape[:-1] + (4,)), joints)
+    turn = qbetween(facing_direction(joints[0]), _FORWARD)  # a pure yaw: the facing is horizontal
+    return yaw_quat_rotate(turn, joints)
 
 
 def foot_contacts(joints: np.ndarray, threshold: float = FOOT_CONTACT_THRESHOLD) -> np.ndarray:
@@ -152,21 +177,18 @@ def joints_to_features(joints: np.ndarray, *, canonical: bool = True) -> np.ndar
     # root: yaw velocity (HumanML3D keeps asin of the relative quaternion's y part), velocity, height
     rel = qmul(root_quat[1:], qinv(root_quat[:-1]))
     root_rot_vel = np.arcsin(np.clip(rel[:, 2:3], -1.0, 1.0))
-    root_vel = qrot(root_quat[1:], positions[1:, 0] - positions[:-1, 0])[:, [0, 2]]
+    # the root quaternions turn a horizontal direction onto +Z: pure yaw, so the cheap rotation applies
+    root_vel = yaw_quat_rotate(root_quat[1:], positions[1:, 0] - positions[:-1, 0])[:, [0, 2]]
     root_height = positions[:-1, 0, 1:2]
 
     # ric: positions relative to the root's XZ, heading removed
     ric = positions.copy()
     ric[..., 0] -= positions[:, 0:1, 0]
     ric[..., 2] -= positions[:, 0:1, 2]
-    ric = qrot(np.broadcast_to(root_quat[:, None], ric.shape[:-1] + (4,)), ric)
-    ric = ric[:-1, 1:].reshape(len(ric) - 1, -1)
+    ric = yaw_quat_rotate(root_quat[:-1, None], ric[:-1, 1:]).reshape(len(ric) - 1, -1)
 
-    rot6d = matrix_to_cont6d(quat_to_matrix(quats[:-1, 1:])).reshape(len(quats) - 1, -1)
-    local_vel = qrot(
-        np.broadcast_to(root_quat[:-1, None], (len(positions) - 1, NUM_JOINTS, 4)),
-        positions[1:] - positions[:-1],
-    ).reshape(len(positions) - 1, -1)
+    rot6d = quat_to_cont6d(quats[:-1, 1:]).reshape(len(quats) - 1, -1)
+    local_vel = yaw_quat_rotate(root_quat[:-1, None], positions[1:] - positions[:-1]).reshape(len(positions) - 1, -1)
 
     features = np.concatenate([root_rot_vel, root_vel, root_height, ric, rot6d, local_vel, contacts], -1)
     return features.astype(np.float32)
