@@ -18,6 +18,7 @@ SUBCOMMANDS: dict[str, str] = {
     "train": "engine.cli_train",
     "eval": "engine.cli_eval",
     "evaluator": "engine.cli_eval",
+    "generate": "engine.cli_generate",
     "invert": "engine.cli_invert",
     "serve": "app.cli_serve",
     "bench": "app.cli_bench",

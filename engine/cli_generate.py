@@ -1,0 +1,54 @@
+"""`moattn generate`: text -> motion file(s) with the shipped model."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from engine.paths import MODEL_DIR
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("generate", help="generate a motion from a prompt (.npy joints/vecs, .bvh, .png/.gif/.mp4)",
+                       description="Generate motions from a text prompt and write them (the extension of each --out "
+                       "decides: .npy joints, .bvh, .png/.gif/.mp4 renders; --vecs writes 263-dim features to .npy).")
+    p.add_argument("prompt", help='e.g. "a person jumps twice"')
+    p.add_argument("--out", type=Path, action="append", required=True, help="output file; repeat for several")
+    p.add_argument("--seconds", type=float, default=4.0)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--steps", type=int, default=50)
+    p.add_argument("--guidance", type=float, default=2.5)
+    p.add_argument("--sampler", choices=("ddim", "ddpm"), default="ddim")
+    p.add_argument("--model", type=Path, default=MODEL_DIR)
+    p.add_argument("--vecs", action="store_true", help="write .npy outputs as 263-dim features instead of joints")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from engine.checkpoint import load_model
+    from engine.generate import Request, SampleConfig, frames_for, generate
+    from engine.io import save_motion
+
+    frames = frames_for(args.seconds)
+    loaded = load_model(args.model)
+    config = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed, sampler=args.sampler)
+
+    def progress(state):
+        print(f"\rstep {state.step + 1}/{state.num_steps}", end="", file=sys.stderr, flush=True)
+
+    gen = generate(loaded, Request(prompts=[args.prompt], frames=[frames]), config, on_step=progress)
+    print(file=sys.stderr)
+    joints = gen.joints[0]
+    for out in args.out:
+        suffix = out.suffix.lower()
+        if suffix in (".png", ".gif", ".mp4"):
+            from viz.render import render_file
+
+            render_file(joints, out)
+        else:
+            save_motion(joints, out, to="vecs" if args.vecs else "joints")
+        print(f"wrote {out}")
+    print(json.dumps({"prompt": args.prompt, "frames": len(joints), "seed": args.seed, "steps": args.steps,
+                      "guidance": args.guidance}))
+    return 0
