@@ -101,7 +101,7 @@ def collate(
             start = int(rng.integers(0, len(f) - max_frames + 1))
             f = f[start : start + max_frames]
         feats.append(normalize(f))
-        captions.append(item.captions[int(rng.integers(len(item.captions)))])
+        captions.append(_pick_caption(item.captions, tokenizer, rng))
     length = max(len(f) for f in feats)
     x0 = torch.zeros(len(feats), length, feats[0].shape[-1])
     frame_mask = torch.zeros(len(feats), length, dtype=torch.bool)
@@ -116,6 +116,19 @@ def collate(
         roles=BatchRoles.single("out", size=len(items)), words=WordIndex(words=tuple(t.words for t in tokenized)),
     )
     return Batch(x0=x0, cond=cond, captions=captions)
+
+
+def _pick_caption(captions: Sequence[str], tokenizer: Tokenizer, rng: np.random.Generator) -> str:
+    """A random caption the tokenizer can read (over-long ones are passed over)."""
+    from engine.text import PromptError
+
+    for i in rng.permutation(len(captions)):
+        try:
+            tokenizer.encode(captions[i])
+            return captions[i]
+        except PromptError:
+            continue
+    raise ValueError(f"none of the captions can be tokenised: {list(captions)[:2]}")
 
 
 def batches(

@@ -16,7 +16,7 @@ from torch import nn
 
 PAD = "<pad>"
 _WORD = re.compile(r"[a-z]+(?:'[a-z]+)?")
-MAX_WORDS = 40
+MAX_WORDS = 64
 
 
 def split_words(prompt: str) -> list[str]:
