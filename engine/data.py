@@ -11,7 +11,7 @@ import torch
 
 from engine.model.denoiser import MAX_FRAMES, Condition
 from engine.attention.context import BatchRoles, WordIndex
-from engine.text import Tokenizer, split_words
+from engine.text import PromptError, TokenizedPrompt, Tokenizer, split_words
 
 
 @dataclass(frozen=True)
@@ -94,38 +94,34 @@ def collate(
     text_dropout: float = 0.1,
 ) -> Batch:
     """Random caption per item, random crop to ``max_frames``, zero-padding with a frame mask."""
-    feats, captions = [], []
+    feats, tokenized = [], []
     for item in items:
         f = item.features
         if len(f) > max_frames:
             start = int(rng.integers(0, len(f) - max_frames + 1))
             f = f[start : start + max_frames]
         feats.append(normalize(f))
-        captions.append(_pick_caption(item.captions, tokenizer, rng))
+        tokenized.append(_pick_caption(item.captions, tokenizer, rng))
     length = max(len(f) for f in feats)
     x0 = torch.zeros(len(feats), length, feats[0].shape[-1])
     frame_mask = torch.zeros(len(feats), length, dtype=torch.bool)
     for i, f in enumerate(feats):
         x0[i, : len(f)] = torch.from_numpy(np.asarray(f, dtype=np.float32))
         frame_mask[i, : len(f)] = True
-    tokenized = [tokenizer.encode(c) for c in captions]
     ids, mask = tokenizer.batch(tokenized)
     use_text = torch.from_numpy(rng.random(len(items)) >= text_dropout)
     cond = Condition(
         text_ids=ids, text_mask=mask, frame_mask=frame_mask, use_text=use_text,
         roles=BatchRoles.single("out", size=len(items)), words=WordIndex(words=tuple(t.words for t in tokenized)),
     )
-    return Batch(x0=x0, cond=cond, captions=captions)
+    return Batch(x0=x0, cond=cond, captions=[t.prompt for t in tokenized])
 
 
-def _pick_caption(captions: Sequence[str], tokenizer: Tokenizer, rng: np.random.Generator) -> str:
+def _pick_caption(captions: Sequence[str], tokenizer: Tokenizer, rng: np.random.Generator) -> TokenizedPrompt:
     """A random caption the tokenizer can read (over-long ones are passed over)."""
-    from engine.text import PromptError
-
     for i in rng.permutation(len(captions)):
         try:
-            tokenizer.encode(captions[i])
-            return captions[i]
+            return tokenizer.encode(captions[i])
         except PromptError:
             continue
     raise ValueError(f"none of the captions can be tokenised: {list(captions)[:2]}")
