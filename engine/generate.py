@@ -52,9 +52,9 @@ def frames_for(seconds: float) -> int:
 
 @dataclass
 class Request:
-    """A batch to sample: one prompt, length and role per slot."""
+    """A batch to sample: one prompt, length and role per slot (a None prompt = unconditional slot)."""
 
-    prompts: Sequence[str]
+    prompts: Sequence[str | None]
     frames: Sequence[int]
     roles: Sequence[str] = ()
     noise: torch.Tensor | None = None  # (B, T, 263), else drawn from the seed
@@ -74,7 +74,8 @@ class Generation:
 def build_condition(loaded: LoadedModel, request: Request) -> tuple[Condition, list[TokenizedPrompt]]:
     if len(request.prompts) != len(request.frames):
         raise ValueError("one length per prompt is needed")
-    tokens = [loaded.tokenizer.encode(p) for p in request.prompts]
+    tokens = [TokenizedPrompt(prompt="", words=(), ids=()) if p is None else loaded.tokenizer.encode(p)
+              for p in request.prompts]
     ids, mask = loaded.tokenizer.batch(tokens)
     length = max(request.frames)
     frame_mask = torch.zeros(len(tokens), length, dtype=torch.bool)
@@ -82,7 +83,7 @@ def build_condition(loaded: LoadedModel, request: Request) -> tuple[Condition, l
         frame_mask[i, :n] = True
     roles = BatchRoles(names=tuple(request.roles) if request.roles else ("out",) * len(tokens))
     cond = Condition(text_ids=ids, text_mask=mask, frame_mask=frame_mask,
-                     use_text=torch.ones(len(tokens), dtype=torch.bool), roles=roles,
+                     use_text=torch.tensor([p is not None for p in request.prompts]), roles=roles,
                      words=WordIndex(words=tuple(t.words for t in tokens)), extras=dict(request.extras))
     return cond, tokens
 

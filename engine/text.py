@@ -95,7 +95,7 @@ class Tokenizer:
     def batch(self, prompts: Sequence[str | TokenizedPrompt]) -> tuple[torch.Tensor, torch.Tensor]:
         """Pad a batch: ids (B, L) long and mask (B, L) bool (True = a real word)."""
         tokenized = [p if isinstance(p, TokenizedPrompt) else self.encode(p) for p in prompts]
-        length = max(len(t.ids) for t in tokenized)
+        length = max(1, max(len(t.ids) for t in tokenized))  # at least one (padding) column
         ids = torch.zeros(len(tokenized), length, dtype=torch.long)
         mask = torch.zeros(len(tokenized), length, dtype=torch.bool)
         for row, t in enumerate(tokenized):

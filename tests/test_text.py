@@ -31,7 +31,7 @@ def test_empty_and_too_long_prompts():
     with pytest.raises(PromptError, match="empty"):
         tok().encode("  ...  ")
     with pytest.raises(PromptError, match="at most"):
-        tok().encode("a " * 50)
+        tok().encode("a " * 70)
 
 
 def test_batch_padding_and_extension_keeps_ids():
