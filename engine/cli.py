@@ -19,6 +19,7 @@ SUBCOMMANDS: dict[str, str] = {
     "eval": "engine.cli_eval",
     "evaluator": "engine.cli_eval",
     "generate": "engine.cli_generate",
+    "edit": "engine.cli_edit",
     "invert": "engine.cli_invert",
     "serve": "app.cli_serve",
     "bench": "app.cli_bench",

@@ -1,0 +1,182 @@
+"""MotionCLR edits as functions the CLI, the app and the benchmark share.
+
+Each runs one batch with named roles and shared noise, so "before" and "after" differ only by
+the edit. Sources for example-based generation and style transfer are a prompt (generated) or
+a real motion (DDIM-inverted, then reconstructed in the batch without text).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+
+from engine.analysis.counting import CountingConfig, CountResult, count_from_attention, count_from_root_height
+from engine.attention import AttentionStore, StoreConfig, stack
+from engine.checkpoint import LoadedModel
+from engine.generate import Generation, Request, SampleConfig, generate
+from engine.methods.inversion import InversionConfig, invert
+from engine.methods.motionclr import (
+    ExampleBased, ExampleConfig, Ground, GroundingConfig, Replace, ReplaceConfig, Reweight, ReweightConfig, Shift,
+    ShiftConfig, StyleTransfer, StyleTransferConfig,
+)
+
+Source = str | np.ndarray  # a prompt, or joints (T, 22, 3) of a real motion
+
+
+@dataclass
+class EditOutput:
+    generation: Generation
+    before_role: str
+    after_role: str
+    store: AttentionStore | None = None
+    extra: dict = field(default_factory=dict)
+
+    def joints(self, role: str, index: int = 0) -> np.ndarray:
+        slots = [i for i, r in enumerate(self.generation.roles.names) if r == role]
+        if index >= len(slots):
+            raise KeyError(f"no slot {index} for role {role!r} in {self.generation.roles.names}")
+        return self.generation.joints[slots[index]]
+
+    @property
+    def before(self) -> np.ndarray:
+        return self.joints(self.before_role)
+
+    @property
+    def after(self) -> np.ndarray:
+        return self.joints(self.after_role)
+
+
+def _noise(loaded: LoadedModel, slots: int, frames: int, seed: int) -> torch.Tensor:
+    g = torch.Generator().manual_seed(seed)
+    return torch.randn(1, frames, loaded.model.config.feature_dim, generator=g).expand(slots, -1, -1).clone()
+
+
+def _store(record: bool) -> AttentionStore | None:
+    return AttentionStore(StoreConfig(budget_bytes=512 * 1024 * 1024)) if record else None
+
+
+def _pair_edit(loaded, prompt: str, controller, *, frames: int, sample: SampleConfig, record: bool,
+               roles=("ref", "out"), prompts=None) -> EditOutput:
+    store = _store(record)
+    request = Request(prompts=list(prompts or [prompt, prompt]), frames=[frames] * len(roles), roles=list(roles),
+                      noise=_noise(loaded, len(roles), frames, sample.seed))
+    gen = generate(loaded, request, sample, controller=stack(controller, store))
+    return EditOutput(generation=gen, before_role=roles[0], after_role=roles[1], store=store)
+
+
+def reweight(loaded: LoadedModel, prompt: str, config: ReweightConfig, *, frames: int,
+             sample: SampleConfig = SampleConfig(), record: bool = False) -> EditOutput:
+    """(De-)emphasis or erasing of ``config.word``: "ref" is the unedited motion, "out" the edited one."""
+    loaded.tokenizer.encode(prompt).word_index(config.word, config.occurrence)  # a clear error for a missing word
+    return _pair_edit(loaded, prompt, Reweight(config, num_steps=sample.steps), frames=frames, sample=sample, record=record)
+
+
+def ground(loaded: LoadedModel, prompt: str, config: GroundingConfig, *, frames: int,
+           sample: SampleConfig = SampleConfig(), record: bool = False) -> EditOutput:
+    loaded.tokenizer.encode(prompt).word_index(config.word)
+    return _pair_edit(loaded, prompt, Ground(config, num_steps=sample.steps), frames=frames, sample=sample, record=record)
+
+
+def replace(loaded: LoadedModel, reference: str, edited: str, config: ReplaceConfig = ReplaceConfig(), *, frames: int,
+            sample: SampleConfig = SampleConfig(), record: bool = False) -> EditOutput:
+    """In-place replacement: the edited prompt's action lands in the reference's time slots."""
+    ref, edit = loaded.tokenizer.encode(reference), loaded.tokenizer.encode(edited)
+    if len(ref.words) != len(edit.words):
+        raise ValueError(f"in-place replacement needs prompts with the same number of words, aligned word by word "
+                         f"({len(ref.words)} vs {len(edit.words)}): e.g. 'a person jumps' -> 'a person kicks'")
+    return _pair_edit(loaded, reference, Replace(config, num_steps=sample.steps), frames=frames, sample=sample,
+                      record=record, roles=(config.source, config.target), prompts=[reference, edited])
+
+
+def shift(loaded: LoadedModel, prompt: str, config: ShiftConfig = ShiftConfig(), *, frames: int,
+          sample: SampleConfig = SampleConfig(), record: bool = False) -> EditOutput:
+    """Sequence shifting: the edited motion is the reference with its first ``fraction`` moved to the end."""
+    return _pair_edit(loaded, prompt, Shift(config, num_steps=sample.steps, frames=frames), frames=frames,
+                      sample=sample, record=record, roles=(config.source, config.target))
+
+
+def _resolve(loaded: LoadedModel, source: Source, frames: int, seed: int, steps: int) -> tuple[str | None, torch.Tensor, int]:
+    """(prompt or None, initial noise (1, T, D), frames) for a generated or an inverted real source."""
+    if isinstance(source, str):
+        loaded.tokenizer.encode(source)
+        g = torch.Generator().manual_seed(seed)
+        return source, torch.randn(1, frames, loaded.model.config.feature_dim, generator=g), frames
+    inverted = invert(loaded, np.asarray(source), InversionConfig(prompt="", steps=steps))
+    return None, inverted.noise, inverted.noise.shape[1]
+
+
+def example_based(loaded: LoadedModel, example: Source, config: ExampleConfig = ExampleConfig(), *, count: int = 4,
+                  frames: int, sample: SampleConfig = SampleConfig(), record: bool = False) -> EditOutput:
+    """``count`` diverse motions whose self-attention queries are the example's, shuffled in 1-s chunks."""
+    if not 1 <= count <= 16:
+        raise ValueError("count must be between 1 and 16")
+    prompt, example_noise, frames = _resolve(loaded, example, frames, sample.seed, sample.steps)
+    g = torch.Generator().manual_seed(sample.seed + 1)
+    outs = torch.randn(count, frames, example_noise.shape[-1], generator=g)
+    roles = [config.example] + [config.target] * count
+    request = Request(prompts=[prompt] * (count + 1), frames=[frames] * (count + 1), roles=roles,
+                      noise=torch.cat([example_noise, outs]))
+    store = _store(record)
+    gen = generate(loaded, request, sample,
+                   controller=stack(ExampleBased(config, num_steps=sample.steps, frames=frames), store))
+    return EditOutput(generation=gen, before_role=config.example, after_role=config.target, store=store)
+
+
+def style_transfer(loaded: LoadedModel, *, style: Source, content: Source,
+                   config: StyleTransferConfig = StyleTransferConfig(), frames: int,
+                   sample: SampleConfig = SampleConfig(), record: bool = False) -> EditOutput:
+    """The output starts from the content's noise and prompt; its Q comes from the style motion."""
+    style_prompt, style_noise, style_frames = _resolve(loaded, style, frames, sample.seed, sample.steps)
+    content_prompt, content_noise, content_frames = _resolve(loaded, content, frames, sample.seed + 7, sample.steps)
+    n = min(style_frames, content_frames)
+    noise = torch.cat([style_noise[:, :n], content_noise[:, :n], content_noise[:, :n]])
+    request = Request(prompts=[style_prompt, content_prompt, content_prompt], frames=[n] * 3,
+                      roles=[config.style, config.content, config.target], noise=noise)
+    store = _store(record)
+    gen = generate(loaded, request, sample, controller=stack(StyleTransfer(config, num_steps=sample.steps), store))
+    return EditOutput(generation=gen, before_role=config.content, after_role=config.target, store=store)
+
+
+@dataclass(frozen=True)
+class CountingRun:
+    """Where the self-attention map for counting comes from: mean over heads, these layers and steps."""
+
+    layers: tuple[int, ...] | None = None
+    steps: tuple[float, float] = (0.5, 1.0)  # fraction window of the sampling run
+    counting: CountingConfig = CountingConfig()
+
+
+@dataclass
+class Count:
+    attention: CountResult
+    baseline: int
+    self_map: np.ndarray
+
+
+def count_actions(store: AttentionStore, joints: np.ndarray, *, frames: int, num_steps: int, slot: int = 0,
+                  run: CountingRun = CountingRun()) -> Count:
+    """Count repetitions from recorded self-attention (MotionCLR) beside root-height peaks."""
+    lo, hi = int(run.steps[0] * num_steps), int(run.steps[1] * num_steps)
+    steps = [s for s in store.steps if lo <= s < hi] or store.steps
+    attn = store.mean_map(kind="self", slot=slot, steps=steps, layers=run.layers).numpy()[:frames, :frames]
+    return Count(attention=count_from_attention(attn, run.counting),
+                 baseline=count_from_root_height(joints[:, 0, 1]), self_map=attn)
+
+
+def count_generated(loaded: LoadedModel, prompt: str, *, frames: int, sample: SampleConfig = SampleConfig(),
+                    run: CountingRun = CountingRun()) -> tuple[Count, Generation]:
+    store = AttentionStore(StoreConfig(kinds=("self",)))
+    gen = generate(loaded, Request(prompts=[prompt], frames=[frames]), sample, controller=store)
+    return count_actions(store, gen.joints[0], frames=frames, num_steps=sample.steps, run=run), gen
+
+
+def count_motion(loaded: LoadedModel, joints: np.ndarray, *, prompt: str = "", steps: int = 20,
+                 run: CountingRun = CountingRun()) -> Count:
+    """Count on a given (real or corpus) motion: invert it, then record self-attention while it is rebuilt."""
+    inverted = invert(loaded, joints, InversionConfig(prompt=prompt, steps=steps, refine=1))
+    frames = inverted.noise.shape[1]
+    store = AttentionStore(StoreConfig(kinds=("self",)))
+    request = Request(prompts=[prompt or None], frames=[frames], noise=inverted.noise)
+    generate(loaded, request, SampleConfig(steps=steps, guidance=1.0), controller=store)
+    return count_actions(store, np.asarray(joints), frames=frames, num_steps=steps, run=run)
