@@ -25,8 +25,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
     e = sub.add_parser("evaluator", help="train the contrastive text-motion evaluator on the corpus train split")
     e.add_argument("--out", type=Path, default=EVALUATOR_DIR, help=f"output folder (default: {EVALUATOR_DIR})")
-    e.add_argument("--steps", type=int, default=3000)
-    e.add_argument("--batch-size", type=int, default=64)
+    e.add_argument("--steps", type=int, default=1500)
+    e.add_argument("--batch-size", type=int, default=48)
+    e.add_argument("--pool-size", type=int, default=3000, help="corpus motions generated once and trained on")
     e.add_argument("--seed", type=int, default=0)
     e.set_defaults(run=run_train_evaluator)
 
@@ -70,6 +71,6 @@ def run_train_evaluator(args: argparse.Namespace) -> int:
     from engine.evaluation.evaluator import train_evaluator
 
     summary = train_evaluator(CorpusSource(split="train", seed=args.seed), out=args.out, steps=args.steps,
-                              batch_size=args.batch_size, seed=args.seed)
+                              batch_size=args.batch_size, pool_size=args.pool_size, seed=args.seed)
     print(json.dumps(summary))
     return 0

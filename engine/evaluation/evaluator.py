@@ -33,6 +33,7 @@ class EvaluatorConfig:
     embed_dim: int = 128
     vocab_size: int = 512
     max_frames: int = 196
+    pool: int = 2  # average-pool frames by this factor before the transformer (speed)
 
 
 class _SeqEncoder(nn.Module):
@@ -64,6 +65,14 @@ class Evaluator(nn.Module):
 
     def embed_motion(self, x: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
         # x (B, T, 263) normalised with the evaluator's stats -> (B, D)
+        p = self.config.pool
+        if p > 1:
+            pad = (-x.shape[1]) % p
+            x = torch.nn.functional.pad(x * mask[..., None], (0, 0, 0, pad))
+            m = torch.nn.functional.pad(mask.float(), (0, pad))
+            counts = m.reshape(m.shape[0], -1, p).sum(-1)
+            x = x.reshape(x.shape[0], -1, p, x.shape[-1]).sum(2) / counts.clamp_min(1)[..., None]
+            mask = counts > 0
         return self.motion(self.motion_in(x), mask)
 
     def embed_text(self, ids: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
@@ -116,15 +125,20 @@ def train_evaluator(
     source: MotionSource,
     *,
     out: str | Path,
-    steps: int = 3000,
-    batch_size: int = 64,
+    steps: int = 1500,
+    batch_size: int = 48,
+    pool_size: int = 3000,
     lr: float = 3e-4,
     seed: int = 0,
     config: EvaluatorConfig | None = None,
     progress: bool = True,
     stats_samples: int = 1000,
 ) -> dict:
-    """InfoNCE between motion and caption embeddings; saves fp16 weights, config and stats in ``out``."""
+    """InfoNCE between motion and caption embeddings; saves fp16 weights, config and stats in ``out``.
+
+    Trains on a fixed pool of ``pool_size`` corpus samples (generated once; every caption of each
+    is used), which keeps the data cost out of the step time.
+    """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     torch.manual_seed(seed)
@@ -132,14 +146,14 @@ def train_evaluator(
     words = sorted(source.words())
     tokenizer = Tokenizer(words)
     config = config or EvaluatorConfig(vocab_size=len(tokenizer) + 16)
-    normalizer = Normalizer.fit(np.concatenate([source.get(5_000_000 + i).features for i in range(stats_samples)]))
+    pool = [source.get(i) for i in tqdm(range(pool_size), disable=not progress, desc="evaluator data", unit="motion")]
+    normalizer = Normalizer.fit(np.concatenate([item.features for item in pool[:stats_samples]]))
     model = Evaluator(config)
     optimizer = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=1e-2)
-    index, history = 0, []
+    history = []
     t0 = time.perf_counter()
     for step in tqdm(range(steps), disable=not progress, desc="evaluator", unit="step"):
-        items = [source.get(index + i) for i in range(batch_size)]
-        index += batch_size
+        items = [pool[i] for i in rng.choice(len(pool), batch_size, replace=False)]
         batch = collate(items, tokenizer=tokenizer, normalize=normalizer.normalize, rng=rng, text_dropout=0.0,
                         max_frames=config.max_frames)
         m = model.embed_motion(batch.x0, batch.cond.frame_mask)
@@ -150,7 +164,7 @@ def train_evaluator(
         target = same / same.sum(1, keepdim=True)
         loss = 0.5 * (torch.sum(-target * logits.log_softmax(1), 1).mean() + torch.sum(-target.T * logits.log_softmax(0).T, 1).mean())
         for g in optimizer.param_groups:
-            g["lr"] = lr * min(1.0, (step + 1) / 200) * (0.1 + 0.9 * 0.5 * (1 + np.cos(np.pi * step / steps)))
+            g["lr"] = lr * min(1.0, (step + 1) / max(1, min(200, steps // 10))) * (0.1 + 0.9 * 0.5 * (1 + np.cos(np.pi * step / steps)))
         optimizer.zero_grad(set_to_none=True)
         loss.backward()
         torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
@@ -159,7 +173,7 @@ def train_evaluator(
     state = {k: (v.half() if v.is_floating_point() else v) for k, v in model.state_dict().items()}
     torch.save(state, out / WEIGHTS)
     normalizer.save(out)
-    summary = {"steps": steps, "batch_size": batch_size, "final_loss": float(np.mean(history[-50:])),
+    summary = {"steps": steps, "batch_size": batch_size, "pool_size": pool_size, "final_loss": float(np.mean(history[-50:])),
                "seconds": time.perf_counter() - t0}
     (out / CONFIG).write_text(json.dumps({"config": asdict(config), "vocabulary": list(tokenizer.words[1:]),
                                           "training": summary}, indent=2))
