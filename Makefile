@@ -7,7 +7,7 @@ VENV := $(ROOT).venv
 PY := $(VENV)/bin/python
 PORT ?= 5006
 
-.PHONY: run test setup
+.PHONY: run test setup chromium
 
 setup: $(VENV)/.installed
 
@@ -21,5 +21,10 @@ $(VENV)/.installed: $(ROOT)pyproject.toml
 run: setup
 	$(VENV)/bin/moattn serve --port $(PORT)
 
-test: setup
+# Debian's chromium drives the browser tests (Playwright is only the driver; no browser is downloaded)
+chromium:
+	command -v chromium >/dev/null || { SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
+	  $$SUDO apt-get update && $$SUDO apt-get install -y chromium; }
+
+test: setup chromium
 	cd $(ROOT) && $(PY) -m pytest -q

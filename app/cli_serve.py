@@ -1,4 +1,4 @@
-"""`moattn serve`: start the studio on localhost."""
+"""`moattn serve`: start the studio in the browser (Panel server on localhost)."""
 from __future__ import annotations
 
 import argparse
@@ -6,17 +6,21 @@ from pathlib import Path
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    from engine.paths import MODEL_DIR
+
     p = sub.add_parser("serve", help="start the studio in the browser (Panel server on localhost)")
     p.add_argument("--port", type=int, default=5006)
     p.add_argument("--address", default="localhost")
     p.add_argument("--show", action="store_true", help="open a browser tab")
     p.add_argument("--motion", type=Path, default=None, help="a .bvh/.npy motion to show first")
+    p.add_argument("--model", type=Path, default=MODEL_DIR,
+                   help=f"model folder (config.json, weights.pt, Mean.npy, Std.npy); default {MODEL_DIR}")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from app.main import serve
 
-    print(f"Motion Attention Studio: http://{args.address}:{args.port}/")
-    serve(port=args.port, show=args.show, address=args.address, initial=args.motion)
+    print(f"Motion Attention Studio: http://{args.address}:{args.port}/ (model: {args.model})", flush=True)
+    serve(port=args.port, show=args.show, address=args.address, initial=args.motion, model_dir=args.model)
     return 0

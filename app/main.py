@@ -1,44 +1,118 @@
-"""The studio page: one StudioState per browser session, views reading it."""
+"""The studio page: one StudioState per browser session, views reading it, a template with a sidebar."""
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import panel as pn
 
 from app.state import StudioState
-from app.views.files import ImportPanel
+from app.views.attention import AttentionExplorer
+from app.views.controls import GenerateControls
+from app.views.files import ExportPanel, ImportPanel
 from app.views.viewer import SkeletonViewer
-from engine.paths import ASSETS
+from engine.paths import ASSETS, MODEL_DIR
 
 EXAMPLE = ASSETS / "examples" / "walk.npy"
+log = logging.getLogger("moattn.app")
 
 
-def create_app(*, initial: Path | None = None) -> pn.template.BaseTemplate:
-    """A fresh page for one session."""
-    state = StudioState()
-    path = initial or EXAMPLE
-    if path.exists():
-        from engine.io import load_motion
+class Studio:
+    """One session: its state and views (no Panel server needed to build or drive it)."""
 
-        state.show_motion(load_motion(path), title=path.name)
-    viewer = SkeletonViewer(state=state)
-    imports = ImportPanel(state=state)
-    status = pn.pane.Markdown(state.param.message, css_classes=["status"])
+    def __init__(self, *, model_dir: Path | None = MODEL_DIR, initial: Path | None = None, doc=None):
+        self.state = StudioState(model_dir=model_dir)
+        if doc is not None:
+            self.state.attach_document(doc)
+        self.controls = GenerateControls(state=self.state)
+        self.viewer = SkeletonViewer(state=self.state)
+        self.attention = AttentionExplorer(state=self.state)
+        self.imports = ImportPanel(state=self.state)
+        self.exports = ExportPanel(state=self.state)
+        path = initial if initial is not None else (EXAMPLE if EXAMPLE.exists() else None)
+        if path is not None:
+            try:
+                from engine.io import load_motion
+
+                self.state.show_motion(load_motion(path), title=f"imported: {Path(path).name}")
+            except Exception as exc:
+                self.state.error(f"could not open {path}: {exc}")
+        if not self.state.has_model:
+            try:
+                self.state.model
+            except Exception as exc:
+                self.state.error(f"no model loaded, generation is off: {exc}")
+
+    def close(self) -> None:
+        self.state.close()
+        self.viewer.close()
+
+    def template(self) -> pn.template.BaseTemplate:
+        main = pn.Row(
+            pn.Column("### Viewer", self.viewer, sizing_mode="stretch_width", min_width=500, max_width=760),
+            pn.Column("### Attention", self.attention, width=600),
+            sizing_mode="stretch_width",
+        )
+        return pn.template.FastListTemplate(
+            title="Motion Attention Studio",
+            sidebar=[self.controls, pn.layout.Divider(), self.imports, self.exports],
+            main=[main], sidebar_width=340, theme_toggle=False, main_layout=None,
+            font="system-ui, -apple-system, Segoe UI, Roboto, sans-serif", font_url="data:text/css,",  # no CDN
+        )
+
+
+def create_app(*, model_dir: Path | None = MODEL_DIR, initial: Path | None = None) -> pn.template.BaseTemplate:
+    """A fresh page for one browser session."""
+    doc = pn.state.curdoc
+    studio = Studio(model_dir=model_dir, initial=initial, doc=doc)
+    notifications = pn.state.notifications
 
     def notify(event):
-        if event.new and pn.state.notifications is not None:
-            pn.state.notifications.error(event.new, duration=8000)
+        _, level, text = event.new
+        if not text:
+            return
+        log.info("notice [%s] %s", level, text)
+        area = notifications or pn.state.notifications
+        if area is None:
+            return
+        if level == "error":
+            area.error(text, duration=10000)
+        elif level == "warning":
+            area.warning(text, duration=8000)
+        else:
+            area.info(text, duration=5000)
 
-    state.param.watch(notify, "error")
-    template = pn.template.FastListTemplate(
-        title="Motion Attention Studio", sidebar=[imports], main=[pn.Column(status, viewer)],
-        theme_toggle=False,
-    )
-    return template
+    studio.state.param.watch(notify, "notice")
+    # notices raised while building the page (e.g. no model) are shown once the page is up
+    for level, text in list(studio.state.notices):
+        pn.state.onload(lambda level=level, text=text: studio.state._notify(level, text))
+    if doc is not None and doc.session_context is not None:
+        doc.on_session_destroyed(lambda _ctx: studio.close())
+    page = studio.template()
+    page._studio = studio  # reachable for debugging
+    return page
 
 
-def serve(*, port: int = 5006, show: bool = False, address: str = "localhost", initial: Path | None = None) -> None:
+def serve(*, port: int = 5006, show: bool = False, address: str = "localhost", initial: Path | None = None,
+          model_dir: Path | None = MODEL_DIR) -> None:
+    """Start the Panel server (blocks). The model is loaded once, before the first page."""
+    from app.model_cache import get_model
+
     pn.extension(notifications=True)
-    pn.serve(lambda: create_app(initial=initial), port=port, address=address, show=show, title="Motion Attention Studio",
-             websocket_origin=[f"{address}:{port}", f"localhost:{port}", f"127.0.0.1:{port}"],
-             threaded=True)
+    pn.config.exception_handler = _exception_handler
+    if model_dir is not None:
+        try:
+            get_model(model_dir)
+        except Exception as exc:
+            print(f"warning: {exc} (the studio starts without generation)")
+    origins = [f"{address}:{port}", f"localhost:{port}", f"127.0.0.1:{port}"]
+    pn.serve(lambda: create_app(model_dir=model_dir, initial=initial), port=port, address=address, show=show,
+             title="Motion Attention Studio", websocket_origin=origins, threaded=False,
+             websocket_max_message_size=200 * 1024 * 1024, liveness=True)
+
+
+def _exception_handler(exc: Exception) -> None:
+    """Any uncaught error in a callback becomes a visible notification; the server keeps running."""
+    log.exception("callback failed", exc_info=exc)
+    if pn.state.notifications is not None:
+        pn.state.notifications.error(f"Something went wrong: {exc}", duration=10000)

@@ -17,6 +17,7 @@ SUBCOMMANDS: dict[str, str] = {
     "corpus": "engine.cli_corpus",
     "train": "engine.cli_train",
     "eval": "engine.cli_eval",
+    "export-model": "engine.cli_export",
     "evaluator": "engine.cli_eval",
     "generate": "engine.cli_generate",
     "edit": "engine.cli_edit",

@@ -63,6 +63,10 @@ class TrainConfig:
         return cls(model=model, **{k: v for k, v in data.items() if k in names})
 
 
+# fields a resumed run takes from the new call rather than from its checkpoint
+_RUNTIME_FIELDS = ("steps", "log_every", "ckpt_every", "snapshot_every", "threads", "bf16")
+
+
 def make_source(config: TrainConfig, *, split: str = "train") -> MotionSource:
     if config.data == "corpus":
         return CorpusSource(split=split, seed=config.seed)
@@ -115,7 +119,9 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
     state = None
     if resume and (out / "train_state.pt").exists():
         saved = read_config(out)
-        config = TrainConfig.from_json({**saved["train"], "steps": config.steps, "out": str(out)})
+        # the run's hyper-parameters come from the checkpoint; how to run it now comes from the call
+        runtime = {k: getattr(config, k) for k in _RUNTIME_FIELDS}
+        config = TrainConfig.from_json({**saved["train"], **runtime, "out": str(out)})
         tokenizer = Tokenizer(saved["vocabulary"])
         state = load_train_state(out)
         normalizer = Normalizer.load(out)

@@ -1,23 +1,58 @@
-"""App components without a server: state, import parsing, viewer frames."""
+"""Studio components without a server: state, prompt checks, the generation worker, recorded attention,
+the attention explorer, the frame renderer and the exports (a tiny model trained for the session)."""
 from __future__ import annotations
 
 import io
+import json
+import time
 
 import numpy as np
 import pytest
 from PIL import Image
 
+from app.attention_record import estimate_bytes, plan_steps
+from app.frames import COMPARE_SIZE, SINGLE_SIZE
+from app.main import Studio
 from app.state import StudioState
-from app.views.files import MAX_UPLOAD_BYTES, import_bytes
-from app.views.viewer import SkeletonViewer
+from app.testing import tiny_model
+from app.views.files import EXPORTS, MAX_UPLOAD_BYTES, export_bytes, import_bytes
 
 
+@pytest.fixture(scope="session")
+def tiny_model_dir(tmp_path_factory):
+    return tiny_model(tmp_path_factory.getbasetemp() / "tiny-model")
+
+
+@pytest.fixture(scope="module")
+def studio(tiny_model_dir):
+    """One session with one generated motion (8 steps, all recorded)."""
+    st = Studio(model_dir=tiny_model_dir, initial=None)
+    s = st.state
+    s.param.update(prompt="a person jumps twice", seconds=3.0, steps=8, record_steps=8, seed=1)
+    assert s.generate()
+    assert s.wait(120)
+    assert not s.running and s.item is not None, s.notices
+    yield st
+    st.close()
+
+
+def _decode(jpeg: bytes) -> np.ndarray:
+    return np.asarray(Image.open(io.BytesIO(jpeg)).convert("RGB"))
+
+
+def _skeleton_pixels(img: np.ndarray) -> int:
+    """Pixels of the default (blue) skeleton: strongly blue, not the grey floor or the white sky."""
+    r, g, b = (img[..., i].astype(int) for i in range(3))
+    return int(((b - r > 60) & (b > 120)).sum())
+
+
+# ---------------------------------------------------------------------------------------------- basics
 def test_state_validates_motion():
     state = StudioState()
     with pytest.raises(ValueError, match="shape"):
         state.show_motion(np.zeros((10, 21, 3)), title="bad")
-    state.show_motion(np.zeros((10, 22, 3)), title="zeros")
-    assert state.n_frames == 10 and state.frame == 0 and "10 frames" in state.message
+    item = state.show_motion(np.zeros((10, 22, 3)), title="zeros")
+    assert state.n_frames == 10 and state.frame == 0 and state.current == item.name
 
 
 def test_import_bytes_parses_npy_and_refuses_bad_files(real_joints):
@@ -39,16 +74,229 @@ def test_import_bytes_parses_npy_and_refuses_bad_files(real_joints):
         import_bytes(b"HIERARCHY\nROOT Hips\n{\n", "broken.bvh")
 
 
-def test_viewer_draws_the_skeleton_and_follows_the_playhead(real_joints):
-    state = StudioState()
-    state.show_motion(real_joints, title="sample")
-    viewer = SkeletonViewer(state=state)
-    first = np.asarray(Image.open(io.BytesIO(viewer._image.object)).convert("RGB"))
-    state.frame = 100
-    later = np.asarray(Image.open(io.BytesIO(viewer._image.object)).convert("RGB"))
-    assert first.shape == (480, 640, 3)
-    # the skeleton is drawn in blue tones: many strongly blue pixels
-    blue = (first[..., 2].astype(int) - first[..., 0].astype(int) > 60).sum()
-    assert blue > 500
-    assert np.abs(first.astype(int) - later.astype(int)).sum() > 0
-    assert viewer._player.end == len(real_joints) - 1
+def test_recording_plan_and_memory_budget():
+    assert plan_steps(50, 10)[0] == 0 and plan_steps(50, 10)[-1] == 49 and len(plan_steps(50, 10)) == 10
+    assert plan_steps(50, 1) == [49] and plan_steps(5, 99) == [0, 1, 2, 3, 4]
+    # the design's figure: 50 steps x 6 layers x 4 heads x 196^2 x 2 B ~ 90 MB; 10 steps is a fifth
+    full = estimate_bytes(num_steps=50, record_steps=50, layers=6, heads=4, frames=196, words=0)
+    assert 85e6 < full < 95e6
+    assert estimate_bytes(num_steps=50, record_steps=10, layers=6, heads=4, frames=196, words=0) == full // 5
+
+
+# ---------------------------------------------------------------------------------------------- prompt
+def test_unknown_words_are_flagged_with_suggestions(tiny_model_dir):
+    st = Studio(model_dir=tiny_model_dir, initial=None)
+    try:
+        s = st.state
+        s.prompt = "a persn jumsp twice"
+        assert s.unknown_words == ["persn", "jumsp"]
+        assert "person" in s.suggestions["persn"] and "jumps" in s.suggestions["jumsp"]
+        assert st.controls.generate.disabled
+        assert "word-unknown" in st.controls.words.object
+        labels = [b.label for b in st.controls.suggestion_row.objects]
+        assert "persn → person" in labels
+        # clicking a suggestion rewrites the prompt
+        button = next(b for b in st.controls.suggestion_row.objects if b.label == "persn → person")
+        button.clicks += 1
+        s.replace_word("jumsp", "jumps")
+        assert s.prompt == "a person jumps twice" and s.unknown_words == []
+        assert not st.controls.generate.disabled
+        # typing goes through value_input
+        st.controls.prompt.value_input = "a person jmps"
+        assert s.unknown_words == ["jmps"]
+    finally:
+        st.close()
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"prompt": ""}, "prompt is empty"),
+    ({"prompt": "a person flurbs"}, "unknown word"),
+    ({"seconds": 30.0}, "duration must be between"),
+    ({"seconds": 0.2}, "duration must be between"),
+])
+def test_bad_input_is_a_notification_not_a_crash(tiny_model_dir, change, message):
+    st = Studio(model_dir=tiny_model_dir, initial=None)
+    try:
+        s = st.state
+        s.param.update(**change)
+        assert s.generate() is False
+        assert not s.running and s._worker is None
+        level, text = s.notices[-1]
+        assert level == "error" and message in text
+        assert s.notice[2] == text
+    finally:
+        st.close()
+
+
+def test_missing_model_is_reported_and_import_still_works(tmp_path, real_joints):
+    st = Studio(model_dir=tmp_path / "nothing", initial=None)
+    try:
+        assert any("no model" in t for _, t in st.state.notices)
+        assert st.controls.generate.disabled
+        assert st.state.generate() is False
+        st.state.show_motion(real_joints[:30], title="imported: walk")
+        assert st.viewer.renderer.wait_until_done(60)
+    finally:
+        st.close()
+
+
+# ---------------------------------------------------------------------------------------------- generation
+def test_generation_runs_on_a_worker_and_records_attention(studio, tiny_model_dir):
+    s = studio.state
+    item = s.item
+    assert item.source == "generated" and item.prompt == "a person jumps twice"
+    assert item.joints.shape == (60, 22, 3) and np.isfinite(item.joints).all()
+    assert s.progress == s.progress_total == 8
+    assert studio.controls.progress.value == studio.controls.progress.max == 8
+    assert studio.controls.cancel.disabled and not studio.controls.generate.disabled
+    rec = item.attention
+    assert rec.words == ("a", "person", "jumps", "twice")
+    assert rec.steps == tuple(range(8)) and rec.num_steps == 8
+    assert rec.self_maps.shape == (8, 2, 2, 60, 60) and rec.self_maps.dtype == np.float16
+    assert rec.cross_maps.shape == (8, 2, 2, 60, 4)
+    # rows are softmax distributions
+    np.testing.assert_allclose(rec.self_map(step=7, layer=0, head=0).sum(1), 1.0, atol=2e-2)
+    np.testing.assert_allclose(rec.cross_map(step=7, layer=1, head=1).sum(1), 1.0, atol=2e-2)
+    # defaults: last recorded step, the first content word highlighted
+    assert s.att_step == 7 and s.word == 2
+
+
+def test_generation_is_deterministic_and_sessions_are_isolated(studio, tiny_model_dir):
+    other = Studio(model_dir=tiny_model_dir, initial=None)
+    try:
+        assert other.state.items == {} and other.state.model is studio.state.model  # shared, read-only
+        o = other.state
+        o.param.update(prompt="a person jumps twice", seconds=3.0, steps=8, record_steps=2, seed=1)
+        assert o.generate() and o.wait(120)
+        np.testing.assert_allclose(o.item.joints, studio.state.item.joints, atol=1e-5)
+        assert o.item.attention.steps == (0, 7)
+        assert len(studio.state.items) == 1  # the first session saw nothing
+    finally:
+        other.close()
+
+
+def test_cancel_stops_the_worker(tiny_model_dir):
+    st = Studio(model_dir=tiny_model_dir, initial=None)
+    try:
+        s = st.state
+        s.param.update(prompt="a person walks", steps=1000, record_steps=0)
+        assert s.generate()
+        assert st.controls.cancel.disabled is False and st.controls.generate.disabled
+        deadline = time.monotonic() + 30
+        while s.progress < 2 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        s.cancel()
+        assert s.wait(30)
+        assert not s.running and s.items == {}
+        assert s.notices[-1] == ("info", "generation cancelled")
+        assert st.controls.cancel.disabled and not st.controls.generate.disabled
+    finally:
+        st.close()
+
+
+# ---------------------------------------------------------------------------------------------- attention views
+def test_layer_head_step_switch_uses_recorded_maps_fast(studio):
+    s, ex = studio.state, studio.attention
+    rec = s.attention
+    for layer, head, step in [(0, None, 7), (1, 0, 3), (None, None, None), (1, 1, 0)]:
+        t0 = time.perf_counter()
+        s.param.update(layer=layer, head=head, att_step=step)
+        took = time.perf_counter() - t0
+        assert took < 0.2
+        np.testing.assert_allclose(ex.heat_src.data["image"][0], rec.self_map(step=step, layer=layer, head=head))
+        curves = ex.curve_src.data["ys"]
+        np.testing.assert_allclose(curves[2], rec.word_curve(2, step=step, layer=layer, head=head))
+    assert ex.layer.value == 1 and ex.head.value == 1 and ex.step.value == 0
+    # the widgets drive the state
+    ex.layer.value = -1
+    assert s.layer is None
+    ex.step.value = 7
+    assert s.att_step == 7
+    assert max(ex.timings) < 0.2
+
+
+def test_picking_a_frame_moves_the_viewer_and_highlights_the_row(studio):
+    s, ex, viewer = studio.state, studio.attention, studio.viewer
+    ex.pick_cell(17, key_frame=40)
+    assert s.frame == 17 and viewer.player.frame == 17
+    assert (ex.row_box.bottom, ex.row_box.top) == (17, 18)
+    np.testing.assert_allclose(ex.row_src.data["y"], ex.heat_src.data["image"][0][17])
+    assert ex.curve_cursor.location == 17
+    # a tap on the curves picks a frame too
+    from bokeh.events import Tap
+
+    ex._on_curve_tap(Tap(ex.curves, x=33.4, y=0.2))
+    assert s.frame == 33 and viewer.player.frame == 33
+    # clicking a curve highlights its word
+    ex.curve_src.selected.indices = [3]
+    assert s.word == 3 and ex.curve_src.data["width"][3] > ex.curve_src.data["width"][2]
+    assert ex.words.value == 3
+    ex.words.value = 2
+    assert s.word == 2
+    s.pick_frame(10_000)
+    assert s.frame == s.n_frames - 1
+
+
+def test_viewer_renders_frames_progressively_and_compares(studio, real_joints):
+    s, viewer = studio.state, studio.viewer
+    r = viewer.renderer
+    assert r.wait_until_done(120)
+    snap = r.snapshot()
+    assert snap.done and len(snap.frames) == s.item.n_frames
+    first, later = _decode(snap.frames[0]), _decode(snap.frames[40])
+    assert first.shape == (SINGLE_SIZE[1], SINGLE_SIZE[0], 3)
+    assert _skeleton_pixels(first) > 300
+    assert np.abs(first.astype(int) - later.astype(int)).mean() > 0.5
+    # colouring by the highlighted word's attention re-renders with other colours
+    s.word = 2
+    s.color_by_word = True
+    assert viewer.spec().frame_values is not None
+    assert r.wait_until_done(120)
+    coloured = _decode(r.frame_bytes(0))
+    assert np.abs(coloured.astype(int) - first.astype(int)).mean() > 0.5
+    s.color_by_word = False
+    # compare: an imported motion beside the generated one, one wider scene
+    generated = s.current
+    s.show_motion(real_joints[:50], title="imported: walk")
+    s.show(generated)
+    s.compare = "imported: walk"
+    spec = viewer.spec()
+    assert len(spec.motions) == 2 and spec.n_frames == 60
+    assert r.wait_until_done(120)
+    pair = _decode(r.frame_bytes(0))
+    assert pair.shape == (COMPARE_SIZE[1], COMPARE_SIZE[0], 3)
+    assert viewer.compare_select.value == "imported: walk"
+    viewer.compare_select.value = "(none)"
+    assert s.compare == ""
+    # camera follow / reset re-render the same motion in place (no new scene)
+    key = r.motion_key
+    s.follow = False
+    viewer.reset.clicks += 1
+    assert r.wait_until_done(120) and r.motion_key == key and not r.errors
+
+
+def test_exports_give_valid_files(studio, real_joints, tmp_path):
+    s = studio.state
+    item = s.item
+    sel = s.selection()
+    bvh = export_bytes(item, "bvh").decode()
+    assert bvh.startswith("HIERARCHY") and "MOTION" in bvh and "Frames: 60" in bvh
+    joints = np.load(io.BytesIO(export_bytes(item, "joints.npy")), allow_pickle=False)
+    np.testing.assert_allclose(joints, item.joints, atol=1e-6)
+    vecs = np.load(io.BytesIO(export_bytes(item, "vecs.npy")), allow_pickle=False)
+    assert vecs.shape == (59, 263)
+    data = json.loads(export_bytes(item, "attention.json", selection=sel))
+    assert data["words"] == list(item.words) and len(data["self_attention"]) == 60
+    assert len(data["cross_attention"][0]) == 4 and data["prompt"] == item.prompt
+    png = export_bytes(item, "attention.png", selection=sel)
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and Image.open(io.BytesIO(png)).size[0] > 500
+    short = s.show_motion(real_joints[:12], title="imported: short")
+    assert export_bytes(short, "gif")[:6] in (b"GIF89a", b"GIF87a")
+    assert b"ftyp" in export_bytes(short, "mp4")[:16]
+    with pytest.raises(ValueError, match="no recorded attention"):
+        export_bytes(short, "attention.json")
+    assert set(studio.exports.buttons) == set(EXPORTS)
+    assert studio.exports.buttons["attention.png"].disabled  # the imported motion is shown now
+    s.show(item.name)
+    assert not studio.exports.buttons["attention.png"].disabled
+    assert studio.exports.buttons["bvh"].filename.endswith(".bvh")

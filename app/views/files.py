@@ -1,15 +1,29 @@
-"""Import a motion file (BVH, joints or 263-dim vectors .npy) into the session."""
+"""Import a motion file (BVH, joints or 263-dim vectors .npy) and export motions and attention maps."""
 from __future__ import annotations
 
+import asyncio
+import io
+import re
 import tempfile
 from pathlib import Path
 
 import panel as pn
 import param
 
-from app.state import StudioState
+from app.model_cache import VTK_LOCK
+from app.state import MotionItem, StudioState
 
 MAX_UPLOAD_BYTES = 20 * 1024 * 1024
+
+EXPORTS = {
+    "bvh": "BVH",
+    "joints.npy": "joints .npy",
+    "vecs.npy": "vectors .npy",
+    "gif": "GIF",
+    "mp4": "MP4",
+    "attention.png": "attention PNG",
+    "attention.json": "attention JSON",
+}
 
 
 def import_bytes(data: bytes, filename: str):
@@ -26,7 +40,59 @@ def import_bytes(data: bytes, filename: str):
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / f"upload{suffix}"
         path.write_bytes(data)
-        return load_motion(path)
+        joints = load_motion(path)
+    if len(joints) < 2:
+        raise ValueError(f"{filename} has {len(joints)} frame(s); at least 2 are needed")
+    return joints
+
+
+def slug(text: str, limit: int = 40) -> str:
+    s = re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_")
+    return (s[:limit].rstrip("_") or "motion")
+
+
+def export_filename(item: MotionItem, fmt: str) -> str:
+    return f"{slug(item.name)}.{fmt}"
+
+
+def export_bytes(item: MotionItem, fmt: str, *, selection: dict | None = None) -> bytes:
+    """The bytes of one export of ``item`` (``fmt`` a key of ``EXPORTS``)."""
+    from engine.io import format_bvh, save_npy
+    from engine.representation import joints_to_features
+
+    if fmt not in EXPORTS:
+        raise ValueError(f"unknown export format {fmt!r}; one of {', '.join(EXPORTS)}")
+    joints = item.joints
+    if fmt == "bvh":
+        return format_bvh(joints, fps=20.0).encode()
+    if fmt.startswith("attention."):
+        if item.attention is None:
+            raise ValueError(f"{item.name!r} has no recorded attention (only generated motions do)")
+        sel = selection or {"step": item.attention.steps[-1], "layer": None, "head": None}
+        if fmt == "attention.json":
+            data = item.attention.to_json_dict(**sel)
+            data["prompt"] = item.prompt
+            import json
+
+            return json.dumps(data).encode()
+        return item.attention.to_png_bytes(**sel, title=item.prompt)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"export.{fmt.split('.')[-1]}"
+        if fmt == "joints.npy":
+            save_npy(path, joints, kind="joints")
+        elif fmt == "vecs.npy":
+            save_npy(path, joints_to_features(joints), kind="vecs")
+        elif fmt == "gif":
+            from viz.render import render_gif
+
+            with VTK_LOCK:
+                render_gif(joints, path, size=(320, 240), follow=True, title=item.name[:40])
+        elif fmt == "mp4":
+            from viz.render import render_mp4
+
+            with VTK_LOCK:
+                render_mp4(joints, path, size=(640, 480), follow=True, title=item.name[:50], frame_label=True)
+        return path.read_bytes()
 
 
 class ImportPanel(pn.viewable.Viewer):
@@ -34,7 +100,8 @@ class ImportPanel(pn.viewable.Viewer):
 
     def __init__(self, **params):
         super().__init__(**params)
-        self._input = pn.widgets.FileInput(accept=".bvh,.npy", multiple=False)
+        self._input = pn.widgets.FileInput(accept=".bvh,.npy", multiple=False, css_classes=["import-input"],
+                                           sizing_mode="stretch_width")
         self._input.param.watch(self._on_upload, "value")
 
     def _on_upload(self, event):
@@ -43,10 +110,55 @@ class ImportPanel(pn.viewable.Viewer):
         name = self._input.filename or "upload"
         try:
             joints = import_bytes(event.new, name)
+            self.state.show_motion(joints, title=f"imported: {name}")
         except Exception as exc:  # any parse problem is the user's file, not a crash
-            self.state.error = f"Could not import {name}: {exc}"
+            self.state.error(f"Could not import {name}: {exc}")
             return
-        self.state.show_motion(joints, title=name)
+        self.state.info(f"imported {name}: {len(joints)} frames ({len(joints) / 20:.1f} s)")
 
     def __panel__(self):
-        return pn.Column("### Import", "BVH, joints (T,22,3) or HumanML3D vectors (T,263) as .npy", self._input)
+        return pn.Column("#### Import", "BVH, joints (T,22,3) or HumanML3D vectors (T,263) as .npy "
+                         f"(up to {MAX_UPLOAD_BYTES // 2**20} MB)", self._input, sizing_mode="stretch_width")
+
+
+class ExportPanel(pn.viewable.Viewer):
+    """Download buttons for the motion shown (and its attention for the current selection)."""
+
+    state = param.ClassSelector(class_=StudioState)
+
+    def __init__(self, **params):
+        super().__init__(**params)
+        self.buttons = {}
+        for fmt, label in EXPORTS.items():
+            button = pn.widgets.FileDownload(callback=self._callback(fmt), filename=f"motion.{fmt}", label=label,
+                                             color="light", width=140, height=34, margin=(2, 4),
+                                             css_classes=[f"export-{fmt.replace('.', '-')}"])
+            self.buttons[fmt] = button
+        self.state.param.watch(self._on_current, "current")
+        self._on_current()
+
+    def _callback(self, fmt: str):
+        async def callback():
+            item = self.state.item
+            if item is None:
+                self.state.error("nothing to export yet: generate or import a motion first")
+                raise ValueError("nothing to export")
+            selection = self.state.selection()
+            try:
+                data = await asyncio.to_thread(export_bytes, item, fmt, selection=selection)
+            except Exception as exc:
+                self.state.error(f"export {EXPORTS[fmt]} failed: {exc}")
+                raise
+            return io.BytesIO(data)
+
+        return callback
+
+    def _on_current(self, *_):
+        item = self.state.item
+        for fmt, button in self.buttons.items():
+            button.filename = export_filename(item, fmt) if item is not None else f"motion.{fmt}"
+            button.label = EXPORTS[fmt]
+            button.disabled = item is None or (fmt.startswith("attention.") and item.attention is None)
+
+    def __panel__(self):
+        return pn.Column("#### Export", pn.FlexBox(*self.buttons.values()), sizing_mode="stretch_width")

@@ -1,62 +1,165 @@
-"""The skeleton viewer: a pyvista scene rendered offscreen, built once per motion, frames updated in place."""
+"""The skeleton viewer: server-rendered pyvista frames played in the browser, compare, camera controls."""
 from __future__ import annotations
 
-import io
-
-import numpy as np
 import panel as pn
 import param
-from PIL import Image
 
+from app.components.player import FramePlayer
+from app.frames import FrameBatch, FrameRenderer, SceneSpec
 from app.state import StudioState
 
-SIZE = (640, 480)
+NONE = "(none)"
 
 
 class SkeletonViewer(pn.viewable.Viewer):
-    """Play / pause / scrub a motion; the pyvista scene is rebuilt only when the motion changes."""
+    """Play / pause / scrub the session's motion; compare with a second one side by side.
+
+    One ``SkeletonScene`` per session lives on the renderer's thread; it is rebuilt only when the
+    motions change, and follow / path / colours / camera are updated in place (then frames re-render).
+    """
 
     state = param.ClassSelector(class_=StudioState)
 
     def __init__(self, **params):
         super().__init__(**params)
-        self._scene = None
-        self._image = pn.pane.PNG(None, width=SIZE[0], height=SIZE[1], sizing_mode="fixed",
-                                  css_classes=["skeleton-view"])
-        self._player = pn.widgets.Player(start=0, end=1, value=0, step=1, interval=50, loop_policy="loop",
-                                         width=SIZE[0], show_value=True)
-        self._player.link(self.state, value="frame")
-        self.state.param.watch(self._on_motion, "joints")
-        self.state.param.watch(self._on_frame, "frame")
-        if self.state.joints is not None:
-            self._on_motion()
+        s = self.state
+        self.player = FramePlayer(sizing_mode="stretch_width", min_height=400, css_classes=["skeleton-view"])
+        self.player.on_hello = self._resend
+        self.player.on_need = lambda k: self.renderer.prioritize(k)
+        self.player.on_frame = self._on_playhead
+        self._playhead = None  # frame reported by the playing page (player.frame is then stale)
+        self.renderer = FrameRenderer(on_frames=self._on_frames)
+        self._azimuth = 0.0
+        self._camera_serial = 0
+        self._syncing = False
 
-    def _on_motion(self, *_):
-        from viz.scene import SkeletonScene
+        self.show_select = pn.widgets.Select(label="Motion", options=[], width=215, css_classes=["motion-select"])
+        self.compare_select = pn.widgets.Select(label="Compare with", options=[NONE], width=215,
+                                                css_classes=["compare-select"])
+        self.follow = pn.widgets.Checkbox.from_param(s.param.follow, label="camera follows")
+        self.path = pn.widgets.Checkbox.from_param(s.param.show_path, label="root path")
+        self.color = pn.widgets.Checkbox.from_param(s.param.color_by_word, label="colour by word attention")
+        self.reset = pn.widgets.Button(label="Reset camera", width=110, css_classes=["reset-camera"])
+        self.left = pn.widgets.Button(label="⟲ 45°", width=64, css_classes=["orbit-left"])
+        self.right = pn.widgets.Button(label="⟳ 45°", width=64, css_classes=["orbit-right"])
+        self.reset.on_click(lambda _: self._camera(reset=True))
+        self.left.on_click(lambda _: self._camera(delta=-45.0))
+        self.right.on_click(lambda _: self._camera(delta=45.0))
+        self.show_select.param.watch(self._on_show_select, "value")
+        self.compare_select.param.watch(self._on_compare_select, "value")
+        self.player.param.watch(self._on_player_frame, "frame")
+        self.player.param.watch(lambda e: setattr(self.state, "playing", e.new), "playing")
 
-        if self._scene is not None:
-            self._scene.close()
-            self._scene = None
-        joints = self.state.joints
-        if joints is None:
-            self._image.object = None
+        s.param.watch(self._on_items, "items")
+        s.param.watch(self._on_current, ["current", "compare"])
+        s.param.watch(self._on_frame, "frame")
+        s.param.watch(self._refresh, ["follow", "show_path", "color_by_word"])
+        s.param.watch(self._on_word_selection, ["word", "att_step", "head"])
+        self._on_items()
+        self._on_current()
+
+    # ------------------------------------------------------------------ renderer plumbing
+    def _on_frames(self, batch: FrameBatch) -> None:
+        self.player.push(batch)
+
+    def _resend(self) -> None:
+        snap = self.renderer.snapshot()
+        if snap.frames:
+            self.player.push(snap)
+
+    def spec(self) -> SceneSpec | None:
+        s = self.state
+        item = s.item
+        if item is None:
+            return None
+        motions = [(_role(item.name), item.joints)]
+        other = s.compare_item
+        if other is not None:
+            motions.append((_role(other.name, avoid=motions[0][0]), other.joints))
+        values = s.word_values() if s.color_by_word else None
+        title = item.name if other is None else ""
+        if values is not None and s.word is not None and item.attention is not None:
+            title = f'{item.name}  —  colour: "{item.attention.words[s.word]}"'
+        return SceneSpec(motions=tuple(motions), follow=s.follow, show_path=s.show_path, frame_values=values,
+                         azimuth_offset=self._azimuth, camera_serial=self._camera_serial, title=title[:70])
+
+    def _refresh(self, *_):
+        spec = self.spec()
+        self.player.n_frames = 0 if spec is None else spec.n_frames
+        self.renderer.show(spec, frame=self.state.frame)
+
+    # ------------------------------------------------------------------ events
+    def _camera(self, *, reset: bool = False, delta: float = 0.0) -> None:
+        if reset:
+            self._azimuth = 0.0
+        self._azimuth += delta
+        self._camera_serial += 1
+        self._refresh()
+
+    def _on_items(self, *_):
+        names = list(self.state.items)
+        self.show_select.options = names
+        self.compare_select.options = [NONE, *names]
+        self._sync_selects()
+
+    def _sync_selects(self):
+        s = self.state
+        self._syncing = True
+        try:
+            if s.current in self.show_select.options:
+                self.show_select.value = s.current
+            self.compare_select.value = s.compare if s.compare in self.compare_select.options else NONE
+        finally:
+            self._syncing = False
+
+    def _on_show_select(self, event):
+        if not self._syncing and event.new and event.new != self.state.current:
+            self.state.show(event.new)
+
+    def _on_compare_select(self, event):
+        if self._syncing:
             return
-        self._scene = SkeletonScene(joints, size=SIZE, follow=True)
-        self._player.end = max(1, len(joints) - 1)
-        self._player.value = 0
-        self._draw(0)
+        value = "" if event.new in (None, NONE) or event.new == self.state.current else event.new
+        self.state.compare = value
+        if event.new == self.state.current:
+            self._sync_selects()
+
+    def _on_current(self, *_):
+        self._sync_selects()
+        self._refresh()
+
+    def _on_word_selection(self, *_):
+        if self.state.color_by_word:
+            self._refresh()
+
+    def _on_playhead(self, frame: int) -> None:
+        self._playhead = frame
+        self.state.pick_frame(frame)
 
     def _on_frame(self, event):
-        self._draw(event.new)
+        self.renderer.prioritize(event.new)
+        if self._playhead is not None and self._playhead == event.new:
+            return  # the page told us: nothing to send back
+        self._playhead = None
+        if self.player.frame != event.new:
+            self.player.frame = event.new
+        else:
+            self.player.param.trigger("frame")  # player.frame was stale: push it anyway
 
-    def _draw(self, frame: int) -> None:
-        if self._scene is None:
-            return
-        frame = int(np.clip(frame, 0, self._scene.n_frames - 1))
-        self._scene.set_frame(frame)
-        buf = io.BytesIO()
-        Image.fromarray(self._scene.screenshot()).save(buf, format="PNG", compress_level=1)
-        self._image.object = buf.getvalue()
+    def _on_player_frame(self, event):
+        if event.new != self.state.frame:
+            self.state.pick_frame(event.new)
+
+    def close(self) -> None:
+        self.renderer.close()
 
     def __panel__(self):
-        return pn.Column(self._image, self._player)
+        controls = pn.Row(self.follow, self.path, self.reset, self.left, self.right, align="center")
+        selects = pn.Row(self.show_select, self.compare_select)
+        return pn.Column(selects, self.player, controls, self.color, sizing_mode="stretch_width",
+                         css_classes=["viewer"])
+
+
+def _role(name: str, avoid: str = "") -> str:
+    role = name if len(name) <= 40 else name[:39] + "…"
+    return role if role != avoid else role + " (2)"

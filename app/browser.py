@@ -1,0 +1,208 @@
+"""Drive the studio in Debian's Chromium with Playwright: a real ``moattn serve`` on a free port.
+
+Used by the browser tests and by ``moattn bench --app``. Nothing is downloaded: Chromium is
+``/usr/bin/chromium`` (WebGL through SwiftShader), Playwright is only the driver.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from collections.abc import Iterator
+from pathlib import Path
+
+CHROMIUM = os.environ.get("MOATTN_CHROMIUM", "/usr/bin/chromium")
+CHROMIUM_ARGS = [
+    "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--disable-background-networking",
+    "--disable-component-update", "--disable-sync", "--no-first-run",
+]
+VIEWPORT = {"width": 1500, "height": 1100}
+
+#: JavaScript helpers installed in the page: deep queries through shadow roots, canvas hashes.
+PAGE_HELPERS = r"""
+(() => {
+  if (window.moattnTest) return;
+  function deepAll(root, sel, out) {
+    out = out || [];
+    root.querySelectorAll(sel).forEach(e => out.push(e));
+    root.querySelectorAll('*').forEach(e => { if (e.shadowRoot) deepAll(e.shadowRoot, sel, out); });
+    return out;
+  }
+  function canvases(hostSel) {
+    const hosts = deepAll(document, hostSel);
+    const out = [];
+    hosts.forEach(h => deepAll(h.shadowRoot || h, 'canvas', out));
+    hosts.forEach(h => { if (h.tagName === 'CANVAS') out.push(h); });
+    return out;
+  }
+  function canvasHash(hostSel) {
+    let hash = 0;
+    for (const c of canvases(hostSel)) {
+      if (!c.width || !c.height) continue;
+      let ctx; try { ctx = c.getContext('2d'); } catch (e) { continue; }
+      if (!ctx) continue;
+      const d = ctx.getImageData(0, 0, c.width, c.height).data;
+      for (let i = 0; i < d.length; i += 97) hash = (hash * 31 + d[i]) | 0;
+    }
+    return hash;
+  }
+  function waitChange(hostSel, before, timeoutMs) {
+    return new Promise(resolve => {
+      const t0 = performance.now();
+      function poll() {
+        const h = canvasHash(hostSel);
+        if (h !== before) return resolve(performance.now() - t0);
+        if (performance.now() - t0 > timeoutMs) return resolve(-1);
+        requestAnimationFrame(poll);
+      }
+      poll();
+    });
+  }
+  function selectOption(hostSel, label) {
+    const sel = deepAll(document, hostSel + ' select')[0] || deepAll(deepAll(document, hostSel)[0].shadowRoot, 'select')[0];
+    const opt = Array.from(sel.options).find(o => o.textContent.trim() === label);
+    if (!opt) throw new Error('no option ' + label + ' in ' + Array.from(sel.options).map(o => o.textContent));
+    sel.value = opt.value;
+    sel.dispatchEvent(new Event('input', {bubbles: true}));
+    sel.dispatchEvent(new Event('change', {bubbles: true}));
+  }
+  async function timedSelect(selectHost, label, canvasHost, timeoutMs) {
+    const before = canvasHash(canvasHost);
+    const t0 = performance.now();
+    selectOption(selectHost, label);
+    const dt = await waitChange(canvasHost, before, timeoutMs || 5000);
+    return dt < 0 ? -1 : performance.now() - t0;
+  }
+  window.moattnTest = {deepAll, canvases, canvasHash, waitChange, selectOption, timedSelect};
+  window.moattnLastClick = 0;
+  document.addEventListener('click', () => { window.moattnLastClick = performance.now(); }, true);
+})();
+"""
+
+
+def chromium_available() -> bool:
+    return Path(CHROMIUM).exists() or shutil.which(CHROMIUM) is not None
+
+
+def free_port() -> int:
+    with contextlib.closing(socket.socket(socket.AF_INET, socket.SOCK_STREAM)) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@contextlib.contextmanager
+def studio_server(model_dir: str | os.PathLike, *, port: int | None = None, log_path: Path | None = None,
+                  timeout: float = 90.0) -> Iterator[str]:
+    """Run ``moattn serve --model model_dir`` on a free port; yields its URL, stops it afterwards."""
+    port = port or free_port()
+    cmd = [sys.executable, "-m", "engine.cli", "serve", "--port", str(port), "--address", "localhost",
+           "--model", str(model_dir)]
+    log = open(log_path, "w") if log_path else subprocess.DEVNULL
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env,
+                            cwd=Path(__file__).resolve().parents[1])
+    url = f"http://localhost:{port}/"
+    try:
+        end = time.monotonic() + timeout
+        while True:
+            if proc.poll() is not None:
+                raise RuntimeError(f"moattn serve exited with {proc.returncode}" +
+                                   (f"; see {log_path}" if log_path else ""))
+            try:
+                with urllib.request.urlopen(url + "liveness", timeout=2):
+                    break
+            except Exception:
+                pass
+            if time.monotonic() > end:
+                raise TimeoutError(f"moattn serve did not answer on {url} within {timeout:.0f} s")
+            time.sleep(0.3)
+        yield url
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(5)
+        if log_path:
+            log.close()
+
+
+#: Compositing modes: "swiftshader" (GPU emulated by SwiftShader, as a GPU-less CI runs Chromium) and
+#: "software" (``--disable-gpu``: Chromium's CPU compositor, what a GPU-less desktop falls back to). The
+#: studio needs no WebGL (frames are rendered by the server), so both show the same page.
+COMPOSITING = {"swiftshader": [], "software": ["--disable-gpu"]}
+
+
+def launch(playwright, compositing: str = "swiftshader"):
+    """Debian's Chromium through Playwright (never a downloaded browser)."""
+    if compositing not in COMPOSITING:
+        raise ValueError(f"compositing must be one of {sorted(COMPOSITING)}")
+    return playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS + COMPOSITING[compositing])
+
+
+def open_studio(browser, url: str, *, timeout_ms: float = 60000):
+    """A page with the studio loaded (player mounted) and the helpers installed."""
+    page = browser.new_page(viewport=VIEWPORT)
+    page.console_messages = []
+    page.on("console", lambda m: page.console_messages.append(f"{m.type}: {m.text}"))
+    page.on("pageerror", lambda e: page.console_messages.append(f"pageerror: {e}"))
+    page.goto(url)
+    page.wait_for_function("window.moattnPlayer !== undefined", timeout=timeout_ms)
+    page.evaluate(PAGE_HELPERS)
+    return page
+
+
+def player_stats(page) -> dict:
+    return page.evaluate("({...window.moattnPlayer, first_draw: {...window.moattnPlayer.first_draw}})")
+
+
+def generate(page, prompt: str, *, timeout_ms: float = 120000) -> dict:
+    """Type a prompt, press Generate, wait for the progress to finish and the first frame of the new motion.
+
+    Returns timings: ``click_to_first_frame_ms`` (page clock) and the player stats.
+    """
+    before = player_stats(page)["motion_key"]
+    box = page.locator(".prompt-input input")
+    box.fill(prompt)
+    page.locator(".generate-button button").click()
+    page.wait_for_function(
+        f"window.moattnPlayer.motion_key !== {before} && (window.moattnPlayer.motion_key in window.moattnPlayer.first_draw)",
+        timeout=timeout_ms)
+    stats = player_stats(page)
+    first = stats["first_draw"][str(stats["motion_key"])]
+    click = page.evaluate("window.moattnLastClick")
+    return {"click_to_first_frame_ms": first - click, "stats": stats}
+
+
+def wait_all_frames(page, timeout_ms: float = 120000) -> None:
+    page.wait_for_function("window.moattnPlayer.n_frames > 0 && window.moattnPlayer.loaded >= window.moattnPlayer.n_frames",
+                           timeout=timeout_ms)
+
+
+def measure_playback(page, seconds: float = 3.0) -> dict:
+    """Press Play, count distinct frames drawn over ``seconds``, press Pause."""
+    page.locator(".skeleton-view .moattn-play").click()
+    page.wait_for_function("window.moattnPlayer.playing", timeout=5000)
+    page.wait_for_timeout(300)
+    a = page.evaluate("[window.moattnPlayer.distinct, performance.now()]")
+    page.wait_for_timeout(seconds * 1000)
+    b = page.evaluate("[window.moattnPlayer.distinct, performance.now()]")
+    page.locator(".skeleton-view .moattn-play").click()
+    fps = (b[0] - a[0]) / ((b[1] - a[1]) / 1000.0)
+    return {"playback_fps": fps, "frames_drawn": b[0] - a[0], "seconds": (b[1] - a[1]) / 1000.0}
+
+
+def switch_timings(page, changes: list[tuple[str, str]], *, timeout_ms: float = 5000) -> list[float]:
+    """For each (select host class, option label): ms from the change until the heatmap canvas is redrawn."""
+    out = []
+    for host, label in changes:
+        dt = page.evaluate(f"window.moattnTest.timedSelect({host!r}, {label!r}, '.self-heatmap', {timeout_ms})")
+        out.append(float(dt))
+        page.wait_for_timeout(150)
+    return out

@@ -1,0 +1,127 @@
+"""Text -> motion for the studio: checked settings, a cancellable step loop, recorded attention.
+
+Nothing here touches Panel; the session state runs :func:`run_generation` on a worker thread and
+posts its progress to the page.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.attention_record import AttentionRecord, plan_steps
+from app.model_cache import SAMPLING_SLOT
+from engine.checkpoint import LoadedModel
+from engine.generate import Request, SampleConfig, finish, frames_for, sample_states
+from engine.text import TokenizedPrompt
+
+
+@dataclass(frozen=True)
+class GenerationSettings:
+    prompt: str
+    seconds: float = 4.0
+    seed: int = 0
+    steps: int = 50
+    guidance: float = 2.5
+    record_steps: int = 10
+
+
+@dataclass
+class Checked:
+    """Settings that passed every check, ready to sample."""
+
+    settings: GenerationSettings
+    tokens: TokenizedPrompt
+    frames: int
+    config: SampleConfig
+
+
+@dataclass
+class GenerationResult:
+    settings: GenerationSettings
+    words: tuple[str, ...]
+    joints: np.ndarray  # (T, 22, 3)
+    features: np.ndarray  # (T, 263) de-normalised
+    attention: AttentionRecord | None
+    seconds_taken: float
+
+
+class Cancelled(Exception):
+    """The user pressed Cancel."""
+
+
+def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:
+    """Validate everything before any work starts; raises ValueError (PromptError) with a user-facing message."""
+    tokens = loaded.tokenizer.encode(settings.prompt)
+    try:
+        seconds = float(settings.seconds)
+    except (TypeError, ValueError):
+        raise ValueError("the duration must be a number of seconds") from None
+    frames = frames_for(seconds)
+    if frames > loaded.model.config.max_frames:
+        raise ValueError(f"this model handles at most {loaded.model.config.max_frames} frames "
+                         f"({loaded.model.config.max_frames / 20:.1f} s)")
+    if int(settings.seed) < 0:
+        raise ValueError("the seed must be >= 0")
+    config = SampleConfig(steps=int(settings.steps), guidance=float(settings.guidance), seed=int(settings.seed))
+    if settings.record_steps < 0:
+        raise ValueError("record_steps must be >= 0")
+    return Checked(settings=settings, tokens=tokens, frames=frames, config=config)
+
+
+def run_generation(
+    loaded: LoadedModel,
+    checked: Checked,
+    *,
+    on_step: Callable[[int, int], None] | None = None,
+    cancel: threading.Event | None = None,
+    on_wait: Callable[[], None] | None = None,
+) -> GenerationResult:
+    """Sample one motion, recording attention; ``on_step(done, total)`` after every step.
+
+    Raises :class:`Cancelled` when ``cancel`` is set (checked between steps). Waits for the
+    process-wide sampling slot first (``on_wait`` is called if it has to).
+    """
+    from engine.attention import AttentionStore, StoreConfig
+
+    cancel = cancel or threading.Event()
+    if not SAMPLING_SLOT.acquire(blocking=False):
+        if on_wait is not None:
+            on_wait()
+        while not SAMPLING_SLOT.acquire(timeout=0.2):
+            if cancel.is_set():
+                raise Cancelled()
+    try:
+        start = time.perf_counter()
+        settings, config = checked.settings, checked.config
+        request = Request(prompts=[settings.prompt], frames=[checked.frames], roles=["out"])
+        store = None
+        if settings.record_steps > 0:
+            store = AttentionStore(StoreConfig(
+                kinds=("self", "cross"), steps=frozenset(plan_steps(config.steps, settings.record_steps)),
+                conditional_only=True, budget_bytes=512 * 1024 * 1024))
+        states, cond, tokens, noise = sample_states(loaded, request, config, controller=store)
+        last = None
+        timesteps: dict[int, int] = {}
+        for last in states:
+            timesteps[last.step] = int(last.t)
+            if cancel.is_set():
+                raise Cancelled()
+            if on_step is not None:
+                on_step(last.step + 1, last.num_steps)
+        generation = finish(loaded, last.x_prev, request, tokens, cond.roles, noise)
+        joints = np.asarray(generation.joints[0], dtype=np.float32)
+        if not np.isfinite(joints).all():
+            raise ValueError("the model produced non-finite joints")
+        record = None
+        if store is not None:
+            record = AttentionRecord.from_store(store, words=tokens[0].words, num_steps=config.steps,
+                                                timesteps=timesteps)
+        features = np.asarray(generation.features[0, : checked.frames], dtype=np.float32)
+        return GenerationResult(settings=settings, words=tokens[0].words, joints=joints, features=features,
+                                attention=record, seconds_taken=time.perf_counter() - start)
+    finally:
+        SAMPLING_SLOT.release()

@@ -1,0 +1,24 @@
+"""Helpers for the app's tests: a tiny model trained on the procedural corpus in about a minute."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+TINY_TRAIN_ARGS = ["--steps", "40", "--width", "64", "--layers", "2", "--heads", "2", "--text-layers", "1",
+                   "--batch-size", "8", "--stats-samples", "50", "--snapshot-every", "0", "--threads", "1",
+                   "--no-progress"]
+
+
+def tiny_model(folder: Path) -> Path:
+    """Train (once) a 2-layer, 2-head model into ``folder``; reuse it if it is already there."""
+    folder = Path(folder)
+    if (folder / "weights.pt").exists() and (folder / "config.json").exists():
+        return folder
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    cmd = [sys.executable, "-m", "engine.cli", "train", "--out", str(folder), *TINY_TRAIN_ARGS]
+    done = subprocess.run(cmd, capture_output=True, text=True, cwd=Path(__file__).resolve().parents[1], timeout=900)
+    if done.returncode != 0 or not (folder / "weights.pt").exists():
+        raise RuntimeError(f"training the tiny test model failed ({done.returncode}):\n{done.stdout[-2000:]}\n"
+                           f"{done.stderr[-4000:]}")
+    return folder

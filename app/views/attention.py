@@ -1,0 +1,240 @@
+"""Attention explorer: cross-attention curves per word and the self-attention heatmap, linked to the viewer.
+
+Both figures are built once per session and updated in place (new data on the same
+``ColumnDataSource``), so switching layer, head or step costs a slice of the recorded arrays and
+one small data message. Clicking either figure picks a frame (the viewer jumps to that pose and the
+heatmap row is outlined); clicking a word (button or curve) highlights it.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import panel as pn
+import param
+from bokeh.events import Tap
+from bokeh.models import BoxAnnotation, ColorBar, ColumnDataSource, HoverTool, LinearColorMapper, Range1d, Span
+from bokeh.palettes import Category10_10, Viridis256
+from bokeh.plotting import figure
+
+from app.state import StudioState
+
+MEAN = -1
+WIDTH = 560
+
+
+def _label_options(n: int, what: str, mean_label: str) -> dict[str, int]:
+    return {mean_label: MEAN, **{f"{what} {i}": i for i in range(n)}}
+
+
+class AttentionExplorer(pn.viewable.Viewer):
+    state = param.ClassSelector(class_=StudioState)
+
+    def __init__(self, **params):
+        super().__init__(**params)
+        s = self.state
+        self.timings: list[float] = []  # seconds per map update (layer/head/step switch)
+        self._syncing = False
+        self.info = pn.pane.Markdown("Generate a motion to see its attention.", css_classes=["attention-info"],
+                                     margin=(0, 10))
+        self.words = pn.widgets.RadioButtonGroup(label="Word", options={}, color="primary", variant="outline",
+                                                 css_classes=["word-buttons"], margin=(4, 10))
+        self.layer = pn.widgets.Select(label="Layer", options={"mean of layers": MEAN}, width=130,
+                                       css_classes=["layer-select"])
+        self.head = pn.widgets.Select(label="Head", options={"mean of heads": MEAN}, width=130,
+                                      css_classes=["head-select"])
+        self.step = pn.widgets.Select(label="Step", options={"mean of steps": MEAN}, width=170,
+                                      css_classes=["step-select"])
+        for widget, name in ((self.layer, "layer"), (self.head, "head"), (self.step, "att_step")):
+            widget.param.watch(lambda e, name=name: self._on_select(name, e.new), "value")
+        self.words.param.watch(self._on_word_button, "value")
+
+        self._build_curves()
+        self._build_heatmap()
+        self.curves_pane = pn.pane.Bokeh(self.curves, margin=(0, 10))
+        self.heatmap_pane = pn.pane.Bokeh(self.heatmap, margin=(0, 10))
+        self.row_pane = pn.pane.Bokeh(self.row_fig, margin=(0, 10))
+
+        s.param.watch(self._on_current, "current")
+        s.param.watch(self._on_map_selection, ["layer", "head", "att_step"])
+        s.param.watch(self._on_word, "word")
+        s.param.watch(self._on_frame, ["frame", "playing"])
+        self._on_current()
+
+    # ------------------------------------------------------------------ figures
+    def _build_curves(self) -> None:
+        self.curve_src = ColumnDataSource(dict(xs=[], ys=[], color=[], width=[], alpha=[], word=[]))
+        fig = figure(height=230, width=WIDTH, tools="tap,xwheel_zoom,xpan,reset", toolbar_location="right",
+                     x_axis_label="frame", y_axis_label="attention on word", title="Cross-attention per word",
+                     css_classes=["cross-curves"])
+        lines = fig.multi_line("xs", "ys", source=self.curve_src, line_color="color", line_width="width",
+                               line_alpha="alpha")
+        lines.selection_glyph = None
+        lines.nonselection_glyph = None
+        fig.add_tools(HoverTool(renderers=[lines], tooltips=[("word", "@word")], line_policy="nearest"))
+        self.curve_cursor = Span(location=0, dimension="height", line_color="#d62728", line_width=2,
+                                 line_dash="dashed")
+        fig.add_layout(self.curve_cursor)
+        self.curve_src.selected.on_change("indices", self._on_curve_selected)
+        fig.on_event(Tap, self._on_curve_tap)
+        fig.x_range = Range1d(0, 1)
+        self.curves = fig
+
+    def _build_heatmap(self) -> None:
+        self.heat_src = ColumnDataSource(dict(image=[np.zeros((1, 1), np.float32)], dw=[1], dh=[1]))
+        self.mapper = LinearColorMapper(palette=Viridis256, low=0.0, high=1.0)
+        fig = figure(height=380, width=WIDTH - 60, tools="tap,wheel_zoom,pan,reset", toolbar_location="right",
+                     x_axis_label="key frame", y_axis_label="query frame (row)", title="Self-attention",
+                     x_range=Range1d(0, 1), y_range=Range1d(1, 0), match_aspect=False, css_classes=["self-heatmap"])
+        img = fig.image(image="image", x=0, y=0, dw="dw", dh="dh", source=self.heat_src, color_mapper=self.mapper)
+        fig.add_tools(HoverTool(renderers=[img], tooltips=[("query frame", "$y{0}"), ("key frame", "$x{0}"),
+                                                           ("attention", "@image{0.0000}")]))
+        fig.add_layout(ColorBar(color_mapper=self.mapper, width=10), "right")
+        self.row_box = BoxAnnotation(bottom=0, top=1, fill_color="#ff2d2d", fill_alpha=0.25, line_color="#ff2d2d",
+                                     line_width=2, line_alpha=1.0)
+        fig.add_layout(self.row_box)
+        fig.on_event(Tap, self._on_heat_tap)
+        self.heatmap = fig
+
+        self.row_src = ColumnDataSource(dict(x=[], y=[]))
+        row = figure(height=130, width=WIDTH - 60, tools="", toolbar_location=None, x_range=fig.x_range,
+                     x_axis_label="key frame", title="Row of the picked frame", css_classes=["row-profile"])
+        row.line("x", "y", source=self.row_src, line_width=2, color="#d62728")
+        row.yaxis.ticker.desired_num_ticks = 3
+        self.row_fig = row
+
+    # ------------------------------------------------------------------ state -> views
+    def _on_current(self, *_):
+        record = self.state.attention
+        item = self.state.item
+        self._syncing = True
+        try:
+            if record is None:
+                self.words.options = {}
+                self.info.object = ("This motion has no recorded attention (imported, or recording was off)."
+                                    if item is not None else "Generate a motion to see its attention.")
+                self.curve_src.data = dict(xs=[], ys=[], color=[], width=[], alpha=[], word=[])
+                self.heat_src.data = dict(image=[np.zeros((1, 1), np.float32)], dw=[1], dh=[1])
+                self.row_src.data = dict(x=[], y=[])
+                return
+            self.words.options = {f"{w}" if record.words.count(w) == 1 else f"{w} ({i})": i
+                                  for i, w in enumerate(record.words)}
+            self.layer.options = _label_options(record.n_layers, "layer", "mean of layers")
+            self.head.options = _label_options(record.n_heads, "head", "mean of heads")
+            steps = {f"step {s + 1}/{record.num_steps}" + (f" (t={t})" if t >= 0 else ""): s
+                     for s, t in zip(record.steps, record.timesteps)}
+            self.step.options = {**steps, "mean of steps": MEAN}
+            n = record.n_frames
+            self.curves.x_range.start, self.curves.x_range.end = 0, n - 1
+            self.heatmap.x_range.start, self.heatmap.x_range.end = 0, n
+            self.heatmap.y_range.start, self.heatmap.y_range.end = n, 0
+            self._sync_widgets()
+            self.info.object = (f"**{self.state.item.prompt}** · {record.n_frames} frames · "
+                                f"{record.n_layers} layers × {record.n_heads} heads · {len(record.steps)} recorded "
+                                f"steps of {record.num_steps} · {record.nbytes / 1e6:.1f} MB")
+        finally:
+            self._syncing = False
+        self._update_maps()
+        self._on_word()
+        self._on_frame()
+
+    def _sync_widgets(self):
+        s = self.state
+        was, self._syncing = self._syncing, True
+        try:
+            self.layer.value = MEAN if s.layer is None else s.layer
+            self.head.value = MEAN if s.head is None else s.head
+            self.step.value = MEAN if s.att_step is None else s.att_step
+            if s.word is not None and s.word in self.words.options.values():
+                self.words.value = s.word
+        finally:
+            self._syncing = was
+
+    def _on_map_selection(self, *_):
+        self._sync_widgets()
+        with pn.io.hold():
+            self._update_maps()
+            self._on_frame()
+
+    def _update_maps(self) -> None:
+        record = self.state.attention
+        if record is None:
+            return
+        t0 = time.perf_counter()
+        sel = self.state.selection()
+        heat = record.self_map(**sel)
+        cross = record.cross_map(**sel)
+        n = heat.shape[0]
+        with pn.io.hold():  # one message to the page, no relayout (titles and text stay put)
+            self.heat_src.data = dict(image=[heat], dw=[n], dh=[n])
+            self.mapper.update(low=0.0, high=float(np.quantile(heat, 0.995)) or 1.0)
+            self._cross = cross
+            self._write_curves()
+        self.timings.append(time.perf_counter() - t0)
+        del self.timings[:-50]
+
+    def _write_curves(self) -> None:
+        record = self.state.attention
+        cross = getattr(self, "_cross", None)
+        if record is None or cross is None:
+            return
+        n, w = cross.shape
+        chosen = self.state.word
+        x = np.arange(n)
+        self.curve_src.data = dict(
+            xs=[x] * w,
+            ys=[cross[:, i] for i in range(w)],
+            color=[Category10_10[i % 10] for i in range(w)],
+            width=[4.5 if i == chosen else 1.8 for i in range(w)],
+            alpha=[1.0 if chosen is None or i == chosen else 0.35 for i in range(w)],
+            word=list(record.words),
+        )
+
+    def _on_word(self, *_):
+        self._sync_widgets()
+        self._write_curves()
+
+    def _on_frame(self, *_):
+        record = self.state.attention
+        frame = self.state.frame
+        self.curve_cursor.location = frame
+        if record is None or self.state.playing:
+            return  # while playing only the cursor moves; the row follows when playback stops
+        row = min(frame, record.n_frames - 1)
+        self.row_box.bottom, self.row_box.top = row, row + 1
+        heat = self.heat_src.data["image"][0]
+        if heat.shape[0] == record.n_frames:
+            self.row_src.data = dict(x=np.arange(heat.shape[1]) + 0.5, y=heat[row])
+            self.row_fig.title.text = f"Row of frame {row}: where it attends"
+
+    # ------------------------------------------------------------------ views -> state
+    def _on_select(self, name: str, value) -> None:
+        if self._syncing or value is None:
+            return
+        setattr(self.state, name, None if value == MEAN else int(value))
+
+    def _on_word_button(self, event):
+        if not self._syncing and event.new is not None:
+            self.state.word = int(event.new)
+
+    def _on_curve_selected(self, attr, old, new):
+        if new:
+            self.state.word = int(new[0])
+            self.curve_src.selected.indices = []
+
+    def _on_curve_tap(self, event):
+        if event.x is not None:
+            self.state.pick_frame(int(round(event.x)))
+
+    def _on_heat_tap(self, event):
+        if event.y is not None:
+            self.state.pick_frame(int(np.floor(event.y)))
+
+    def pick_cell(self, query_frame: int, key_frame: int = 0) -> None:
+        """What a click on heatmap cell (row ``query_frame``) does (used by tests)."""
+        self._on_heat_tap(Tap(self.heatmap, x=key_frame + 0.5, y=query_frame + 0.5))
+
+    def __panel__(self):
+        selects = pn.Row(self.layer, self.head, self.step)
+        return pn.Column(self.info, self.words, self.curves_pane, selects, self.heatmap_pane, self.row_pane,
+                         css_classes=["attention-explorer"])

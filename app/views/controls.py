@@ -1,0 +1,154 @@
+"""Sidebar: prompt (unknown words flagged as you type, with suggestions), settings, Generate, progress, Cancel."""
+from __future__ import annotations
+
+import html
+
+import panel as pn
+import param
+
+from app.attention_record import estimate_bytes
+from app.state import StudioState
+
+
+class GenerateControls(pn.viewable.Viewer):
+    state = param.ClassSelector(class_=StudioState)
+
+    def __init__(self, **params):
+        super().__init__(**params)
+        s = self.state
+        self.prompt = pn.widgets.TextInput(label="Prompt", value=s.prompt, placeholder="a person jumps twice",
+                                           css_classes=["prompt-input"], sizing_mode="stretch_width")
+        self.prompt.param.watch(self._on_typed, "value_input")
+        self.prompt.param.watch(self._on_typed, "value")
+        self.prompt.param.watch(lambda _: self.state.generate(), "enter_pressed")
+        self.words = pn.pane.HTML("", css_classes=["prompt-words"], sizing_mode="stretch_width", margin=(0, 10),
+                                 stylesheets=[_CSS])
+        self.suggestion_row = pn.FlexBox(css_classes=["suggestions"], sizing_mode="stretch_width")
+        self.seconds = pn.widgets.FloatInput(label="Seconds", value=s.seconds, step=0.5, width=90,
+                                             css_classes=["seconds-input"])
+        self.seed = pn.widgets.IntInput(label="Seed", value=s.seed, start=0, width=90, css_classes=["seed-input"])
+        self.steps = pn.widgets.IntInput(label="Steps", value=s.steps, start=1, end=1000, width=90,
+                                         css_classes=["steps-input"])
+        self.guidance = pn.widgets.FloatInput(label="Guidance", value=s.guidance, start=0.0, end=20.0, step=0.5,
+                                              width=90, css_classes=["guidance-input"])
+        self.record = pn.widgets.IntInput(label="Recorded steps", value=s.record_steps, start=0, end=1000, width=120,
+                                          css_classes=["record-input"])
+        self.memory = pn.pane.Markdown("", css_classes=["record-memory"], margin=(0, 10))
+        for widget, name in ((self.seconds, "seconds"), (self.seed, "seed"), (self.steps, "steps"),
+                             (self.guidance, "guidance"), (self.record, "record_steps")):
+            widget.param.watch(lambda e, name=name: self._set(name, e.new), "value")
+        self.generate = pn.widgets.Button(label="Generate", color="primary", sizing_mode="stretch_width",
+                                          css_classes=["generate-button"])
+        self.cancel = pn.widgets.Button(label="Cancel", color="warning", disabled=True, width=90,
+                                        css_classes=["cancel-button"])
+        self.generate.on_click(lambda _: self.state.generate())
+        self.cancel.on_click(lambda _: self.state.cancel())
+        self.progress = pn.indicators.Progress(value=0, max=1, sizing_mode="stretch_width", bar_color="primary",
+                                               css_classes=["generation-progress"], height=14)
+        self.status = pn.pane.Markdown("", css_classes=["generation-status"], margin=(0, 10))
+        self.model_info = pn.pane.Markdown("", css_classes=["model-info"], margin=(0, 10),
+                                           styles={"font-size": "12px", "color": "#555"})
+        self.vocab = pn.pane.Markdown("", styles={"font-size": "12px"})
+
+        s.param.watch(self._on_analysis, ["prompt_words", "unknown_words", "suggestions"])
+        s.param.watch(self._on_prompt, "prompt")
+        s.param.watch(self._on_progress, ["running", "progress", "progress_total", "status"])
+        s.param.watch(self._on_memory, ["steps", "record_steps", "seconds"])
+        self._on_analysis()
+        self._on_progress()
+        self._on_memory()
+        self._describe_model()
+
+    def _set(self, name: str, value) -> None:
+        if value is None:
+            return
+        try:
+            setattr(self.state, name, value)
+        except ValueError as exc:
+            self.state.error(f"{name}: {exc}")
+
+    def _on_typed(self, event):
+        if event.new is not None and event.new != self.state.prompt:
+            self.state.prompt = event.new
+
+    def _on_prompt(self, event):
+        if self.prompt.value_input != event.new:
+            self.prompt.value = event.new
+
+    def _on_analysis(self, *_):
+        s = self.state
+        unknown = set(s.unknown_words)
+        if not s.prompt_words:
+            self.words.object = '<span class="prompt-empty">type a prompt</span>'
+        else:
+            parts = [f'<span class="word-unknown" title="not in the vocabulary">{html.escape(w)}</span>'
+                     if w in unknown else f'<span class="word-known">{html.escape(w)}</span>' for w in s.prompt_words]
+            note = ""
+            if unknown:
+                note = (f'<div class="unknown-note">unknown: {", ".join(html.escape(w) for w in s.unknown_words)}'
+                        "</div>")
+            self.words.object = f'<div class="prompt-chips">{" ".join(parts)}</div>{note}'
+        buttons = []
+        for word in s.unknown_words:
+            for suggestion in s.suggestions.get(word, [])[:3]:
+                b = pn.widgets.Button(label=f"{word} → {suggestion}", color="light", height=30,
+                                      css_classes=["suggestion"], margin=(2, 4))
+                b.on_click(lambda _, w=word, sug=suggestion: self.state.replace_word(w, sug))
+                buttons.append(b)
+        self.suggestion_row.objects = buttons
+        self.generate.disabled = bool(unknown) or s.running
+
+    def _on_progress(self, *_):
+        s = self.state
+        self.progress.max = max(1, s.progress_total)
+        self.progress.value = min(s.progress, self.progress.max)
+        self.generate.disabled = s.running or bool(s.unknown_words)
+        self.generate.label = "Generating…" if s.running else "Generate"
+        self.cancel.disabled = not s.running
+        self.status.object = html.escape(s.status)
+
+    def _on_memory(self, *_):
+        s = self.state
+        try:
+            config = s.model.config["model"]
+            layers, heads = config["layers"], config["heads"]
+        except Exception:
+            layers, heads = 6, 4
+        frames = int(round(min(max(s.seconds or 0, 1.0), 9.8) * 20))
+        words = max(1, len(s.prompt_words))
+        size = estimate_bytes(num_steps=max(1, s.steps), record_steps=s.record_steps, layers=layers, heads=heads,
+                              frames=frames, words=words) if s.record_steps else 0
+        self.memory.object = (f"attention kept: {size / 1e6:.1f} MB (all layers and heads, "
+                              f"{min(s.record_steps, s.steps)} of {s.steps} steps)")
+
+    def _describe_model(self):
+        s = self.state
+        try:
+            loaded = s.model
+        except Exception as exc:
+            self.model_info.object = f"**No model**: {html.escape(str(exc))}"
+            self.generate.disabled = True
+            return
+        m = loaded.config["model"]
+        self.model_info.object = (f"model `{loaded.folder.name}`: {m['layers']} layers × {m['heads']} heads, "
+                                  f"width {m['width']}, {len(loaded.tokenizer) - 1} words")
+        self.vocab.object = ", ".join(loaded.tokenizer.words[1:])
+
+    def __panel__(self):
+        settings = pn.GridBox(self.seconds, self.seed, self.steps, self.guidance, ncols=2)
+        advanced = pn.Card(self.record, self.memory, title="Attention recording", collapsed=True,
+                           sizing_mode="stretch_width")
+        vocab = pn.Card(self.vocab, title="Vocabulary", collapsed=True, sizing_mode="stretch_width")
+        return pn.Column(
+            self.prompt, self.words, self.suggestion_row, settings, advanced,
+            pn.Row(self.generate, self.cancel, sizing_mode="stretch_width"),
+            self.progress, self.status, self.model_info, vocab,
+            sizing_mode="stretch_width", css_classes=["generate-controls"],
+        )
+
+
+_CSS = """
+.word-unknown { background: #ffd6d6; color: #a00; border-bottom: 2px wavy #d00; padding: 0 3px; border-radius: 3px; }
+.word-known { background: #e7f0ff; padding: 0 3px; border-radius: 3px; }
+.unknown-note { color: #a00; font-size: 12px; margin-top: 2px; }
+"""

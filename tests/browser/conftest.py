@@ -1,0 +1,53 @@
+"""Browser-test fixtures: a tiny trained model, a real `moattn serve` on a free port, Debian's Chromium."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from app import browser as br
+from app.testing import tiny_model
+
+
+def pytest_collection_modifyitems(items):
+    if not br.chromium_available():
+        skip = pytest.mark.skip(reason=f"{br.CHROMIUM} not installed (make test installs Debian's chromium)")
+        for item in items:
+            if "tests/browser" in str(item.fspath):
+                item.add_marker(skip)
+
+
+@pytest.fixture(scope="session")
+def tiny_model_dir(tmp_path_factory):
+    return tiny_model(tmp_path_factory.getbasetemp() / "tiny-model")
+
+
+@pytest.fixture(scope="session")
+def screens(tmp_path_factory) -> Path:
+    """Where screenshots go (MOATTN_SCREENSHOTS to keep them somewhere known); look at them."""
+    folder = Path(os.environ.get("MOATTN_SCREENSHOTS") or tmp_path_factory.mktemp("screens"))
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+@pytest.fixture(scope="session")
+def server_url(tiny_model_dir, tmp_path_factory):
+    log = tmp_path_factory.getbasetemp() / "serve.log"
+    with br.studio_server(tiny_model_dir, log_path=log) as url:
+        yield url
+
+
+@pytest.fixture(scope="session")
+def playwright_instance():
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as pw:
+        yield pw
+
+
+@pytest.fixture(scope="session")
+def browser(playwright_instance):
+    b = br.launch(playwright_instance)
+    yield b
+    b.close()
