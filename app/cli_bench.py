@@ -27,6 +27,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        description="Benchmarks. --app measures the studio in Debian's Chromium against a real "
                                    "`moattn serve`: click -> first frame, playback fps, layer-switch time.")
     p.add_argument("--app", action="store_true", help="benchmark the studio in the browser")
+    p.add_argument("--edits", action="store_true",
+                   help="score the MotionCLR edits against corpus ground truth (engine.evaluation.bench_edits)")
+    p.add_argument("--quick", action="store_true", help="with --edits: fewer samples and 20 steps")
+    p.add_argument("--evaluator", type=Path, default=None, help="with --edits: evaluator folder (default assets/evaluator)")
     p.add_argument("--model", type=Path, default=MODEL_DIR, help=f"model folder (default {MODEL_DIR})")
     p.add_argument("--prompt", default="a person jumps twice")
     p.add_argument("--seconds", type=float, default=3.0, help="playback measuring window")
@@ -37,9 +41,39 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=run)
 
 
+def run_edits(args: argparse.Namespace) -> int:
+    import sys
+
+    from engine.checkpoint import load_model
+    from engine.evaluation.bench_edits import EditBenchConfig, bench_edits
+    from engine.evaluation.evaluator import load_evaluator
+    from engine.paths import EVALUATOR_DIR
+
+    config = EditBenchConfig.quick() if args.quick else EditBenchConfig()
+    result = bench_edits(load_model(args.model), load_evaluator(args.evaluator or EVALUATOR_DIR), config,
+                         log=lambda line: print(line, file=sys.stderr, flush=True))
+    if args.json:
+        print(json.dumps(result, indent=2, default=float))
+    else:
+        c = result["counting"]
+        print(f"counting exact match: attention {c['attention']:.2f}  root-height baseline {c['baseline']:.2f}  "
+              f"({c['samples']} motions)")
+        print(f"emphasis Spearman (weight vs amplitude): {result['emphasis_spearman']:.2f}")
+        r = result["replacement"]
+        print(f"replacement timing IoU: {r['iou']:.2f} (same noise, no replacement: {r['iou_without_replacement']:.2f})")
+        print(f"shift order accuracy: {result['shift_order_acc']:.2f}")
+        e = result["example_based"]
+        print(f"example-based: FID {e['fid']:.3f} diversity {e['diversity']:.3f} | perturbed noise: FID "
+              f"{e['perturbed_noise_fid']:.3f} diversity {e['perturbed_noise_diversity']:.3f}")
+        print("FID per edit: " + ", ".join(f"{k} {v:.3f}" for k, v in result["fid"].items() if v is not None))
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.edits:
+        return run_edits(args)
     if not args.app:
-        raise ValueError("choose a benchmark: --app (more modes will join `moattn bench`)")
+        raise ValueError("choose a benchmark: --app (the studio in Chromium) or --edits (MotionCLR edits)")
     modes = ["swiftshader", "software"] if args.compositing == "both" else [args.compositing]
     result = bench_app(args.model, prompt=args.prompt, play_seconds=args.seconds, log_path=args.log,
                        modes=modes)

@@ -1,0 +1,242 @@
+"""`moattn bench --edits`: MotionCLR edits scored against corpus ground truth, baselines in the same run.
+
+Figures (JSON keys):
+- counting.attention / counting.baseline: exact-match rate of repetition counts on held-out corpus
+  motions with known counts (attention: the motion is DDIM-inverted and its self-attention recorded
+  while it is rebuilt; baseline: peaks of the smoothed root height);
+- emphasis_spearman: rank correlation between the emphasis weight on the verb and the motion's
+  amplitude (jump height for jumps, the moving limb's reach otherwise), averaged over prompts and seeds;
+- replacement_iou: timing IoU of the first segment between reference and edited motion, with in-place
+  replacement, beside the same edited prompt sampled from the same noise without it;
+- shift_order_acc: share of shifted motions whose activity matches the rolled reference better than
+  the unshifted one;
+- example_based: FID (vs held-out corpus motions) and diversity of example-based outputs beside
+  perturbing the example's noise directly;
+- fid: FID of every edit's outputs vs held-out corpus motions (few samples: compare within the run).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from scipy.ndimage import gaussian_filter1d
+from scipy.stats import spearmanr
+
+from engine.checkpoint import LoadedModel
+from engine.evaluation.evaluator import LoadedEvaluator
+from engine.evaluation.metrics import diversity, fid
+from engine.generate import Request, SampleConfig, generate
+from engine.methods import edits
+from engine.methods.motionclr import ExampleConfig, ReplaceConfig, ReweightConfig, ShiftConfig
+from engine.representation import joints_to_features
+from engine.skeleton import JOINT_INDEX
+
+REPEATED_ACTIONS = ("jump", "hop", "squat", "clap", "kick", "punch", "wave", "bow", "jumping_jacks")
+VERBS = ("jumps", "kicks", "claps", "waves", "punches", "squats", "bows")
+
+
+@dataclass(frozen=True)
+class EditBenchConfig:
+    counting_samples: int = 40
+    emphasis_prompts: tuple[str, ...] = ("a person jumps", "a person jumps twice", "a person kicks with the right leg",
+                                         "a person waves the right hand")
+    emphasis_weights: tuple[float, ...] = (-0.4, -0.2, 0.0, 0.2, 0.4)
+    emphasis_seeds: int = 3
+    pairs: int = 7
+    shift_prompts: int = 7
+    examples: int = 4
+    outputs_per_example: int = 4
+    steps: int = 50
+    guidance: float = 2.5
+    seconds: float = 5.0
+    reference_samples: int = 128
+
+    @classmethod
+    def quick(cls) -> "EditBenchConfig":
+        return cls(counting_samples=16, emphasis_prompts=("a person jumps", "a person kicks with the right leg"),
+                   emphasis_seeds=2, pairs=4, shift_prompts=4, examples=2, outputs_per_example=4, steps=20,
+                   reference_samples=64)
+
+
+# ----------------------------------------------------------------------------- measurements on joints
+def amplitude(joints: np.ndarray, verb: str) -> float:
+    """How big the action is: jump height of the pelvis, else the reach of the moving limb."""
+    if verb.startswith("jump") or verb.startswith("hop"):
+        pelvis = joints[:, 0, 1]
+        return float(pelvis.max() - np.median(pelvis[: max(5, len(pelvis) // 8)]))
+    limbs = {"kick": ("right_foot", "left_foot"), "wave": ("right_wrist", "left_wrist"),
+             "punch": ("right_wrist", "left_wrist"), "clap": ("right_wrist", "left_wrist")}
+    names = next((v for k, v in limbs.items() if verb.startswith(k)), ("right_wrist", "left_wrist"))
+    heights = joints[:, [JOINT_INDEX[n] for n in names], 1]
+    return float((heights.max(0) - heights.min(0)).max())
+
+
+def root_speed(joints: np.ndarray) -> np.ndarray:
+    """Smoothed horizontal root speed per frame (m/s)."""
+    v = np.linalg.norm(np.diff(joints[:, 0, [0, 2]], axis=0), axis=-1) * 20
+    return gaussian_filter1d(np.concatenate([v[:1], v]), 2.0)
+
+
+def walking_interval(joints: np.ndarray, threshold: float = 0.45) -> np.ndarray:
+    return root_speed(joints) > threshold
+
+
+def iou(a: np.ndarray, b: np.ndarray) -> float:
+    union = (a | b).sum()
+    return float((a & b).sum() / union) if union else 1.0
+
+
+def _corr(a: np.ndarray, b: np.ndarray) -> float:
+    a, b = a - a.mean(), b - b.mean()
+    d = np.sqrt((a * a).sum() * (b * b).sum())
+    return float((a * b).sum() / d) if d > 0 else 0.0
+
+
+# ----------------------------------------------------------------------------- the parts
+def bench_counting(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> dict:
+    from engine.synth import Corpus
+
+    corpus = Corpus(split="test")
+    hits_attn, hits_base, rows, i = 0, 0, [], 0
+    while len(rows) < config.counting_samples and i < 20 * config.counting_samples:
+        s = corpus.sample(10_000 + i, with_features=False)
+        i += 1
+        segs = s.labels.segments
+        if len(segs) != 1 or segs[0].action not in REPEATED_ACTIONS or len(s.joints) > 197:
+            continue
+        action = segs[0].action
+        truth = s.labels.counts[action]
+        count = edits.count_motion(loaded, s.joints, prompt=s.captions[0], steps=min(config.steps, 20))
+        rows.append({"action": action, "truth": int(truth), "attention": count.attention.rounded,
+                     "attention_raw": round(count.attention.count, 2), "baseline": count.baseline})
+        hits_attn += count.attention.rounded == truth
+        hits_base += count.baseline == truth
+        log(f"counting {len(rows)}/{config.counting_samples}: {rows[-1]}")
+    n = max(1, len(rows))
+    return {"attention": hits_attn / n, "baseline": hits_base / n, "samples": len(rows), "rows": rows}
+
+
+def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> tuple[dict, list[np.ndarray]]:
+    frames = int(config.seconds * 20)
+    sample_base = SampleConfig(steps=config.steps, guidance=config.guidance)
+    rhos, outputs, per_prompt = [], [], {}
+    for prompt in config.emphasis_prompts:
+        verb = next(w for w in loaded.tokenizer.encode(prompt).words if w in VERBS)
+        for seed in range(config.emphasis_seeds):
+            heights = []
+            for w in config.emphasis_weights:
+                out = edits.reweight(loaded, prompt, ReweightConfig(word=verb, weight=w),
+                                     frames=frames, sample=SampleConfig(**{**sample_base.__dict__, "seed": seed}))
+                heights.append(amplitude(out.after, verb))
+                outputs.append(out.after)
+            rho = spearmanr(config.emphasis_weights, heights).statistic
+            rhos.append(0.0 if np.isnan(rho) else float(rho))
+            per_prompt.setdefault(prompt, []).append({"seed": seed, "amplitudes": [round(h, 3) for h in heights],
+                                                      "spearman": rhos[-1]})
+            log(f"emphasis {prompt!r} seed {seed}: rho {rhos[-1]:.2f} amplitudes {np.round(heights, 3).tolist()}")
+    return {"spearman": float(np.mean(rhos)), "per_prompt": per_prompt}, outputs
+
+
+def _pairs(loaded: LoadedModel, n: int) -> list[tuple[str, str]]:
+    pairs = []
+    for a, b in zip(VERBS, VERBS[1:] + VERBS[:1]):
+        ref, edit = f"a person walks forward then {a} twice", f"a person walks forward then {b} twice"
+        if not loaded.tokenizer.unknown_words(ref) and not loaded.tokenizer.unknown_words(edit):
+            pairs.append((ref, edit))
+    return pairs[:n]
+
+
+def bench_replacement(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> tuple[dict, list[np.ndarray]]:
+    frames = int(config.seconds * 20)
+    sample = SampleConfig(steps=config.steps, guidance=config.guidance)
+    with_edit, without, outputs = [], [], []
+    for k, (ref, edit) in enumerate(_pairs(loaded, config.pairs)):
+        s = SampleConfig(**{**sample.__dict__, "seed": k})
+        out = edits.replace(loaded, ref, edit, ReplaceConfig(), frames=frames, sample=s)
+        plain = generate(loaded, Request(prompts=[edit], frames=[frames], noise=out.generation.noise[1:2]), s).joints[0]
+        ref_walk = walking_interval(out.before)
+        with_edit.append(iou(ref_walk, walking_interval(out.after)))
+        without.append(iou(ref_walk, walking_interval(plain)))
+        outputs.append(out.after)
+        log(f"replace {ref!r} -> {edit!r}: IoU {with_edit[-1]:.2f} (without replacement {without[-1]:.2f})")
+    return {"iou": float(np.mean(with_edit)) if with_edit else float("nan"),
+            "iou_without_replacement": float(np.mean(without)) if without else float("nan"), "pairs": len(with_edit)}, outputs
+
+
+def bench_shift(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> tuple[dict, list[np.ndarray]]:
+    frames = int(config.seconds * 20)
+    sample = SampleConfig(steps=config.steps, guidance=config.guidance)
+    correct, outputs = [], []
+    prompts = [p for p, _ in _pairs(loaded, config.shift_prompts)]
+    cfg = ShiftConfig(fraction=0.5)
+    for k, prompt in enumerate(prompts):
+        out = edits.shift(loaded, prompt, cfg, frames=frames, sample=SampleConfig(**{**sample.__dict__, "seed": k}))
+        ref, shifted = root_speed(out.before), root_speed(out.after)
+        rolled = np.roll(ref, -int(round(cfg.fraction * len(ref))))
+        correct.append(_corr(shifted, rolled) > _corr(shifted, ref))
+        outputs.append(out.after)
+        log(f"shift {prompt!r}: corr rolled {_corr(shifted, rolled):.2f} vs original {_corr(shifted, ref):.2f}")
+    return {"accuracy": float(np.mean(correct)) if correct else float("nan"), "prompts": len(correct)}, outputs
+
+
+def bench_example(loaded: LoadedModel, evaluator: LoadedEvaluator, reference: np.ndarray, config: EditBenchConfig,
+                  *, log=print) -> dict:
+    frames = int(config.seconds * 20)
+    sample = SampleConfig(steps=config.steps, guidance=config.guidance)
+    prompts = [p for p, _ in _pairs(loaded, config.examples)] or ["a person jumps"]
+    ours, perturbed, div_ours, div_pert = [], [], [], []
+    for k, prompt in enumerate(prompts[: config.examples]):
+        s = SampleConfig(**{**sample.__dict__, "seed": k})
+        out = edits.example_based(loaded, prompt, ExampleConfig(seed=k), count=config.outputs_per_example,
+                                  frames=frames, sample=s)
+        outs = [out.joints("out", i) for i in range(config.outputs_per_example)]
+        base = out.generation.noise[0:1]
+        g = torch.Generator().manual_seed(100 + k)
+        noise = base + 0.5 * torch.randn(config.outputs_per_example, *base.shape[1:], generator=g)
+        noise = noise / noise.std(dim=(1, 2), keepdim=True)
+        pert = generate(loaded, Request(prompts=[prompt] * len(noise), frames=[frames] * len(noise), noise=noise), s).joints
+        e_ours = evaluator.motion_embeddings([joints_to_features(j) for j in outs])
+        e_pert = evaluator.motion_embeddings([joints_to_features(j) for j in pert])
+        div_ours.append(diversity(e_ours, pairs=len(e_ours)))
+        div_pert.append(diversity(e_pert, pairs=len(e_pert)))
+        ours.extend(e_ours)
+        perturbed.extend(e_pert)
+        log(f"example {prompt!r}: diversity {div_ours[-1]:.3f} vs perturbed noise {div_pert[-1]:.3f}")
+    return {"fid": fid(np.array(ours), reference), "diversity": float(np.mean(div_ours)),
+            "perturbed_noise_fid": fid(np.array(perturbed), reference),
+            "perturbed_noise_diversity": float(np.mean(div_pert)), "samples": len(ours)}
+
+
+def bench_edits(loaded: LoadedModel, evaluator: LoadedEvaluator, config: EditBenchConfig = EditBenchConfig(),
+                *, log=print) -> dict:
+    from engine.evaluation.run import load_split
+
+    t0 = time.perf_counter()
+    reference = evaluator.motion_embeddings(load_split("test", count=config.reference_samples).features)
+    counting = bench_counting(loaded, config, log=log)
+    emphasis, emph_out = bench_emphasis(loaded, config, log=log)
+    replacement, repl_out = bench_replacement(loaded, config, log=log)
+    shifting, shift_out = bench_shift(loaded, config, log=log)
+    example = bench_example(loaded, evaluator, reference, config, log=log)
+
+    def edit_fid(joints: list[np.ndarray]) -> float | None:
+        if len(joints) < 4:
+            return None
+        return fid(evaluator.motion_embeddings([joints_to_features(j) for j in joints]), reference)
+
+    return {
+        "counting": {"attention": counting["attention"], "baseline": counting["baseline"],
+                     "samples": counting["samples"], "rows": counting["rows"]},
+        "emphasis_spearman": emphasis["spearman"],
+        "emphasis": emphasis,
+        "replacement_iou": replacement["iou"],
+        "replacement": replacement,
+        "shift_order_acc": shifting["accuracy"],
+        "shift": shifting,
+        "example_based": example,
+        "fid": {"emphasis": edit_fid(emph_out), "replacement": edit_fid(repl_out), "shift": edit_fid(shift_out),
+                "example_based": example["fid"]},
+        "settings": {**config.__dict__, "seconds_taken": round(time.perf_counter() - t0, 1)},
+    }

@@ -1,0 +1,38 @@
+"""The edits benchmark: its measurements on known joints, and one tiny end-to-end run."""
+from __future__ import annotations
+
+import numpy as np
+
+from engine.evaluation.bench_edits import EditBenchConfig, amplitude, bench_edits, iou, root_speed, walking_interval
+from tests.test_eval_run import tiny_evaluator, tiny_model  # noqa: F401  (fixtures)
+
+
+def _motion(frames=100, jump=0.0, walk_until=50):
+    joints = np.zeros((frames, 22, 3))
+    joints[:, :, 1] = 1.0
+    joints[:walk_until, 0, 2] = np.arange(walk_until) * 0.06  # 1.2 m/s
+    joints[walk_until:, 0, 2] = joints[walk_until - 1, 0, 2]
+    joints[70:80, 0, 1] += jump * np.sin(np.linspace(0, np.pi, 10))
+    return joints
+
+
+def test_measurements():
+    assert abs(amplitude(_motion(jump=0.3), "jumps") - 0.3) < 0.02
+    assert amplitude(_motion(jump=0.0), "jumps") < 1e-9
+    walk = walking_interval(_motion())
+    assert walk[5:45].all() and not walk[60:].any()
+    assert iou(walk, walk) == 1.0 and iou(walk, ~walk) == 0.0
+    assert abs(root_speed(_motion())[20] - 1.2) < 0.05
+
+
+def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
+    config = EditBenchConfig(counting_samples=2, emphasis_prompts=("a person jumps",), emphasis_weights=(-0.4, 0.0, 0.4),
+                             emphasis_seeds=1, pairs=2, shift_prompts=2, examples=1, outputs_per_example=4, steps=3,
+                             seconds=3.0, reference_samples=32)
+    result = bench_edits(tiny_model, tiny_evaluator, config, log=lambda line: None)
+    assert set(result) >= {"counting", "emphasis_spearman", "replacement_iou", "shift_order_acc", "example_based", "fid"}
+    assert result["counting"]["samples"] == 2
+    assert 0.0 <= result["counting"]["attention"] <= 1.0 and 0.0 <= result["counting"]["baseline"] <= 1.0
+    assert -1.0 <= result["emphasis_spearman"] <= 1.0
+    assert 0.0 <= result["replacement_iou"] <= 1.0
+    assert result["example_based"]["samples"] == 4
