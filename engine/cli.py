@@ -23,7 +23,7 @@ SUBCOMMANDS: dict[str, str] = {
     "edit": "engine.cli_edit",
     "invert": "engine.cli_invert",
     "serve": "app.cli_serve",
-    "bench": "app.cli_bench",
+    "bench": "engine.cli_bench",
 }
 
 

@@ -1,0 +1,119 @@
+"""`moattn bench`: benchmark commands (tables or --json), never timed tests.
+
+--app        the studio in Chromium against a real server (app/bench.py)
+--edits      MotionCLR edits against corpus ground truth (engine/evaluation/bench_edits.py)
+--inversion  DDIM inversion round trip in metres on corpus motions and given files
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from engine.paths import EVALUATOR_DIR, MODEL_DIR
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("bench", help="benchmarks: --app (studio in Chromium), --edits (MotionCLR), --inversion",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    mode = p.add_mutually_exclusive_group(required=True)
+    mode.add_argument("--app", action="store_true", help="click -> first frame, playback fps, layer switch in Chromium")
+    mode.add_argument("--edits", action="store_true", help="score the MotionCLR edits against corpus ground truth")
+    mode.add_argument("--inversion", action="store_true", help="inversion round-trip error (m)")
+    p.add_argument("--model", type=Path, default=MODEL_DIR, help=f"model folder (default {MODEL_DIR})")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    app = p.add_argument_group("--app")
+    app.add_argument("--prompt", default="a person jumps twice")
+    app.add_argument("--seconds", type=float, default=3.0, help="playback measuring window")
+    app.add_argument("--log", type=Path, default=None, help="write the server's output here")
+    app.add_argument("--compositing", choices=["swiftshader", "software", "both"], default="both",
+                     help="Chromium compositing: SwiftShader GPU emulation, CPU (--disable-gpu), or both (default)")
+    edits = p.add_argument_group("--edits / --inversion")
+    edits.add_argument("--quick", action="store_true", help="fewer samples and steps")
+    edits.add_argument("--evaluator", type=Path, default=EVALUATOR_DIR)
+    edits.add_argument("--samples", type=int, default=None, help="--inversion: corpus test motions (default 16, quick 6)")
+    edits.add_argument("--steps", type=int, default=50, help="--inversion: DDIM steps")
+    edits.add_argument("files", nargs="*", type=Path, help="--inversion: real motions (.bvh/.npy) to invert as well")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.app:
+        from app.bench import run_app_bench
+
+        return run_app_bench(args)
+    if args.edits:
+        return run_edits(args)
+    return run_inversion(args)
+
+
+def _log(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+def run_edits(args: argparse.Namespace) -> int:
+    from engine.checkpoint import load_model
+    from engine.evaluation.bench_edits import EditBenchConfig, bench_edits
+    from engine.evaluation.evaluator import load_evaluator
+
+    config = EditBenchConfig.quick() if args.quick else EditBenchConfig()
+    result = bench_edits(load_model(args.model), load_evaluator(args.evaluator), config, log=_log)
+    if args.json:
+        print(json.dumps(result, indent=2, default=float))
+        return 0
+    c = result["counting"]
+    print(f"counting exact match: attention {c['attention']:.2f}  root-height baseline {c['baseline']:.2f}  "
+          f"({c['samples']} motions)")
+    print(f"emphasis Spearman (weight vs amplitude): {result['emphasis_spearman']:.2f}")
+    r = result["replacement"]
+    print(f"replacement timing IoU: {r['iou']:.2f} (same noise, no replacement: {r['iou_without_replacement']:.2f})")
+    print(f"shift order accuracy: {result['shift_order_acc']:.2f}")
+    e = result["example_based"]
+    print(f"example-based: FID {e['fid']:.3f} diversity {e['diversity']:.3f} | perturbed noise: FID "
+          f"{e['perturbed_noise_fid']:.3f} diversity {e['perturbed_noise_diversity']:.3f}")
+    print("FID per edit: " + ", ".join(f"{k} {v:.3f}" for k, v in result["fid"].items() if v is not None))
+    return 0
+
+
+def run_inversion(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from engine.checkpoint import load_model
+    from engine.io import load_motion
+    from engine.methods.inversion import InversionConfig, roundtrip_error
+    from engine.synth import Corpus
+
+    loaded = load_model(args.model)
+    count = args.samples or (6 if args.quick else 16)
+    corpus = Corpus(split="test")
+    rows = []
+    for i in range(count):
+        s = corpus.sample(20_000 + i, with_features=False)
+        for refine in (0, 2):
+            r = roundtrip_error(loaded, s.joints, InversionConfig(prompt=s.captions[0], steps=args.steps, refine=refine))
+            rows.append({"source": f"corpus test {20_000 + i}", "refine": refine, **r})
+            _log(f"{rows[-1]}")
+    for path in args.files:
+        joints = load_motion(path)[: loaded.model.config.max_frames + 1]
+        for refine in (0, 2):
+            r = roundtrip_error(loaded, joints, InversionConfig(prompt="", steps=args.steps, refine=refine))
+            rows.append({"source": str(path), "refine": refine, **r})
+            _log(f"{rows[-1]}")
+
+    def summary(refine: int, corpus_only: bool) -> dict:
+        sel = [r for r in rows if r["refine"] == refine and r["source"].startswith("corpus") == corpus_only]
+        return {"mean_m": float(np.mean([r["mean_m"] for r in sel])) if sel else None,
+                "max_m": float(np.max([r["max_m"] for r in sel])) if sel else None, "motions": len(sel)}
+
+    result = {"corpus": {"plain_ddim": summary(0, True), "fixed_point": summary(2, True)},
+              "files": [r for r in rows if not r["source"].startswith("corpus")], "steps": args.steps}
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        for name, s in result["corpus"].items():
+            print(f"corpus ({s['motions']} test motions), {name}: mean {s['mean_m'] * 100:.2f} cm, max {s['max_m'] * 100:.2f} cm")
+        for r in result["files"]:
+            kind = "fixed_point" if r["refine"] else "plain_ddim"
+            print(f"{r['source']} ({r['frames']} frames), {kind}: mean {r['mean_m'] * 100:.2f} cm, max {r['max_m'] * 100:.2f} cm")
+    return 0
