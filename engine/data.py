@@ -1,6 +1,7 @@
 """Training data: one interface over the procedural corpus and HumanML3D-layout folders, plus batching."""
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -143,7 +144,11 @@ def batches(
     index = start_index
     while True:
         items = []
-        for _ in range(batch_size):
-            items.append(source.get(index))
+        while len(items) < batch_size:
+            item = source.get(index)
             index += stride
+            if np.isfinite(item.features).all():
+                items.append(item)
+            else:  # a broken sample must never reach the model
+                warnings.warn(f"training sample {index - stride} has non-finite features; skipped", RuntimeWarning)
         yield collate(items, tokenizer=tokenizer, normalize=normalize, rng=rng, **collate_kwargs)

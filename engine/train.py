@@ -179,6 +179,9 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
     def checkpoint(step: int, index: int) -> None:
         if rank != 0:
             return
+        if not all(torch.isfinite(p).all() for p in model.parameters()):
+            print(f"step {step}: weights are not finite; checkpoint NOT written", flush=True)
+            return
         write_config(out, model_config=model_config, vocabulary=tokenizer.words[1:],
                      extra={"train": config.to_json(), "step": step})
         save_train_state(out, {"model": model.state_dict(), "ema": ema.state_dict(),
@@ -189,7 +192,7 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
     previous = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
     log_path = out / "log.jsonl"
     bar = tqdm(total=config.steps, initial=start_step, disable=not progress or rank != 0, desc="train", unit="step")
-    step, index = start_step, next_index
+    step, index, skipped = start_step, next_index, 0
     window_loss, window_t0, last = [], time.perf_counter(), {}
     try:
         model.train()
@@ -208,7 +211,15 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
             loss = mse + config.velocity_weight * vel
             optimizer.zero_grad(set_to_none=True)
             loss.backward()
-            torch.nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip)
+            grad_norm = torch.nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip)
+            if not (torch.isfinite(loss) and torch.isfinite(grad_norm)):
+                skipped += 1  # never let one bad batch poison the weights
+                optimizer.zero_grad(set_to_none=True)
+                if rank == 0:
+                    print(f"step {step}: non-finite loss or gradient; update skipped ({skipped} so far)", flush=True)
+                if skipped > 50:
+                    raise RuntimeError("more than 50 non-finite updates: stopping (check the data and learning rate)")
+                continue
             optimizer.step()
             with torch.no_grad():
                 decay = min(config.ema_decay, (1 + step) / (10 + step))
