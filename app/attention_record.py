@@ -71,9 +71,13 @@ class AttentionRecord:
 
     @classmethod
     def from_store(cls, store, *, words, num_steps: int, timesteps: dict[int, int] | None = None,
-                   slot: int = 0) -> "AttentionRecord":
-        """Copy the maps of one conditional slot out of an ``engine.attention.AttentionStore``."""
-        steps = store.steps
+                   slot: int = 0, steps=None) -> "AttentionRecord":
+        """Copy the maps of one conditional slot out of an ``engine.attention.AttentionStore``.
+
+        ``slot`` is the position among the recorded (conditional) slots; ``steps`` keeps only those
+        recorded steps (None = all of them).
+        """
+        steps = store.steps if steps is None else [s for s in store.steps if s in set(steps)]
         layers = store.layers
         if not steps or not layers:
             raise ValueError("no attention was recorded")

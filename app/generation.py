@@ -5,9 +5,10 @@ posts its progress to the page.
 """
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -53,6 +54,26 @@ class Cancelled(Exception):
     """The user pressed Cancel."""
 
 
+@contextlib.contextmanager
+def sampling_slot(cancel: threading.Event | None = None, on_wait: Callable[[], None] | None = None) -> Iterator[None]:
+    """Hold the process-wide sampling slot (one sampling run at a time; other sessions queue).
+
+    ``on_wait`` is called once if the slot is busy; raises :class:`Cancelled` if ``cancel`` is set
+    while waiting.
+    """
+    cancel = cancel or threading.Event()
+    if not SAMPLING_SLOT.acquire(blocking=False):
+        if on_wait is not None:
+            on_wait()
+        while not SAMPLING_SLOT.acquire(timeout=0.2):
+            if cancel.is_set():
+                raise Cancelled()
+    try:
+        yield
+    finally:
+        SAMPLING_SLOT.release()
+
+
 def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:
     """Validate everything before any work starts; raises ValueError (PromptError) with a user-facing message."""
     tokens = loaded.tokenizer.encode(settings.prompt)
@@ -88,13 +109,7 @@ def run_generation(
     from engine.attention import AttentionStore, StoreConfig
 
     cancel = cancel or threading.Event()
-    if not SAMPLING_SLOT.acquire(blocking=False):
-        if on_wait is not None:
-            on_wait()
-        while not SAMPLING_SLOT.acquire(timeout=0.2):
-            if cancel.is_set():
-                raise Cancelled()
-    try:
+    with sampling_slot(cancel, on_wait):
         start = time.perf_counter()
         settings, config = checked.settings, checked.config
         request = Request(prompts=[settings.prompt], frames=[checked.frames], roles=["out"])
@@ -123,5 +138,3 @@ def run_generation(
         features = np.asarray(generation.features[0, : checked.frames], dtype=np.float32)
         return GenerationResult(settings=settings, words=tokens[0].words, joints=joints, features=features,
                                 attention=record, seconds_taken=time.perf_counter() - start)
-    finally:
-        SAMPLING_SLOT.release()

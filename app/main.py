@@ -5,10 +5,12 @@ import logging
 from pathlib import Path
 
 import panel as pn
+from panel.theme.fast import Fast
 
 from app.state import StudioState
 from app.views.attention import AttentionExplorer
 from app.views.controls import GenerateControls
+from app.views.edit import EditTab
 from app.views.files import ExportPanel, ImportPanel
 from app.views.viewer import SkeletonViewer
 from engine.paths import ASSETS, MODEL_DIR
@@ -27,6 +29,7 @@ class Studio:
         self.controls = GenerateControls(state=self.state)
         self.viewer = SkeletonViewer(state=self.state)
         self.attention = AttentionExplorer(state=self.state)
+        self.edit = EditTab(state=self.state)
         self.imports = ImportPanel(state=self.state)
         self.exports = ExportPanel(state=self.state)
         path = initial if initial is not None else (EXAMPLE if EXAMPLE.exists() else None)
@@ -50,7 +53,7 @@ class Studio:
     def template(self) -> pn.template.BaseTemplate:
         main = pn.Row(
             pn.Column("### Viewer", self.viewer, sizing_mode="stretch_width", min_width=500, max_width=760),
-            pn.Column("### Attention", self.attention, width=600),
+            pn.Tabs(("Attention", self.attention), ("Edit", self.edit), width=600, css_classes=["right-tabs"]),
             sizing_mode="stretch_width",
         )
         return pn.template.FastListTemplate(
@@ -58,7 +61,14 @@ class Studio:
             sidebar=[self.controls, pn.layout.Divider(), self.imports, self.exports],
             main=[main], sidebar_width=340, theme_toggle=False, main_layout=None,
             font="system-ui, -apple-system, Segoe UI, Roboto, sans-serif", font_url="data:text/css,",  # no CDN
+            design=OfflineFast,
         )
+
+
+class OfflineFast(Fast):
+    """Panel's Fast design without its Google-fonts resource: the studio must load nothing from outside."""
+
+    _resources = {key: value for key, value in Fast._resources.items() if key != "font"}
 
 
 def create_app(*, model_dir: Path | None = MODEL_DIR, initial: Path | None = None) -> pn.template.BaseTemplate:

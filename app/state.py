@@ -17,11 +17,21 @@ import numpy as np
 import param
 
 from app.attention_record import AttentionRecord
+from app.editing import EditConfig, EditResult, count_imported, count_record, prepare, run_edit_job
 from app.generation import Cancelled, GenerationResult, GenerationSettings, check, run_generation
 from engine.text import split_words
 
 MAX_ITEMS = 8
 MAX_ITEMS_WITH_ATTENTION = 3
+
+
+@dataclass(frozen=True)
+class Job:
+    """What a worker gets: the cancel flag, a progress callback (raises Cancelled once cancelled), a queue note."""
+
+    cancel: threading.Event
+    step: Callable[[int, int], None]
+    waiting: Callable[[], None]
 
 
 @dataclass
@@ -62,6 +72,7 @@ class StudioState(param.Parameterized):
 
     # ---- generation progress
     running = param.Boolean(default=False)
+    job = param.String(default="", doc="what the worker does ('generation', 'edit', 'counting')")
     progress = param.Integer(default=0, doc="sampling steps done")
     progress_total = param.Integer(default=1)
     status = param.String(default="", doc="one line on what is happening")
@@ -85,6 +96,9 @@ class StudioState(param.Parameterized):
     word = param.Integer(default=None, allow_None=True, doc="highlighted word (token index)")
     color_by_word = param.Boolean(default=False, doc="colour the skeleton by the highlighted word's attention")
 
+    # ---- the Edit tab (MotionCLR): its settings, the last edit and the counting readout
+    edit = param.ClassSelector(class_=EditConfig, doc="the session's edit config")
+
     def __init__(self, *, model_dir: str | Path | None = None, **params):
         super().__init__(**params)
         self.model_dir = Path(model_dir) if model_dir is not None else None
@@ -94,7 +108,10 @@ class StudioState(param.Parameterized):
         self._counter = 0
         self.notices: list[tuple[str, str]] = []  # history (level, text), newest last
         self._closed = False
+        if self.edit is None:
+            self.edit = EditConfig()
         self.param.watch(self._analyse_prompt, "prompt")
+        self.param.watch(self._auto_count, "current")
         self._analyse_prompt()
 
     # ------------------------------------------------------------------ threading
@@ -188,7 +205,7 @@ class StudioState(param.Parameterized):
     def generate(self) -> bool:
         """Check the inputs and start sampling on a worker thread; False (and a notification) if refused."""
         if self.running:
-            self.error("a generation is already running: wait for it or press Cancel")
+            self.error(f"a {self.job or 'generation'} is already running: wait for it or press Cancel")
             return False
         try:
             loaded = self.model
@@ -200,38 +217,67 @@ class StudioState(param.Parameterized):
         except ValueError as exc:
             self.error(f"cannot generate: {exc}")
             return False
+        return self.start_job(
+            lambda job: run_generation(loaded, checked, on_step=job.step, cancel=job.cancel, on_wait=job.waiting),
+            on_done=lambda result: self._finish(result, "", ""), total=checked.config.steps, what="generation",
+            status=f"generating {checked.frames / 20:.1f} s: step 0 / {checked.config.steps}", verb="generating")
+
+    def start_job(self, work: Callable[["Job"], object], *, on_done: Callable[[object], None], total: int,
+                  what: str, status: str, verb: str) -> bool:
+        """Run ``work(job)`` on a worker thread with progress and cancel (generation and edits share this).
+
+        ``work`` reports with ``job.step(done, total)``, checks ``job.cancel`` (or raises
+        :class:`Cancelled`) and may call ``job.waiting()`` while it queues for the sampling slot.
+        Its result goes to ``on_done`` on the session's thread; a cancel or an error becomes a
+        notification ("<what> cancelled" / "<what> failed: ...").
+        """
+        if self.running:
+            self.error(f"a {self.job or 'job'} is already running: wait for it or press Cancel")
+            return False
         self._cancel = threading.Event()
         cancel = self._cancel
         with param.parameterized.batch_call_watchers(self):
             self.running = True
+            self.job = what
             self.progress = 0
-            self.progress_total = checked.config.steps
-            self.status = f"generating {checked.frames / 20:.1f} s: step 0 / {checked.config.steps}"
+            self.progress_total = max(1, int(total))
+            self.status = status
 
         def on_step(done: int, total: int) -> None:
+            if cancel.is_set():
+                raise Cancelled()
+
             def show():
                 if cancel is self._cancel and self.running:
                     self.progress = done
-                    self.status = f"generating: step {done} / {total}"
+                    self.status = f"{verb}: step {done} / {total}"
             self.post(show)
 
         def on_wait() -> None:
-            self.post(lambda: setattr(self, "status", "waiting for another session's generation to finish"))
+            self.post(lambda: setattr(self, "status", f"waiting for another session's {what} to finish"))
 
-        def work() -> None:
+        job = Job(cancel=cancel, step=on_step, waiting=on_wait)
+
+        def work_thread() -> None:
             try:
-                result = run_generation(loaded, checked, on_step=on_step, cancel=cancel, on_wait=on_wait)
+                result = work(job)
             except Cancelled:
-                self.post(lambda: self._finish(None, "generation cancelled", "info"))
+                self.post(lambda: self._finish(None, f"{what} cancelled", "info"))
                 return
             except Exception as exc:  # shown to the user, the server keeps running
                 traceback.print_exc()
-                message = f"generation failed: {exc}"
+                message = f"{what} failed: {exc}"
                 self.post(lambda: self._finish(None, message, "error"))
                 return
-            self.post(lambda: self._finish(result, "", ""))
+            def deliver() -> None:
+                try:
+                    on_done(result)
+                except Exception as exc:  # never leave the controls locked
+                    traceback.print_exc()
+                    self._finish(None, f"{what} failed: {exc}", "error")
+            self.post(deliver)
 
-        self._worker = threading.Thread(target=work, name="moattn-generate", daemon=True)
+        self._worker = threading.Thread(target=work_thread, name=f"moattn-{what.split()[0]}", daemon=True)
         self._worker.start()
         return True
 
@@ -247,6 +293,13 @@ class StudioState(param.Parameterized):
             worker.join(timeout)
             return not worker.is_alive()
         return True
+
+    def end_job(self, status: str) -> None:
+        """The worker's result has arrived: progress full, the controls free again."""
+        with param.parameterized.batch_call_watchers(self):
+            self.running = False
+            self.progress = self.progress_total
+            self.status = status
 
     def _finish(self, result: GenerationResult | None, message: str, level: str) -> None:
         with param.parameterized.batch_call_watchers(self):
@@ -269,6 +322,118 @@ class StudioState(param.Parameterized):
                           features=result.features, settings=s,
                           info={"seconds_taken": result.seconds_taken})
         self.add_item(item)
+
+    # ------------------------------------------------------------------ edits (MotionCLR)
+    def run_edit(self) -> bool:
+        """Check the Edit tab's settings and run the edit on the worker; False (and a notification) if refused."""
+        if self.edit.engine_kind == "count":
+            return self.count_current()
+        if self.running:
+            self.error(f"a {self.job or 'job'} is already running: wait for it or press Cancel")
+            return False
+        try:
+            loaded = self.model
+        except Exception as exc:
+            self.error(f"no model loaded: {exc}")
+            return False
+        try:
+            job = prepare(self)
+        except ValueError as exc:
+            self.error(f"cannot {self.edit.kind}: {exc}")
+            return False
+        return self.start_job(
+            lambda worker: run_edit_job(loaded, job, on_step=worker.step, cancel=worker.cancel,
+                                        on_wait=worker.waiting),
+            on_done=self._finish_edit, total=job.sample.steps, what="edit",
+            status=f"{job.description}: step 0 / {job.sample.steps}", verb=job.description)
+
+    def _finish_edit(self, result: EditResult) -> None:
+        from app.editing import EditSummary
+
+        job = result.job
+        seed = job.sample.seed
+
+        def item(m, title: str) -> MotionItem:
+            return MotionItem(name=self._unique_name(title), joints=m.joints, source="generated", prompt=m.prompt,
+                              words=m.words, attention=m.attention,
+                              info={"edit": job.description, "role": m.role, "seed": seed})
+
+        base = job.prompt if job.options.kind not in ("example", "style") else (result.before.prompt or "imported")
+        title = f"{base} · seed {seed} · {result.before.title}"
+        before = self._same_motion(title, result.before.joints)
+        if before is None:
+            before = item(result.before, title)
+            self.add_item(before, show=False)
+        afters = []
+        for m in result.after:
+            it = item(m, f"{m.prompt or base} · {m.title}")
+            self.add_item(it, show=False)
+            afters.append(it)
+        first = afters[0]
+        n = min(len(first.joints), len(before.joints))
+        diff = float(np.linalg.norm(first.joints[:n] - before.joints[:n], axis=-1).max()) if n else 0.0
+        self.end_job(f"{job.description}: done in {result.seconds_taken:.1f} s ({job.sample.steps} steps)")
+        with param.parameterized.batch_call_watchers(self):
+            self.show(first.name)
+            self.compare = before.name
+        self.edit.last_edit = EditSummary(kind=job.label, description=job.description, before=before.name,
+                                          after=[a.name for a in afters], seconds_taken=result.seconds_taken,
+                                          max_difference=diff)
+
+    def _same_motion(self, title: str, joints: np.ndarray) -> MotionItem | None:
+        """An item already in the list with this title and these joints (a reference re-made by another edit)."""
+        for name, it in self.items.items():
+            if (name == title or name.startswith(title + " (")) and it.joints.shape == joints.shape \
+                    and np.allclose(it.joints, joints, atol=1e-5):
+                return it
+        return None
+
+    def count_current(self) -> bool:
+        """The counting readout for the shown motion: from its recorded maps (at once) or by inversion (worker)."""
+        item = self.item
+        if item is None:
+            self.error("nothing to count: generate or import a motion first")
+            return False
+        if item.attention is not None:
+            self._auto_count()
+            return True
+        if self.running:
+            self.error(f"a {self.job or 'job'} is already running: wait for it or press Cancel")
+            return False
+        try:
+            loaded = self.model
+        except Exception as exc:
+            self.error(f"no model loaded: {exc}")
+            return False
+        if item.n_frames < 8:
+            self.error("the motion is too short to count on")
+            return False
+        name, joints, prompt = item.name, item.joints[:196], item.prompt
+
+        def work(worker):
+            from app.generation import sampling_slot
+
+            with sampling_slot(worker.cancel, worker.waiting):
+                return count_imported(loaded, joints, item=name, prompt=prompt)
+
+        def done(readout):
+            self.end_job(f"counted {name!r}: {readout.count:.2f} (baseline {readout.baseline})")
+            self.edit.count_result = readout
+
+        return self.start_job(work, on_done=done, total=1, what="counting",
+                              status=f"counting {name!r}: inverting the motion…", verb="counting")
+
+    def _auto_count(self, *_):
+        """Generated motions are counted from their recorded maps as soon as they are shown (milliseconds)."""
+        item = self.item
+        if item is None or item.attention is None:
+            self.edit.count_result = None
+            return
+        try:
+            self.edit.count_result = count_record(item.attention, item.joints, item=item.name)
+        except ValueError as exc:  # e.g. too short
+            self.edit.count_result = None
+            self._notify("warning", f"cannot count on {item.name!r}: {exc}")
 
     # ------------------------------------------------------------------ motions
     def _unique_name(self, base: str) -> str:

@@ -5,9 +5,8 @@ import argparse
 import json
 from pathlib import Path
 
+from engine.methods.edit_options import KINDS
 from engine.paths import MODEL_DIR
-
-KINDS = ("emphasize", "erase", "replace", "shift", "example", "style", "count", "ground")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -28,6 +27,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--count", type=int, default=4, help="example: how many outputs")
     p.add_argument("--step-window", type=float, nargs=2, default=None, metavar=("START", "END"),
                    help="fractions of the sampling steps the edit acts in (default: the method's)")
+    p.add_argument("--layers", type=int, nargs="+", default=None, metavar="LAYER",
+                   help="layers the edit acts in (default: all)")
     p.add_argument("--seconds", type=float, default=4.0)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--steps", type=int, default=50)
@@ -49,64 +50,39 @@ def _source(text: str | None, what: str):
     return text
 
 
-def run(args: argparse.Namespace) -> int:
-    from dataclasses import replace as dc_replace
+def options_from_args(args: argparse.Namespace):
+    """The command line's options as the shared ``EditOptions`` (the Edit tab builds the same object)."""
+    from engine.methods.edit_options import EditOptions
 
+    span = None
+    if args.from_frame is not None or args.to_frame is not None:
+        span = (args.from_frame or 0, args.to_frame if args.to_frame is not None else 10_000)
+    source = args.prompt
+    if args.kind in ("example", "style", "count"):
+        source = _source(args.prompt, "a prompt or a motion file" if args.kind == "count"
+                         else "an example prompt or file" if args.kind == "example" else "a content prompt or file")
+    return EditOptions(kind=args.kind, prompt=source, word=args.word, weight=args.weight, mode=args.mode, frames=span,
+                       edited=args.edited, fraction=args.fraction,
+                       style=_source(args.style, "--style") if args.kind == "style" else None, count=args.count,
+                       step_window=tuple(args.step_window) if args.step_window is not None else None,
+                       layers=tuple(args.layers) if args.layers else None, seed=args.seed)
+
+
+def run(args: argparse.Namespace) -> int:
     from engine.checkpoint import load_model
     from engine.generate import SampleConfig, frames_for
     from engine.io import save_motion
     from engine.methods import edits
-    from engine.methods.motionclr import (
-        ExampleConfig, GroundingConfig, ReplaceConfig, ReweightConfig, ShiftConfig, StyleTransferConfig, erase_config,
-    )
-    from engine.methods.windows import Window
+    from engine.methods.edit_options import run_edit
 
+    options = options_from_args(args)
     loaded = load_model(args.model)
     frames = frames_for(args.seconds)
     sample = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed)
-    span = None
-    if args.from_frame is not None or args.to_frame is not None:
-        span = (args.from_frame or 0, args.to_frame if args.to_frame is not None else frames)
-
-    def window(default: Window) -> Window:
-        return default if args.step_window is None else Window(*args.step_window)
-
-    def need(value, name):
-        if value is None:
-            raise ValueError(f"moattn edit {args.kind} needs {name}")
-        return value
 
     report: dict = {"kind": args.kind}
-    if args.kind == "emphasize":
-        cfg = ReweightConfig(word=need(args.word, "--word"), weight=args.weight, mode=args.mode, frames=span,
-                             window=window(Window()))
-        out = edits.reweight(loaded, need(args.prompt, "a prompt"), cfg, frames=frames, sample=sample)
-    elif args.kind == "erase":
-        cfg = erase_config(need(args.word, "--word"), frames=span or (frames // 2, frames), window=window(Window()))
-        out = edits.reweight(loaded, need(args.prompt, "a prompt"), cfg, frames=frames, sample=sample)
-    elif args.kind == "ground":
-        lo, hi = span or (0, frames)
-        cfg = GroundingConfig(word=need(args.word, "--word"), mask=tuple(lo <= i < hi for i in range(frames)),
-                              weight=abs(args.weight), window=window(Window()))
-        out = edits.ground(loaded, need(args.prompt, "a prompt"), cfg, frames=frames, sample=sample)
-    elif args.kind == "replace":
-        cfg = dc_replace(ReplaceConfig(), window=window(ReplaceConfig().window))
-        out = edits.replace(loaded, need(args.prompt, "the reference prompt"), need(args.edited, "--edited"), cfg,
-                            frames=frames, sample=sample)
-    elif args.kind == "shift":
-        cfg = ShiftConfig(fraction=args.fraction, window=window(ShiftConfig().window))
-        out = edits.shift(loaded, need(args.prompt, "a prompt"), cfg, frames=frames, sample=sample)
-    elif args.kind == "example":
-        cfg = dc_replace(ExampleConfig(seed=args.seed), window=window(ExampleConfig().window))
-        out = edits.example_based(loaded, _source(args.prompt, "an example prompt or file"), cfg, count=args.count,
-                                  frames=frames, sample=sample)
-    elif args.kind == "style":
-        cfg = dc_replace(StyleTransferConfig(), window=window(StyleTransferConfig().window))
-        out = edits.style_transfer(loaded, style=_source(args.style, "--style"),
-                                   content=_source(args.prompt, "a content prompt or file"), config=cfg,
-                                   frames=frames, sample=sample)
-    else:  # count
-        source = _source(args.prompt, "a prompt or a motion file")
+    if args.kind == "count":
+        source = options.prompt
         if isinstance(source, str):
             count, gen = edits.count_generated(loaded, source, frames=frames, sample=sample)
             joints = gen.joints[0]
@@ -119,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(report, indent=2))
         return 0
 
+    out = run_edit(loaded, options, frames=frames, sample=sample)
     save_motion(out.after, args.out)
     report["out"] = str(args.out)
     if args.render is not None:

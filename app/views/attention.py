@@ -59,6 +59,7 @@ class AttentionExplorer(pn.viewable.Viewer):
         s.param.watch(self._on_map_selection, ["layer", "head", "att_step"])
         s.param.watch(self._on_word, "word")
         s.param.watch(self._on_frame, ["frame", "playing"])
+        s.edit.param.watch(self._on_peaks, "count_result")
         self._on_current()
 
     # ------------------------------------------------------------------ figures
@@ -93,6 +94,14 @@ class AttentionExplorer(pn.viewable.Viewer):
         self.row_box = BoxAnnotation(bottom=0, top=1, fill_color="#ff2d2d", fill_alpha=0.25, line_color="#ff2d2d",
                                      line_width=2, line_alpha=1.0)
         fig.add_layout(self.row_box)
+        # the counting peaks (Edit tab's readout) of the shown motion, in frame units
+        self.peak_src = ColumnDataSource(dict(x=[], y=[]))
+        fig.scatter("x", "y", source=self.peak_src, size=6, marker="circle", fill_color="#ff2d2d", fill_alpha=0.9,
+                    line_color="white", line_width=1.2, legend_label="counting peaks")
+        fig.legend.location = "bottom_left"
+        fig.legend.label_text_font_size = "10px"
+        fig.legend.background_fill_alpha = 0.6
+        fig.legend.padding = 2
         fig.on_event(Tap, self._on_heat_tap)
         self.heatmap = fig
 
@@ -116,6 +125,7 @@ class AttentionExplorer(pn.viewable.Viewer):
                 self.curve_src.data = dict(xs=[], ys=[], color=[], width=[], alpha=[], word=[])
                 self.heat_src.data = dict(image=[np.zeros((1, 1), np.float32)], dw=[1], dh=[1])
                 self.row_src.data = dict(x=[], y=[])
+                self.peak_src.data = dict(x=[], y=[])
                 return
             self.words.options = {f"{w}" if record.words.count(w) == 1 else f"{w} ({i})": i
                                   for i, w in enumerate(record.words)}
@@ -137,6 +147,13 @@ class AttentionExplorer(pn.viewable.Viewer):
         self._update_maps()
         self._on_word()
         self._on_frame()
+
+    def _on_peaks(self, *_):
+        readout = self.state.edit.count_result
+        if readout is None or readout.item != self.state.current or self.state.attention is None:
+            self.peak_src.data = dict(x=[], y=[])
+        else:
+            self.peak_src.data = dict(x=[c + 0.5 for _, c in readout.peaks], y=[r + 0.5 for r, _ in readout.peaks])
 
     def _sync_widgets(self):
         s = self.state
@@ -176,8 +193,8 @@ class AttentionExplorer(pn.viewable.Viewer):
     def _write_curves(self) -> None:
         record = self.state.attention
         cross = getattr(self, "_cross", None)
-        if record is None or cross is None:
-            return
+        if record is None or cross is None or cross.shape[1] != len(record.words):
+            return  # the maps of the previous motion (a word change arrived before the motion change)
         n, w = cross.shape
         chosen = self.state.word
         x = np.arange(n)

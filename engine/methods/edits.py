@@ -6,6 +6,7 @@ a real motion (DDIM-inverted, then reconstructed in the batch without text).
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -14,6 +15,7 @@ import torch
 from engine.analysis.counting import CountingConfig, CountResult, count_from_attention, count_from_root_height
 from engine.attention import AttentionStore, StoreConfig, stack
 from engine.checkpoint import LoadedModel
+from engine.diffusion import StepState
 from engine.generate import Generation, Request, SampleConfig, generate
 from engine.methods.inversion import InversionConfig, invert
 from engine.methods.motionclr import (
@@ -22,6 +24,7 @@ from engine.methods.motionclr import (
 )
 
 Source = str | np.ndarray  # a prompt, or joints (T, 22, 3) of a real motion
+OnStep = Callable[[StepState], None] | None  # called after every sampling step (progress, cancel by raising)
 
 
 @dataclass
@@ -57,43 +60,45 @@ def _store(record: bool) -> AttentionStore | None:
 
 
 def _pair_edit(loaded, prompt: str, controller, *, frames: int, sample: SampleConfig, record: bool,
-               roles=("ref", "out"), prompts=None) -> EditOutput:
+               roles=("ref", "out"), prompts=None, on_step: OnStep = None) -> EditOutput:
     store = _store(record)
     request = Request(prompts=list(prompts or [prompt, prompt]), frames=[frames] * len(roles), roles=list(roles),
                       noise=_noise(loaded, len(roles), frames, sample.seed))
-    gen = generate(loaded, request, sample, controller=stack(controller, store))
+    gen = generate(loaded, request, sample, controller=stack(controller, store), on_step=on_step)
     return EditOutput(generation=gen, before_role=roles[0], after_role=roles[1], store=store)
 
 
 def reweight(loaded: LoadedModel, prompt: str, config: ReweightConfig, *, frames: int,
-             sample: SampleConfig = SampleConfig(), record: bool = False) -> EditOutput:
+             sample: SampleConfig = SampleConfig(), record: bool = False, on_step: OnStep = None) -> EditOutput:
     """(De-)emphasis or erasing of ``config.word``: "ref" is the unedited motion, "out" the edited one."""
     loaded.tokenizer.encode(prompt).word_index(config.word, config.occurrence)  # a clear error for a missing word
-    return _pair_edit(loaded, prompt, Reweight(config, num_steps=sample.steps), frames=frames, sample=sample, record=record)
+    return _pair_edit(loaded, prompt, Reweight(config, num_steps=sample.steps), frames=frames, sample=sample, record=record,
+                      on_step=on_step)
 
 
 def ground(loaded: LoadedModel, prompt: str, config: GroundingConfig, *, frames: int,
-           sample: SampleConfig = SampleConfig(), record: bool = False) -> EditOutput:
+           sample: SampleConfig = SampleConfig(), record: bool = False, on_step: OnStep = None) -> EditOutput:
     loaded.tokenizer.encode(prompt).word_index(config.word)
-    return _pair_edit(loaded, prompt, Ground(config, num_steps=sample.steps), frames=frames, sample=sample, record=record)
+    return _pair_edit(loaded, prompt, Ground(config, num_steps=sample.steps), frames=frames, sample=sample, record=record,
+                      on_step=on_step)
 
 
 def replace(loaded: LoadedModel, reference: str, edited: str, config: ReplaceConfig = ReplaceConfig(), *, frames: int,
-            sample: SampleConfig = SampleConfig(), record: bool = False) -> EditOutput:
+            sample: SampleConfig = SampleConfig(), record: bool = False, on_step: OnStep = None) -> EditOutput:
     """In-place replacement: the edited prompt's action lands in the reference's time slots."""
     ref, edit = loaded.tokenizer.encode(reference), loaded.tokenizer.encode(edited)
     if len(ref.words) != len(edit.words):
         raise ValueError(f"in-place replacement needs prompts with the same number of words, aligned word by word "
                          f"({len(ref.words)} vs {len(edit.words)}): e.g. 'a person jumps' -> 'a person kicks'")
     return _pair_edit(loaded, reference, Replace(config, num_steps=sample.steps), frames=frames, sample=sample,
-                      record=record, roles=(config.source, config.target), prompts=[reference, edited])
+                      record=record, roles=(config.source, config.target), prompts=[reference, edited], on_step=on_step)
 
 
 def shift(loaded: LoadedModel, prompt: str, config: ShiftConfig = ShiftConfig(), *, frames: int,
-          sample: SampleConfig = SampleConfig(), record: bool = False) -> EditOutput:
+          sample: SampleConfig = SampleConfig(), record: bool = False, on_step: OnStep = None) -> EditOutput:
     """Sequence shifting: the edited motion is the reference with its first ``fraction`` moved to the end."""
     return _pair_edit(loaded, prompt, Shift(config, num_steps=sample.steps, frames=frames), frames=frames,
-                      sample=sample, record=record, roles=(config.source, config.target))
+                      sample=sample, record=record, roles=(config.source, config.target), on_step=on_step)
 
 
 def _resolve(loaded: LoadedModel, source: Source, frames: int, seed: int, steps: int) -> tuple[str | None, torch.Tensor, int]:
@@ -107,7 +112,7 @@ def _resolve(loaded: LoadedModel, source: Source, frames: int, seed: int, steps:
 
 
 def example_based(loaded: LoadedModel, example: Source, config: ExampleConfig = ExampleConfig(), *, count: int = 4,
-                  frames: int, sample: SampleConfig = SampleConfig(), record: bool = False) -> EditOutput:
+                  frames: int, sample: SampleConfig = SampleConfig(), record: bool = False, on_step: OnStep = None) -> EditOutput:
     """``count`` diverse motions whose self-attention queries are the example's, shuffled in 1-s chunks."""
     if not 1 <= count <= 16:
         raise ValueError("count must be between 1 and 16")
@@ -119,13 +124,13 @@ def example_based(loaded: LoadedModel, example: Source, config: ExampleConfig = 
                       noise=torch.cat([example_noise, outs]))
     store = _store(record)
     gen = generate(loaded, request, sample,
-                   controller=stack(ExampleBased(config, num_steps=sample.steps, frames=frames), store))
+                   controller=stack(ExampleBased(config, num_steps=sample.steps, frames=frames), store), on_step=on_step)
     return EditOutput(generation=gen, before_role=config.example, after_role=config.target, store=store)
 
 
 def style_transfer(loaded: LoadedModel, *, style: Source, content: Source,
                    config: StyleTransferConfig = StyleTransferConfig(), frames: int,
-                   sample: SampleConfig = SampleConfig(), record: bool = False) -> EditOutput:
+                   sample: SampleConfig = SampleConfig(), record: bool = False, on_step: OnStep = None) -> EditOutput:
     """The output starts from the content's noise and prompt; its Q comes from the style motion."""
     style_prompt, style_noise, style_frames = _resolve(loaded, style, frames, sample.seed, sample.steps)
     content_prompt, content_noise, content_frames = _resolve(loaded, content, frames, sample.seed + 7, sample.steps)
@@ -134,7 +139,8 @@ def style_transfer(loaded: LoadedModel, *, style: Source, content: Source,
     request = Request(prompts=[style_prompt, content_prompt, content_prompt], frames=[n] * 3,
                       roles=[config.style, config.content, config.target], noise=noise)
     store = _store(record)
-    gen = generate(loaded, request, sample, controller=stack(StyleTransfer(config, num_steps=sample.steps), store))
+    gen = generate(loaded, request, sample, controller=stack(StyleTransfer(config, num_steps=sample.steps), store),
+                   on_step=on_step)
     return EditOutput(generation=gen, before_role=config.content, after_role=config.target, store=store)
 
 

@@ -1,0 +1,341 @@
+"""The Edit tab's model: the session's edit config, checks with user-facing messages, the edit and counting jobs.
+
+Nothing here touches Panel widgets. The option -> config mapping is the engine's
+(``engine.methods.edit_options``, shared with ``moattn edit``); this module adds what only the
+studio needs: the picked word as (word, occurrence), sources among the session's motions,
+word-by-word alignment messages for replacement, recording the edited motions' attention into
+``AttentionRecord``s, and counting a session motion (recorded maps, or inversion for an imported one).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import param
+
+from app.attention_record import AttentionRecord, estimate_bytes, plan_steps
+from app.generation import Cancelled, sampling_slot
+
+#: label shown in the tab -> ``moattn edit`` kind
+KIND_LABELS = {
+    "emphasise": "emphasize", "erase": "erase", "replace": "replace", "shift": "shift",
+    "example-based": "example", "style transfer": "style", "ground": "ground", "count": "count",
+}
+KIND_HELP = {
+    "emphasize": "Add the weight to (or multiply) the picked word's cross-attention column: positive = more of "
+                 "that action, negative = less. Paper range ±0.5; beyond that maps break.",
+    "erase": "Multiply the picked word's cross-attention by 0.1 inside the frame window (default: last half).",
+    "replace": "Generate the prompt and the edited prompt together; the edited one takes the reference's "
+               "attention maps in the first steps, so its new action lands in the reference's time slots.",
+    "shift": "Roll the reference's Q, K, V in time: the first part of the motion moves to the end.",
+    "example": "Several new motions whose self-attention queries are the example's, shuffled in 1-s chunks.",
+    "style": "Q of the output from the style motion, K and V from the content motion.",
+    "ground": "Emphasise the picked word inside the frame window and de-emphasise it outside (when it happens).",
+    "count": "Count repetitions from the self-attention map (peaks), beside the root-height baseline.",
+}
+PROMPT_SOURCE = "(the prompt)"
+RECORD_BUDGET = 400 * 1024 * 1024  # the edit's AttentionStore keeps 512 MB at most: stay below it
+
+
+def word_choice(words: list[str] | tuple[str, ...], position: int) -> tuple[str, int]:
+    """The word at ``position`` of a prompt as (word, occurrence): edits name words, never token indices."""
+    word = words[position]
+    return word, list(words[:position]).count(word)
+
+
+def alignment(tokenizer, reference: str, edited: str) -> tuple[bool, str]:
+    """Word-by-word alignment for in-place replacement: (ok, a message for the user)."""
+    from engine.text import split_words
+
+    ref, new = split_words(reference), split_words(edited)
+    if not new:
+        return False, "type the edited prompt: the same words as the prompt with the action swapped"
+    unknown = [w for w in dict.fromkeys(new) if tokenizer is not None and w not in tokenizer]
+    if unknown:
+        return False, f"unknown word(s) in the edited prompt: {', '.join(unknown)}"
+    if len(ref) != len(new):
+        return False, (f"not aligned: the prompt has {len(ref)} words and the edited prompt {len(new)}; replacement "
+                       f"swaps words in place, word by word (e.g. '{' '.join(ref)}' → "
+                       f"'{' '.join(_swap_example(ref))}')")
+    changed = [(a, b) for a, b in zip(ref, new) if a != b]
+    if not changed:
+        return False, "the edited prompt is the same as the prompt: change a word (e.g. the verb)"
+    pairs = ", ".join(f"'{a}' → '{b}'" for a, b in changed)
+    return True, f"aligned word by word ({len(ref)} words): {pairs}"
+
+
+def _swap_example(words: list[str]) -> list[str]:
+    verbs = {"jumps": "kicks", "walks": "runs", "runs": "walks", "kicks": "jumps", "waves": "claps"}
+    out = list(words)
+    for i, w in enumerate(out):
+        if w in verbs:
+            out[i] = verbs[w]
+            return out
+    return out
+
+
+class EditConfig(param.Parameterized):
+    """The Edit tab's state (one per session, on ``StudioState.edit``)."""
+
+    kind = param.Selector(default="emphasise", objects=list(KIND_LABELS), doc="which edit")
+    word = param.String(default="", doc="the picked word ('' = none picked yet)")
+    occurrence = param.Integer(default=0, bounds=(0, None), doc="which appearance of the word in the prompt")
+    mode = param.Selector(default="add", objects=["add", "mul"], doc="add the weight, or multiply by it")
+    weight = param.Number(default=0.3, bounds=(-1.0, 10.0), doc="add: -1..1; mul: 0..3 (> 1 emphasises)")
+    frames = param.Range(default=None, allow_None=True, doc="frame window [start, end) (None = the kind's default)")
+    step_window = param.Range(default=None, allow_None=True, doc="fractions of the sampling run (None = the method's)")
+    layers = param.List(default=[], item_type=int, doc="layers the edit acts in ([] = all)")
+    fraction = param.Number(default=0.5, bounds=(0.05, 0.95), doc="shift: the part moved to the end")
+    count = param.Integer(default=3, bounds=(1, 6), doc="example-based: how many outputs")
+    edited = param.String(default="", doc="replace: the edited prompt, aligned word by word")
+    source = param.String(default=PROMPT_SOURCE, doc="example / content source: the prompt or a session motion")
+    style_source = param.String(default=PROMPT_SOURCE, doc="style source: a prompt or a session motion")
+    style_prompt = param.String(default="a person walks", doc="style source when it is a prompt")
+    last_edit = param.Parameter(default=None, doc="EditSummary of the last finished edit")
+    count_result = param.Parameter(default=None, doc="CountReadout of the current motion (or None)")
+
+    @property
+    def engine_kind(self) -> str:
+        return KIND_LABELS[self.kind]
+
+
+@dataclass
+class EditSummary:
+    kind: str
+    description: str
+    before: str  # item names
+    after: list[str]
+    seconds_taken: float
+    max_difference: float  # max joint distance (m) between before and the first after, frame-wise
+
+
+@dataclass
+class CountReadout:
+    item: str  # the motion counted
+    count: float
+    rounded: int
+    baseline: int
+    peaks: list[tuple[int, int]]  # (row, col) in frames
+    processed: np.ndarray  # the filtered, downsampled, normalised map
+    downsample: int
+    source: str  # how the self-attention map was obtained
+
+
+@dataclass
+class EditJob:
+    """A checked edit, ready for the worker."""
+
+    options: object  # engine.methods.edit_options.EditOptions
+    sample: object  # engine.generate.SampleConfig
+    frames: int
+    record_steps: int
+    label: str
+    description: str
+    prompt: str
+    record: bool
+
+
+@dataclass
+class EditedMotion:
+    role: str
+    joints: np.ndarray
+    prompt: str
+    words: tuple[str, ...]
+    attention: AttentionRecord | None
+    title: str
+
+
+@dataclass
+class EditResult:
+    job: EditJob
+    before: EditedMotion
+    after: list[EditedMotion] = field(default_factory=list)
+    seconds_taken: float = 0.0
+
+
+# ---------------------------------------------------------------------------------------------- checks
+def prepare(state) -> EditJob:
+    """Check the tab's settings against the session (prompt, model, sources); raises ValueError with a message."""
+    from engine.generate import SampleConfig, frames_for
+    from engine.methods.edit_options import EditOptions, build_config
+
+    cfg: EditConfig = state.edit
+    kind = cfg.engine_kind
+    if kind == "count":
+        raise ValueError("counting is not an edit: use Count")
+    loaded = state.model
+    prompt = state.prompt
+    frames = frames_for(float(state.seconds))
+    if frames > loaded.model.config.max_frames:
+        raise ValueError(f"this model handles at most {loaded.model.config.max_frames / 20:.1f} s")
+    sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
+    word = cfg.word or None
+    if kind in ("emphasize", "erase", "ground"):
+        if word is None:
+            raise ValueError("pick a word: click it in the prompt")
+        words = state.prompt_words
+        if words.count(word) <= cfg.occurrence:
+            raise ValueError(f"the word '{word}' is not in the prompt any more: pick a word again")
+    source = style = None
+    if kind in ("example", "style"):
+        source = resolve_source(state, cfg.source)
+    if kind == "style":
+        style = resolve_source(state, cfg.style_source, prompt=cfg.style_prompt)
+    text_sources = [s for s in (prompt if kind not in ("example", "style") else source, style) if isinstance(s, str)]
+    for text in text_sources:
+        loaded.tokenizer.encode(text)  # PromptError (a ValueError) with the unknown words
+    if kind == "replace":
+        ok, message = alignment(loaded.tokenizer, prompt, cfg.edited)
+        if not ok:
+            raise ValueError(message)
+    weight = float(cfg.weight)
+    span = tuple(int(f) for f in cfg.frames) if cfg.frames is not None else None
+    if span is not None and kind != "erase" and span[0] <= 0 and span[1] >= frames:
+        span = None  # the whole motion (erase's default is the last half, so its span stays explicit)
+    options = EditOptions(
+        kind=kind, prompt=source if kind in ("example", "style") else prompt, word=word, occurrence=cfg.occurrence,
+        weight=weight, mode=cfg.mode, frames=span,
+        edited=cfg.edited, fraction=float(cfg.fraction), style=style, count=int(cfg.count),
+        step_window=tuple(cfg.step_window) if cfg.step_window is not None else None,
+        layers=tuple(cfg.layers) or None, seed=int(state.seed))
+    build_config(options, frames=frames)  # the config's own checks (weight ranges, windows) before any work
+    description = describe(options, frames=frames)
+    m = loaded.config["model"]
+    slots = 2 + (int(cfg.count) - 1 if kind == "example" else 0) + (1 if kind == "style" else 0)
+    size = slots * estimate_bytes(num_steps=sample.steps, record_steps=sample.steps, layers=m["layers"],
+                                  heads=m["heads"], frames=frames, words=16)
+    return EditJob(options=options, sample=sample, frames=frames, record_steps=int(state.record_steps),
+                   label=cfg.kind, description=description,
+                   prompt=prompt if isinstance(prompt, str) else "", record=state.record_steps > 0 and size < RECORD_BUDGET)
+
+
+def resolve_source(state, name: str, *, prompt: str | None = None):
+    """A source for example-based / style transfer: a prompt (generated in the batch) or an imported motion's joints
+    (DDIM-inverted by the engine). A generated session motion is used through its prompt."""
+    if not name or name == PROMPT_SOURCE:
+        text = state.prompt if prompt is None else prompt
+        if not text.strip():
+            raise ValueError("type a prompt for the source")
+        return text
+    item = state.items.get(name)
+    if item is None:
+        raise ValueError(f"the motion {name!r} is no longer in the session: pick another source")
+    if item.source == "generated" and item.prompt:
+        return item.prompt
+    if item.n_frames < 20:
+        raise ValueError(f"{name!r} is too short to use as a source (at least 1 s)")
+    return np.asarray(item.joints[: 196])
+
+
+def describe(options, *, frames: int) -> str:
+    o = options
+    if o.kind in ("emphasize", "ground"):
+        sign = "+" if o.mode == "add" and o.weight >= 0 else ""
+        w = f"{sign}{o.weight:.2f}" if o.mode == "add" else f"×{o.weight:.2f}"
+        what = "emphasise" if o.kind == "emphasize" else "ground"
+        span = "" if o.frames is None else f" frames {o.frames[0]}–{min(o.frames[1], frames)}"
+        return f"{what} '{o.word}' {w}{span}"
+    if o.kind == "erase":
+        return f"erase '{o.word}'"
+    if o.kind == "replace":
+        from engine.text import split_words
+
+        pairs = [(a, b) for a, b in zip(split_words(o.prompt), split_words(o.edited)) if a != b]
+        return "replace " + ", ".join(f"'{a}' → '{b}'" for a, b in pairs)
+    if o.kind == "shift":
+        return f"shift {o.fraction:.0%}"
+    if o.kind == "example":
+        return "example-based"
+    return "style transfer"
+
+
+# ---------------------------------------------------------------------------------------------- the worker
+def run_edit_job(loaded, job: EditJob, *, on_step=None, cancel=None, on_wait=None) -> EditResult:
+    """Run one edit (waits for the sampling slot); ``on_step(done, total)`` after every step."""
+    from engine.methods.edit_options import run_edit
+
+    timesteps: dict[int, int] = {}
+
+    def step(state) -> None:
+        timesteps[state.step] = int(state.t)
+        if cancel is not None and cancel.is_set():
+            raise Cancelled()
+        if on_step is not None:
+            on_step(state.step + 1, state.num_steps)
+
+    with sampling_slot(cancel, on_wait):
+        start = time.perf_counter()
+        out = run_edit(loaded, job.options, frames=job.frames, sample=job.sample, record=job.record, on_step=step)
+    gen = out.generation
+    keep = plan_steps(job.sample.steps, job.record_steps) if job.record_steps else []
+
+    def motion(role: str, index: int, title: str) -> EditedMotion:
+        slots = [i for i, r in enumerate(gen.roles.names) if r == role]
+        slot = slots[index]
+        joints = np.asarray(gen.joints[slot], dtype=np.float32)
+        if not np.isfinite(joints).all():
+            raise ValueError("the model produced non-finite joints")
+        tokens = gen.tokens[slot]
+        words = tuple(tokens.words) if tokens is not None else ()
+        prompt = tokens.prompt if tokens is not None else ""
+        record = _record(out.store, role, index, words, job.sample.steps, keep, timesteps)
+        return EditedMotion(role=role, joints=joints, prompt=prompt or "", words=words, attention=record, title=title)
+
+    o = job.options
+    n_after = o.count if o.kind == "example" else 1
+    before_title = {"example": "example", "style": "content"}.get(o.kind, "reference")
+    before = motion(out.before_role, 0, before_title)
+    after = [motion(out.after_role, i, job.description + (f" #{i + 1}" if n_after > 1 else ""))
+             for i in range(n_after)]
+    return EditResult(job=job, before=before, after=after, seconds_taken=time.perf_counter() - start)
+
+
+def _record(store, role: str, index: int, words, num_steps: int, keep: list[int], timesteps) -> AttentionRecord | None:
+    """The recorded maps of one role's slot, at the session's recording plan (None if not recorded)."""
+    if store is None or not keep or not store.records or store.skipped_sites:
+        return None
+    try:
+        first = store.records[store.sites(kind="self")[0]]
+        positions = [i for i, r in enumerate(first.roles) if r == role]
+        record = AttentionRecord.from_store(store, words=words, num_steps=num_steps, timesteps=timesteps,
+                                            slot=positions[index], steps=keep)
+        # the batch pads every prompt to its longest: keep this prompt's words only
+        record.cross_maps = np.ascontiguousarray(record.cross_maps[..., : len(words)])
+        return record
+    except (IndexError, KeyError, ValueError):
+        return None  # e.g. a text-less (inverted) slot has no cross-attention
+
+
+# ---------------------------------------------------------------------------------------------- counting
+def count_record(record: AttentionRecord, joints: np.ndarray, *, item: str, run=None) -> CountReadout:
+    """Count on a generated motion's recorded self-attention (the recipe of ``edits.count_actions``: mean over
+    heads and layers of the recorded steps in the run's step window)."""
+    from engine.analysis.counting import count_from_attention, count_from_root_height
+    from engine.methods.edits import CountingRun
+
+    run = run or CountingRun()
+    lo, hi = int(run.steps[0] * record.num_steps), int(run.steps[1] * record.num_steps)
+    steps = [s for s in record.steps if lo <= s < hi] or list(record.steps)
+    maps = record.self_maps[[record.step_position(s) for s in steps]]
+    if run.layers is not None:
+        maps = maps[:, list(run.layers)]
+    attn = maps.astype(np.float32).mean(axis=(0, 1, 2))
+    result = count_from_attention(attn, run.counting)
+    source = (f"recorded self-attention: mean of heads and layers over {len(steps)} recorded step(s) "
+              f"{steps[0] + 1}–{steps[-1] + 1} of {record.num_steps}")
+    return CountReadout(item=item, count=result.count, rounded=result.rounded,
+                        baseline=count_from_root_height(np.asarray(joints)[:, 0, 1]), peaks=list(result.peaks),
+                        processed=result.processed, downsample=run.counting.downsample, source=source)
+
+
+def count_imported(loaded, joints: np.ndarray, *, item: str, prompt: str = "", steps: int = 20) -> CountReadout:
+    """Count on a motion without recorded attention: DDIM-invert it, record self-attention while it is rebuilt."""
+    from engine.methods.edits import CountingRun, count_motion
+
+    run = CountingRun()
+    count = count_motion(loaded, np.asarray(joints), prompt=prompt, steps=steps, run=run)
+    r = count.attention
+    return CountReadout(item=item, count=r.count, rounded=r.rounded, baseline=count.baseline, peaks=list(r.peaks),
+                        processed=r.processed, downsample=run.counting.downsample,
+                        source=f"inverted ({steps} DDIM steps), self-attention recorded while it was rebuilt")

@@ -1,0 +1,264 @@
+"""The Edit tab without a server: every edit kind through the tab on the tiny model, the replace alignment
+check, the counting readout (peaks on the counting map and on the attention heatmap), and the option ->
+config mapping shared with `moattn edit`."""
+from __future__ import annotations
+
+import argparse
+import html
+
+import numpy as np
+import pytest
+
+from app.attention_record import AttentionRecord
+from app.editing import alignment, word_choice
+from app.main import Studio
+from app.testing import tiny_model
+from engine.methods.edit_options import EditOptions, build_config
+
+
+@pytest.fixture(scope="session")
+def tiny_model_dir(tmp_path_factory):
+    return tiny_model(tmp_path_factory.getbasetemp() / "tiny-model")
+
+
+@pytest.fixture(scope="module")
+def studio(tiny_model_dir):
+    """A session with a plain generation of the prompt (the reference every pair edit must reproduce)."""
+    st = Studio(model_dir=tiny_model_dir, initial=None)
+    s = st.state
+    s.param.update(prompt="a person jumps twice", seconds=3.0, steps=8, record_steps=4, seed=3)
+    assert s.generate() and s.wait(120), s.notices
+    st.plain = s.item  # kept here: the session's list drops its oldest motions past 8
+    yield st
+    st.close()
+
+
+def _plain(studio):
+    return studio.plain
+
+
+def _run(studio, kind: str) -> None:
+    s, tab = studio.state, studio.edit
+    tab.kind.value = kind
+    before = len(s.notices)
+    assert s.run_edit(), s.notices[-1:]
+    assert s.wait(120)
+    assert not s.running
+    errors = [n for n in s.notices[before:] if n[0] == "error"]
+    assert not errors, errors
+
+
+# ---------------------------------------------------------------------------------------------- emphasis
+def test_emphasis_changes_the_edit_and_keeps_the_reference(studio):
+    s, tab = studio.state, studio.edit
+    plain = _plain(studio)
+    # the word is picked by clicking it: the tab keeps the word (and which occurrence), not a token index
+    tab.words.value = 2
+    assert (s.edit.word, s.edit.occurrence) == ("jumps", 0)
+    tab.weight.value = 0.8
+    steps_seen = []
+    s.param.watch(lambda e: steps_seen.append(e.new), "progress")
+    _run(studio, "emphasise")
+    after, before = s.item, s.compare_item
+    assert before is not None and s.compare == before.name  # compare mode: before and after side by side
+    assert "reference" in before.name and "emphasise 'jumps' +0.80" in after.name
+    assert before.name in s.items and after.name in s.items
+    np.testing.assert_allclose(before.joints, plain.joints, atol=1e-4)  # reference == plain generation, same seed
+    assert np.abs(after.joints - before.joints).max() > 1e-2  # the edit did something
+    assert max(steps_seen) == 8 and s.progress == s.progress_total == 8  # progress per sampling step
+    spec = studio.viewer.spec()
+    assert [r for r, _ in spec.motions] == [after.name[:39] + "…" if len(after.name) > 40 else after.name,
+                                             before.name[:39] + "…" if len(before.name) > 40 else before.name]
+    # the edited motion's attention was recorded at the session's plan (4 of 8 steps) and shows in the explorer
+    assert after.attention is not None and after.attention.steps == (0, 2, 5, 7)
+    assert after.attention.cross_maps.shape[-1] == 4
+    assert "emphasise" in tab.result.object and tab.progress.value == 8
+
+
+def test_emphasis_weight_sign_and_multiplicative_mode(studio):
+    s, tab = studio.state, studio.edit
+    tab.kind.value = "emphasise"
+    tab.words.value = 2
+    tab.mode.value = "mul"
+    assert tab.weight.start == 0.0 and tab.weight.end == 3.0
+    tab.weight.value = 2.0
+    tab.frames.value = (10, 40)
+    tab.layers.value = [1]
+    tab.steps.value = (0.0, 0.5)
+    _run(studio, "emphasise")
+    assert "×2.00" in s.item.name and "frames 10–40" in s.item.name
+    np.testing.assert_allclose(s.compare_item.joints, _plain(studio).joints, atol=1e-4)
+    tab.mode.value = "add"
+    assert tab.weight.start == -1.0 and -1.0 <= s.edit.weight <= 1.0
+    tab.layers.value = []
+    tab.frames.value = (0, tab.frames.end)
+    tab.steps.value = (0.0, 1.0)
+
+
+def test_erase_ground_shift_each_give_a_before_after_pair(studio):
+    s, tab = studio.state, studio.edit
+    tab.words.value = 2
+    for kind, label in [("erase", "erase 'jumps'"), ("ground", "ground 'jumps'"), ("shift", "shift 50%")]:
+        _run(studio, kind)
+        after, before = s.item, s.compare_item
+        assert label in after.name, after.name
+        np.testing.assert_allclose(before.joints, _plain(studio).joints, atol=1e-4)
+        # (the tiny model barely listens to its self-attention: shifting moves it by a hair)
+        assert np.abs(after.joints - before.joints).max() > (1e-5 if kind == "shift" else 1e-3), kind
+    # erase defaults to the last half of the frames
+    tab.kind.value = "erase"
+    assert s.edit.frames == (30, 60)
+    # the reference made again by another edit is reused, not added twice
+    assert sum("· reference" in n for n in s.items) == 1
+
+
+def test_example_based_and_style_transfer_with_session_sources(studio):
+    s, tab = studio.state, studio.edit
+    tab.count.value = 2
+    _run(studio, "example-based")
+    assert s.item.name.endswith("example-based #1") and "example" in s.compare_item.name
+    assert any(n.endswith("example-based #2") for n in s.items)
+    outs = [it for n, it in s.items.items() if "example-based #" in n]
+    assert np.abs(outs[0].joints - outs[1].joints).max() > 1e-3  # diverse outputs
+    # style transfer: sources among the session's motions. A generated one is used through its prompt, an
+    # imported one as joints (DDIM-inverted by the engine function).
+    from app.editing import resolve_source
+
+    imported = s.show_motion(_plain(studio).joints[:41], title="imported: jumps")
+    tab.kind.value = "style transfer"
+    assert imported.name in tab.source.options and imported.name in tab.style_source.options
+    assert isinstance(resolve_source(s, imported.name), np.ndarray)
+    generated = next(n for n, it in s.items.items() if it.source == "generated" and "example" not in n)
+    assert resolve_source(s, generated) == s.items[generated].prompt
+    content_prompt = s.items[generated].prompt
+    tab.source.value = generated
+    tab.style_source.value = "(the prompt)"
+    tab.style_prompt.value = "a person walks"
+    _run(studio, "style transfer")
+    assert "style transfer" in s.item.name and "content" in s.compare_item.name
+    assert s.item.prompt == content_prompt and len(s.item.joints) == 60
+    tab.source.value = "(the prompt)"
+
+
+def test_replace_needs_aligned_prompts_and_says_why(studio):
+    s, tab = studio.state, studio.edit
+    tab.kind.value = "replace"
+    assert s.edit.edited == "a person kicks twice"  # a suggestion aligned with the prompt
+    assert "align-ok" in tab.alignment.object and "'jumps' → 'kicks'" in html.unescape(tab.alignment.object)
+    tab.edited.value = "a person kicks"
+    assert "align-bad" in tab.alignment.object and "4 words" in tab.alignment.object
+    assert tab.run.disabled
+    n_items = len(s.items)
+    assert s.run_edit() is False  # refused with a visible error, no worker, no crash
+    level, text = s.notices[-1]
+    assert level == "error" and "not aligned" in text and "word by word" in text
+    assert not s.running and len(s.items) == n_items
+    tab.edited.value = "a person flurbs twice"
+    assert "unknown word" in tab.alignment.object
+    tab.edited.value = "a person kicks twice"
+    assert not tab.run.disabled
+    _run(studio, "replace")
+    assert "replace 'jumps' → 'kicks'" in s.item.name and s.item.prompt == "a person kicks twice"
+    assert s.compare_item.prompt == "a person jumps twice"
+
+
+def test_bad_settings_are_notifications(studio):
+    s, tab = studio.state, studio.edit
+    tab.kind.value = "emphasise"
+    s.edit.word = ""
+    assert s.run_edit() is False and "pick a word" in s.notices[-1][1]
+    s.prompt = "a person walks"
+    assert s.edit.word == "" and list(tab.words.options) == ["a", "person", "walks"]
+    s.prompt = "a person jumps twice"
+
+
+def test_cancel_stops_an_edit(tiny_model_dir):
+    st = Studio(model_dir=tiny_model_dir, initial=None)
+    try:
+        s = st.state
+        s.param.update(prompt="a person walks", steps=1000, record_steps=0, seconds=2.0)
+        st.edit.kind.value = "shift"
+        assert s.run_edit()
+        assert not st.edit.cancel.disabled and st.edit.run.disabled and st.controls.generate.disabled
+        s.cancel()
+        assert s.wait(60)
+        assert s.notices[-1] == ("info", "edit cancelled") and s.items == {}
+        assert not s.running and not st.edit.run.disabled
+    finally:
+        st.close()
+
+
+# ---------------------------------------------------------------------------------------------- counting
+def _periodic_record(n: int = 128, period: int = 32, words=("a", "person", "jumps")) -> AttentionRecord:
+    """Self-attention of four jumps: frames near a take-off attend to the frames near every take-off."""
+    i = np.arange(n)
+    d = np.abs(i[:, None] - np.arange(period // 2, n, period)[None, :]).min(1)
+    sm = np.exp(-(d[:, None] ** 2 + d[None, :] ** 2) / 8.0) + 0.01
+    sm /= sm.sum(1, keepdims=True)
+    self_maps = np.broadcast_to(sm, (2, 1, 1, n, n)).astype(np.float16)
+    cross = np.full((2, 1, 1, n, len(words)), 1 / len(words), np.float16)
+    return AttentionRecord(words=tuple(words), steps=(5, 9), num_steps=10, timesteps=(-1, -1),
+                           self_maps=np.ascontiguousarray(self_maps), cross_maps=cross)
+
+
+def test_counting_readout_shows_count_baseline_and_peaks(studio):
+    from app.state import MotionItem
+
+    s, tab, ex = studio.state, studio.edit, studio.attention
+    t = np.arange(128)
+    joints = np.repeat(_plain(studio).joints[:1], 128, axis=0)  # a standing pose...
+    joints[:, :, 1] += 0.1 * np.maximum(0, np.sin(2 * np.pi * t / 32))[:, None]  # ...that hops four times
+    s.add_item(MotionItem(name="periodic", joints=joints, source="generated", prompt="a person jumps",
+                          words=("a", "person", "jumps"), attention=_periodic_record()))
+    readout = s.edit.count_result
+    assert readout is not None and readout.item == "periodic"  # counted as soon as it is shown
+    assert readout.rounded == 4 and readout.baseline == 4 and len(readout.peaks) > 4
+    assert 'class="count-attention">4.' in tab.readout.object and 'class="count-baseline">4<' in tab.readout.object
+    assert 'class="count-rounded">4<' in tab.readout.object
+    # peaks drawn on the counting map and over the explorer's self-attention heatmap
+    assert len(tab.peak_src.data["x"]) == len(readout.peaks)
+    assert tab.count_src.data["image"][0].shape == (32, 32) and tab.count_src.data["dw"] == [128]
+    assert len(ex.peak_src.data["x"]) == len(readout.peaks)
+    assert {(int(y - 0.5), int(x - 0.5)) for x, y in zip(ex.peak_src.data["x"], ex.peak_src.data["y"])} \
+        == set(readout.peaks)
+    # an imported motion: no maps until Count inverts it (on the worker)
+    s.show_motion(joints, title="imported: hops")
+    assert s.edit.count_result is None and "no recorded attention" in tab.readout.object
+    assert ex.peak_src.data["x"] == []
+    tab.kind.value = "count"
+    assert tab.run.label == "Count this motion"
+    assert s.run_edit() and s.wait(120)
+    readout = s.edit.count_result
+    assert readout.item == "imported: hops" and readout.baseline == 4 and "inverted" in readout.source
+    assert "count-attention" in tab.readout.object
+    tab.kind.value = "emphasise"
+
+
+# ---------------------------------------------------------------------------------------------- shared mapping
+def test_word_choice_and_alignment_helpers():
+    assert word_choice(["a", "person", "jumps", "and", "jumps"], 4) == ("jumps", 1)
+    ok, message = alignment(None, "a person jumps", "a person walks")
+    assert ok and "'jumps' → 'walks'" in message
+    ok, message = alignment(None, "a person jumps", "a person walks fast")
+    assert not ok and "3 words" in message and "4" in message
+    assert not alignment(None, "a person jumps", "a person jumps")[0]
+
+
+def test_cli_and_tab_share_the_option_mapping():
+    from engine.cli_edit import add_parser, options_from_args
+
+    parser = argparse.ArgumentParser()
+    add_parser(parser.add_subparsers())
+    args = parser.parse_args(["edit", "emphasize", "a person jumps twice", "--word", "jumps", "--weight", "0.5",
+                              "--from-frame", "10", "--to-frame", "30", "--step-window", "0.2", "0.8",
+                              "--layers", "1", "0"])
+    options = options_from_args(args)
+    assert options == EditOptions(kind="emphasize", prompt="a person jumps twice", word="jumps", weight=0.5,
+                                  frames=(10, 30), step_window=(0.2, 0.8), layers=(1, 0), count=4)
+    cfg = build_config(options, frames=60)
+    assert cfg.frames == (10, 30) and cfg.window.layers == (0, 1) and (cfg.window.start, cfg.window.end) == (0.2, 0.8)
+    erase = build_config(EditOptions(kind="erase", word="jumps"), frames=60)
+    assert erase.mode == "mul" and erase.weight == 0.1 and erase.frames == (30, 60)
+    assert build_config(EditOptions(kind="shift"), frames=60).window.end == 0.4  # the method's default window
+    with pytest.raises(ValueError, match="needs a word"):
+        build_config(EditOptions(kind="ground"), frames=60)
