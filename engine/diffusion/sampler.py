@@ -120,7 +120,8 @@ class FixedPointInversion:
     hook corrects x_next so that the deterministic DDIM sampling step from (x_next, t_next) lands
     on x_t, by residual iteration: x_next += x_t - ddim_step(x_next, t_next -> t). The residual
     form is well conditioned where 1 - alpha_bar_t is tiny (the first step), unlike solving
-    for x_next through eps.
+    for x_next through eps. Each item keeps its best iterate, so a step where the iteration does
+    not contract (a rough model, an out-of-distribution motion) falls back to plain DDIM's.
     """
 
     denoiser: DenoiserFn
@@ -135,12 +136,28 @@ class FixedPointInversion:
         ab = self.schedule.alpha_bar(torch.tensor(state.t)).item()
         ab_next = self.schedule.alpha_bar(torch.tensor(state.t_next)).item()
         t_batch = torch.full((state.x_t.shape[0],), state.t_next, dtype=torch.long)
+        dims = tuple(range(1, state.x_t.dim()))
         x_next = state.x_prev
-        for _ in range(self.iterations):
+        best, best_norm = x_next, None
+        for i in range(self.iterations + 1):
             with torch.no_grad():
                 x0 = self.denoiser(x_next, t_batch, self.cond, step=state.step, controller=self.controller)
             eps = (x_next - ab_next**0.5 * x0) / max(1 - ab_next, 1e-12) ** 0.5
-            x_next = x_next + (state.x_t - (ab**0.5 * x0 + (1 - ab) ** 0.5 * eps))
+            residual = state.x_t - (ab**0.5 * x0 + (1 - ab) ** 0.5 * eps)
+            norm = residual.pow(2).sum(dims).sqrt()
+            # keep, per batch item, the iterate whose sampling step lands closest to x_t:
+            # the iteration is only a contraction where the model is smooth enough
+            better = torch.isfinite(norm) if best_norm is None else torch.isfinite(norm) & (norm < best_norm)
+            if best_norm is None:
+                best_norm = torch.where(better, norm, torch.full_like(norm, float("inf")))
+                best = torch.where(better.view(-1, *[1] * len(dims)), x_next, best)
+            else:
+                best_norm = torch.where(better, norm, best_norm)
+                best = torch.where(better.view(-1, *[1] * len(dims)), x_next, best)
+            if i == self.iterations or not better.any():
+                break
+            x_next = x_next + residual
+        x_next = best
         return replace(state, x_prev=x_next)
 
 
