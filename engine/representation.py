@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from scipy.ndimage import gaussian_filter1d
+from scipy.ndimage import correlate1d
 
-from engine.rotations import cross, qbetween, qinv, qmul
+from engine.rotations import components, cross, dot, expand, new_vectors, qbetween, qinv, qmul
 from engine.skeleton import CHAINS, FACE_JOINTS, FOOT_JOINTS, NUM_JOINTS
 
 FEATURE_DIM = 263
@@ -57,7 +57,21 @@ def _ik_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 _IK_CHILD, _IK_PARENT, _IK_PREV = _ik_tables()
+_IK_RAW_DIRS = HML_RAW_OFFSETS[_IK_CHILD].T[:, None, :].copy()  # (3, 1, 21) components first
 _FORWARD = np.array([0.0, 0.0, 1.0])
+_XZ = np.array([1.0, 0.0, 1.0])
+_FEET = np.array(list(FOOT_JOINTS["left"]) + list(FOOT_JOINTS["right"]))
+
+
+def _gaussian_kernel(sigma: float, truncate: float = 4.0) -> np.ndarray:
+    """The weights scipy's ``gaussian_filter1d(x, sigma)`` correlates with (computed once here)."""
+    radius = int(truncate * sigma + 0.5)
+    x = np.arange(-radius, radius + 1)
+    phi = np.exp(-0.5 / (sigma * sigma) * x**2)
+    return (phi / phi.sum())[::-1].copy()
+
+
+_HEADING_SMOOTHING = _gaussian_kernel(20.0)  # HumanML3D smooths the IK's facing direction with sigma 20
 
 
 def _check_joints(joints: np.ndarray) -> np.ndarray:
@@ -71,54 +85,65 @@ def _check_joints(joints: np.ndarray) -> np.ndarray:
     return joints
 
 
+def _unit(v: np.ndarray, axis: int = -1) -> np.ndarray:
+    return v / expand(np.sqrt(dot(v, v, axis=axis)), axis)
+
+
 def facing_direction(joints: np.ndarray) -> np.ndarray:
     """Unit horizontal facing direction per pose: up x (right - left across hips + shoulders)."""
     r_hip, l_hip, r_sdr, l_sdr = FACE_JOINTS
     across = (joints[..., r_hip, :] - joints[..., l_hip, :]) + (joints[..., r_sdr, :] - joints[..., l_sdr, :])
-    across = across / np.linalg.norm(across, axis=-1, keepdims=True)
-    forward = cross(_UP, across)
-    return forward / np.linalg.norm(forward, axis=-1, keepdims=True)
+    return _unit(cross(_UP, _unit(across)))
 
 
-def yaw_quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rotate vectors v (..., 3) by pure-yaw quaternions q = (w, 0, y, 0) (..., 4): a cheap qrot."""
-    w, y = q[..., 0], q[..., 2]
-    c, s = 1.0 - 2.0 * y * y, 2.0 * w * y
-    out = np.empty(np.broadcast_shapes(q.shape[:-1], v.shape[:-1]) + (3,))
-    out[..., 0] = c * v[..., 0] + s * v[..., 2]
-    out[..., 1] = v[..., 1]
-    out[..., 2] = -s * v[..., 0] + c * v[..., 2]
+def yaw_quat_rotate(q: np.ndarray, v: np.ndarray, *, axis: int = -1) -> np.ndarray:
+    """Rotate vectors v (..., 3) by pure-yaw quaternions q = (w, 0, y, 0) (..., 4): a cheap qrot.
+    ``axis`` (0 or -1) is where both hold their components."""
+    qw, _, qy, _ = components(q, axis)
+    vx, vy, vz = components(v, axis)
+    c, s = 1.0 - 2.0 * qy * qy, 2.0 * qw * qy
+    out, o = new_vectors(c * vx + s * vz, 3, axis)
+    o[1] = vy
+    o[2] = -s * vx + c * vz
     return out
 
 
-def quat_to_cont6d(q: np.ndarray) -> np.ndarray:
-    """The first two columns of a unit quaternion's rotation matrix, (..., 4) -> (..., 6)."""
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    out = np.empty(q.shape[:-1] + (6,))
-    out[..., 0] = 1 - 2 * (y * y + z * z)
-    out[..., 1] = 2 * (x * y + w * z)
-    out[..., 2] = 2 * (x * z - w * y)
-    out[..., 3] = 2 * (x * y - w * z)
-    out[..., 4] = 1 - 2 * (x * x + z * z)
-    out[..., 5] = 2 * (y * z + w * x)
+def quat_to_cont6d(q: np.ndarray, *, axis: int = -1) -> np.ndarray:
+    """The first two columns of a unit quaternion's rotation matrix, (..., 4) -> (..., 6).
+    ``axis`` (0 or -1) holds the components of both."""
+    w, x, y, z = components(_unit(q, axis), axis)
+    out, o = new_vectors(1 - 2 * (y * y + z * z), 6, axis)
+    o[1] = 2 * (x * y + w * z)
+    o[2] = 2 * (x * z - w * y)
+    o[3] = 2 * (x * y - w * z)
+    o[4] = 1 - 2 * (x * x + z * z)
+    o[5] = 2 * (y * z + w * x)
     return out
 
 
 def canonicalize(joints: np.ndarray) -> np.ndarray:
     """Floor at y=0, the root's first position at the XZ origin, first pose facing +Z."""
-    joints = _check_joints(joints).copy()
-    joints[..., 1] -= joints[..., 1].min()
-    joints -= joints[0, 0] * np.array([1.0, 0.0, 1.0])
-    turn = qbetween(facing_direction(joints[0]), _FORWARD)  # a pure yaw: the facing is horizontal
-    return yaw_quat_rotate(turn, joints)
+    return np.ascontiguousarray(_canonical_parts(joints).transpose(1, 2, 0))
+
+
+def _canonical_parts(joints: np.ndarray) -> np.ndarray:
+    """:func:`canonicalize` with the components first: (T, 22, 3) -> (3, T, 22), C-contiguous."""
+    joints = _check_joints(joints)
+    shift = np.array([joints[0, 0, 0], joints[..., 1].min(), joints[0, 0, 2]])
+    turn = qbetween(facing_direction(joints[0] - shift), _FORWARD)  # a pure yaw: the facing is horizontal
+    return yaw_quat_rotate(turn, components(joints) - shift[:, None, None], axis=0)
 
 
 def foot_contacts(joints: np.ndarray, threshold: float = FOOT_CONTACT_THRESHOLD) -> np.ndarray:
     """(T, 22, 3) -> (T-1, 4) contacts [L ankle, L foot, R ankle, R foot] as 0/1 floats."""
-    feet = list(FOOT_JOINTS["left"]) + list(FOOT_JOINTS["right"])
-    step = joints[1:, feet] - joints[:-1, feet]
-    return ((step**2).sum(-1) < threshold).astype(np.float64)
+    return _foot_contacts(components(joints), threshold)
+
+
+def _foot_contacts(p: np.ndarray, threshold: float = FOOT_CONTACT_THRESHOLD) -> np.ndarray:
+    """:func:`foot_contacts` of component-first joints (3, T, 22)."""
+    feet = p[:, :, _FEET]
+    step = feet[:, 1:] - feet[:, :-1]
+    return (dot(step, step, axis=0) < threshold).astype(np.float64)
 
 
 def hml_inverse_kinematics(joints: np.ndarray, *, smooth_forward: bool = True) -> np.ndarray:
@@ -129,28 +154,33 @@ def hml_inverse_kinematics(joints: np.ndarray, *, smooth_forward: bool = True) -
     the observed bone, relative to the accumulated chain rotation (each chain restarts at the
     root rotation, as in HumanML3D).
     """
-    forward = cross(_UP, _hml_ik_across(joints))
+    quats = _hml_ik(components(joints), smooth_forward=smooth_forward)
+    return np.ascontiguousarray(quats.transpose(1, 2, 0))
+
+
+def _hml_ik(p: np.ndarray, *, smooth_forward: bool = True) -> np.ndarray:
+    """:func:`hml_inverse_kinematics` with the components first: (3, T, 22) -> (4, T, 22)."""
+    forward = cross(_UP[:, None], _hml_ik_across(p), axis=0)  # (3, T)
     if smooth_forward:
-        forward = gaussian_filter1d(forward, 20, axis=0, mode="nearest")
-    forward = forward / np.linalg.norm(forward, axis=-1, keepdims=True)
-    root_quat = qbetween(forward, np.broadcast_to(_FORWARD, forward.shape))
+        forward = correlate1d(forward, _HEADING_SMOOTHING, axis=1, mode="nearest")
+    quats = np.empty((4,) + p.shape[1:])
+    # (qbetween is scale-invariant: the directions need no normalising)
+    root_quat = qbetween(forward, _FORWARD[:, None], axis=0)
     # HumanML3D pins the first frame's root rotation to the identity (the canonical pose already
     # faces +Z), so the first root angular velocity absorbs the smoothing offset.
-    root_quat[0] = (1.0, 0.0, 0.0, 0.0)
+    root_quat[:, 0] = (1.0, 0.0, 0.0, 0.0)
     # Along a chain the accumulated rotation after bone b equals b's shortest arc, so each
     # stored quaternion is inv(arc of the previous bone in the chain, or the root) * arc(b).
-    bones = joints[:, _IK_CHILD] - joints[:, _IK_PARENT]
-    bones = bones / np.linalg.norm(bones, axis=-1, keepdims=True)
-    arcs = qbetween(np.broadcast_to(HML_RAW_OFFSETS[_IK_CHILD], bones.shape), bones)  # (T, 21, 4)
-    prev = np.concatenate([root_quat[:, None], arcs], axis=1)[:, _IK_PREV + 1]
-    quats = np.empty(joints.shape[:-1] + (4,))
-    quats[:, 0] = root_quat
-    quats[:, _IK_CHILD] = qmul(qinv(prev), arcs)
+    arcs = qbetween(_IK_RAW_DIRS, p[:, :, _IK_CHILD] - p[:, :, _IK_PARENT], axis=0)  # (4, T, 21)
+    prev = np.concatenate([root_quat[:, :, None], arcs], axis=2)[:, :, _IK_PREV + 1]
+    quats[:, :, 0] = root_quat
+    quats[:, :, _IK_CHILD] = qmul(qinv(prev, axis=0), arcs, axis=0)
     return quats
 
 
-def _hml_ik_across(joints: np.ndarray) -> np.ndarray:
-    """The "across" vector of HumanML3D's IK, reproduced as the reference data demands.
+def _hml_ik_across(p: np.ndarray) -> np.ndarray:
+    """The "across" vector (3, T) of HumanML3D's IK for component-first joints (3, T, 22),
+    reproduced as the reference data demands.
 
     HumanML3D's IK unpacks the face joints (2, 1, 17, 16) as (l_hip, r_hip, sdr_r, sdr_l), so its
     across vector is (left hip - right hip) + (right shoulder - left shoulder): the hip term
@@ -159,8 +189,13 @@ def _hml_ik_across(joints: np.ndarray) -> np.ndarray:
     reference heading to 0.015 rad where the consistent version is off by 0.6 rad.
     """
     r_hip, l_hip, r_sdr, l_sdr = FACE_JOINTS
-    across = (joints[:, l_hip] - joints[:, r_hip]) + (joints[:, r_sdr] - joints[:, l_sdr])
-    return across / np.linalg.norm(across, axis=-1, keepdims=True)
+    across = (p[:, :, l_hip] - p[:, :, r_hip]) + (p[:, :, r_sdr] - p[:, :, l_sdr])
+    return _unit(across, 0)
+
+
+def _put(features: np.ndarray, key: str, parts: np.ndarray) -> None:
+    """Write component-first values (n, T-1, J) into a feature group laid out (J, n) per frame."""
+    features[:, SLICES[key]] = parts.transpose(1, 2, 0).reshape(len(features), -1)
 
 
 def joints_to_features(joints: np.ndarray, *, canonical: bool = True) -> np.ndarray:
@@ -169,29 +204,29 @@ def joints_to_features(joints: np.ndarray, *, canonical: bool = True) -> np.ndar
     With ``canonical`` (default) the motion is first put on the floor, at the origin and
     facing +Z (HumanML3D's processing; its skeleton retargeting is the importer's job).
     """
-    positions = canonicalize(joints) if canonical else _check_joints(joints)
-    contacts = foot_contacts(positions)
-    quats = hml_inverse_kinematics(positions)
-    root_quat = quats[:, 0]  # (T, 4) heading: world -> root frame
+    # (3, T, 22): components first
+    p = _canonical_parts(joints) if canonical else np.ascontiguousarray(components(_check_joints(joints)))
+    quats = _hml_ik(p)
+    root_quat = quats[:, :, 0]  # (4, T) heading: world -> root frame
+    features = np.empty((p.shape[1] - 1, FEATURE_DIM), dtype=np.float32)
 
     # root: yaw velocity (HumanML3D keeps asin of the relative quaternion's y part), velocity, height
-    rel = qmul(root_quat[1:], qinv(root_quat[:-1]))
-    root_rot_vel = np.arcsin(np.clip(rel[:, 2:3], -1.0, 1.0))
+    rel = qmul(root_quat[:, 1:], qinv(root_quat[:, :-1], axis=0), axis=0)
+    features[:, 0] = np.arcsin(np.clip(rel[2], -1.0, 1.0))
     # the root quaternions turn a horizontal direction onto +Z: pure yaw, so the cheap rotation applies
-    root_vel = yaw_quat_rotate(root_quat[1:], positions[1:, 0] - positions[:-1, 0])[:, [0, 2]]
-    root_height = positions[:-1, 0, 1:2]
+    root_vel = yaw_quat_rotate(root_quat[:, 1:], p[:, 1:, 0] - p[:, :-1, 0], axis=0)
+    features[:, 1] = root_vel[0]
+    features[:, 2] = root_vel[2]
+    features[:, 3] = p[1, :-1, 0]
 
     # ric: positions relative to the root's XZ, heading removed
-    ric = positions.copy()
-    ric[..., 0] -= positions[:, 0:1, 0]
-    ric[..., 2] -= positions[:, 0:1, 2]
-    ric = yaw_quat_rotate(root_quat[:-1, None], ric[:-1, 1:]).reshape(len(ric) - 1, -1)
-
-    rot6d = quat_to_cont6d(quats[:-1, 1:]).reshape(len(quats) - 1, -1)
-    local_vel = yaw_quat_rotate(root_quat[:-1, None], positions[1:] - positions[:-1]).reshape(len(positions) - 1, -1)
-
-    features = np.concatenate([root_rot_vel, root_vel, root_height, ric, rot6d, local_vel, contacts], -1)
-    return features.astype(np.float32)
+    heading = root_quat[:, :-1, None]
+    ric = p[:, :-1, 1:] - p[:, :-1, :1] * _XZ[:, None, None]
+    _put(features, "ric", yaw_quat_rotate(heading, ric, axis=0))
+    _put(features, "rot6d", quat_to_cont6d(quats[:, :-1, 1:], axis=0))
+    _put(features, "local_vel", yaw_quat_rotate(heading, p[:, 1:] - p[:, :-1], axis=0))
+    features[:, SLICES["contacts"]] = _foot_contacts(p)
+    return features
 
 
 def _yaw_rotate(vectors: torch.Tensor, angle: torch.Tensor) -> torch.Tensor:

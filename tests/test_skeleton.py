@@ -74,3 +74,31 @@ def test_rotation_helpers():
         assert np.abs(matrix_to_euler(mat, order) - angles).max() < 1e-8
     pts = rng.normal(size=(6, 3))
     assert np.abs(kabsch(pts, pts @ m[0].T) - m[0]).max() < 1e-9
+
+
+def test_qbetween_handles_opposite_directions():
+    from engine.rotations import qbetween, qrot
+
+    down = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.3, 0.4, 0.5]])
+    up = -down
+    q = qbetween(down, up)
+    assert np.isfinite(q).all() and np.allclose(np.linalg.norm(q, axis=-1), 1.0)
+    assert np.allclose(qrot(q, down), up, atol=1e-9)
+    # component-first layout too
+    q0 = qbetween(down.T, up.T, axis=0)
+    assert np.allclose(q0.T, q)
+
+
+def test_features_of_arms_straight_up_are_finite():
+    from engine.representation import joints_to_features
+
+    skeleton = Skeleton.default()
+    local = np.broadcast_to(np.eye(3), (10, 22, 3, 3)).copy()
+    # T-pose arms rotated to point straight up: exactly opposite HumanML3D's raw "down" direction
+    from engine.rotations import axis_rotation
+
+    local[:, 16] = axis_rotation("z", np.full(10, np.pi / 2))
+    local[:, 17] = axis_rotation("z", np.full(10, -np.pi / 2))
+    joints = skeleton.forward(local, np.tile([0.0, 0.95, 0.0], (10, 1)) + np.linspace(0, 0.1, 10)[:, None])
+    assert np.allclose(joints[0, 20] - joints[0, 16], [0, np.linalg.norm(joints[0, 20] - joints[0, 16]), 0], atol=1e-9)
+    assert np.isfinite(joints_to_features(joints)).all()

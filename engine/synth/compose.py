@@ -6,12 +6,12 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from engine.synth.physics import bridge
+from engine.synth.physics import bridge_all, clip01
 from engine.synth.primitives import PRIMITIVES, Context, Event, State
 from engine.synth.primitives.arms import apply_layer, gesture_layer
 from engine.synth.program import Program
 from engine.synth.rig import Channels, Solved, local_rotations, solve
-from engine.synth.styles import apply_style, style_spec
+from engine.synth.styles import StyleSpec, apply_style, style_spec
 
 # channels that are blended across seams (feet are world targets and never blended)
 _BRIDGED = ("root", "heading", "pelvis", "spine", "neck", "collar", "knee_out", "hand", "elbow_pole", "hand_frame")
@@ -29,6 +29,7 @@ class Synthesis:
     blend_windows: list[tuple[int, int]]
     segment_params: list[dict]
     gait_phase: np.ndarray
+    style: StyleSpec | None = field(default=None, repr=False)  # the program's resolved style
     _local: np.ndarray | None = field(default=None, repr=False)
 
     @property
@@ -66,7 +67,7 @@ def synthesize(program: Program, *, fps: float = 20.0, start: State | None = Non
         phases.append(res.gait_phase + phase_offset)
         phase_offset = phases[-1][-1] + (phases[-1][-1] - phases[-1][-2] if len(phases[-1]) > 1 else 0.0)
         posture.append(res.posture)
-        events += [e.shifted(offset) for e in seg_events]
+        events += [e.shifted(offset) for e in seg_events] if offset else seg_events  # (fresh events)
         params.append(dict(res.params))
         offset += seg.frames
         state = res.state
@@ -79,15 +80,11 @@ def synthesize(program: Program, *, fps: float = 20.0, start: State | None = Non
     for b in program.boundaries:
         lo, hi = max(b - half, 1), min(b + program.blend - half, ch.frames - 1)
         windows.append((lo, hi))
-        for name in _BRIDGED:
-            bridge(getattr(ch, name), lo, hi)
-        bridge(arm_busy, lo, hi)
-        bridge(posture_w, lo, hi)
-        bridge(gait_phase, lo, hi)
-    ch = apply_style(ch, spec, arm_free=np.clip(1.0 - arm_busy, 0.0, 1.0), gait_phase=gait_phase,
-                     posture_weight=np.clip(posture_w, 0.0, 1.0), fps=fps, seed=program.seed)
+        bridge_all([getattr(ch, name) for name in _BRIDGED] + [arm_busy, posture_w, gait_phase], lo, hi)
+    ch = apply_style(ch, spec, arm_free=clip01(1.0 - arm_busy), gait_phase=gait_phase,
+                     posture_weight=clip01(posture_w), fps=fps, seed=program.seed, in_place=True)
     solved = solve(ch)
     events.sort(key=lambda e: (e.frame, e.kind))
     return Synthesis(program=program, channels=ch, solved=solved, events=events,
                      segment_ranges=program.segment_ranges(), blend_windows=windows,
-                     segment_params=params, gait_phase=gait_phase)
+                     segment_params=params, gait_phase=gait_phase, style=spec)

@@ -1,27 +1,29 @@
 """The on-the-fly corpus: ``Corpus(split).sample(i)`` is deterministic for (seed, split, i)."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from engine.representation import Normalizer, facing_direction, joints_to_features
-from engine.rotations import qbetween, quat_to_matrix
 from engine.synth.compose import Synthesis, synthesize
 from engine.synth.grammar import captions as make_captions
 from engine.synth.labels import Labels, build_labels
 from engine.synth.program import MAX_FRAMES, Program
 from engine.synth.splits import SPLIT_IDS, is_held_out, sample_program
 
-_FORWARD = np.array([0.0, 0.0, 1.0])
-
-
 def canonical_transform(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(rotation (3, 3), shift (3,)) with canonical = rotation @ (p + shift), matching
     ``engine.representation.canonicalize`` (floor y = 0, root at the XZ origin, facing +Z)."""
     shift = np.array([-joints[0, 0, 0], -joints[..., 1].min(), -joints[0, 0, 2]])
-    face = facing_direction(joints[0])
-    rot = quat_to_matrix(qbetween(face, _FORWARD))
+    fx, _, fz = facing_direction(joints[0]).tolist()  # horizontal
+    # qbetween(face, +Z) is a pure yaw quaternion (w, 0, y, 0); its matrix written out on scalars
+    w, y = math.sqrt(fx * fx + fz * fz) + fz, -fx
+    norm = max(math.sqrt(w * w + y * y), 1e-9)
+    w, y = w / norm, y / norm
+    c, s = 1 - 2 * (y * y), 2 * (w * y)
+    rot = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
     return rot, shift
 
 

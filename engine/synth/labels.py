@@ -19,9 +19,19 @@ FOOT_NAMES = ("left_ankle", "left_toe", "right_ankle", "right_toe")
 
 def intervals(mask: np.ndarray) -> list[list[int]]:
     """Runs of True as [start, end) frame pairs."""
-    m = np.concatenate([[False], np.asarray(mask, dtype=bool), [False]])
-    d = np.flatnonzero(np.diff(m.astype(np.int8)))
-    return [[int(a), int(b)] for a, b in zip(d[::2], d[1::2])]
+    return column_intervals(np.asarray(mask, dtype=bool)[:, None])[0]
+
+
+def column_intervals(mask: np.ndarray) -> list[list[list[int]]]:
+    """:func:`intervals` of every column of a (T, K) bool mask, in one pass."""
+    padded = np.zeros((mask.shape[1], mask.shape[0] + 2), dtype=np.int8)
+    padded[:, 1:-1] = mask.T
+    column, frame = np.nonzero(np.diff(padded, axis=1))  # run edges, by column then frame
+    column, frame = column.tolist(), frame.tolist()
+    out: list[list[list[int]]] = [[] for _ in range(mask.shape[1])]
+    for k, a, b in zip(column[::2], frame[::2], frame[1::2]):  # edges pair up within a column
+        out[k].append([a, b])
+    return out
 
 
 @dataclass
@@ -104,7 +114,7 @@ def build_labels(syn: Synthesis, *, split: str, index: int, rotation: np.ndarray
         if kind is not None and seg.action != "stand":
             counts[seg.action] = counts.get(seg.action, 0) + count
     transitions = [{"boundary": b, "start": lo, "end": hi} for b, (lo, hi) in zip(prog.boundaries, syn.blend_windows)]
-    spec = style_spec(prog.style, prog.style_strength)
+    spec = syn.style if syn.style is not None else style_spec(prog.style, prog.style_strength)
     steps = [e for e in syn.events if e.kind == "step"]
     outline = {
         "frames": T,
@@ -131,7 +141,7 @@ def build_labels(syn: Synthesis, *, split: str, index: int, rotation: np.ndarray
     return Labels(
         split=split, index=index, frames=T, fps=fps, style=prog.style, style_strength=prog.style_strength,
         segments=segs, transitions=transitions, counts=counts, events=events, jumps=jumps,
-        contacts={name: intervals(contact[:, k]) for k, name in enumerate(FOOT_NAMES)},
+        contacts=dict(zip(FOOT_NAMES, column_intervals(contact))),
         contact_frames=contact, root_path=root[:, [0, 2]], heading=heading, outline=outline, motifs=motifs,
         held_out_pair=held_out_pair, held_out_template=held_out_template, floor_shift=float(-shift[1]),
     )

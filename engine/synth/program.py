@@ -6,7 +6,7 @@ synthesis (``engine.synth.compose.synthesize``) is a pure function of the progra
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 
 FPS = 20.0
 MAX_FRAMES = 196
@@ -81,7 +81,7 @@ class Segment:
             raise ValueError("count must be >= 1")
 
     def to_json(self) -> dict:
-        out = asdict(self)
+        out = dict(self.__dict__)  # every field holds a number, a string or None but these two
         out["overlay"] = self.overlay.to_json() if self.overlay is not None else None
         out["path"] = [list(p) for p in self.path] if self.path is not None else None
         return out
@@ -108,7 +108,7 @@ class Person:
     elbow: float = 0.0  # rad, extra relaxed elbow bend
 
     def to_json(self) -> dict:
-        return asdict(self)
+        return dict(self.__dict__)  # numbers only: no deep copy needed
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from engine.rotations import dot
 from engine.skeleton import PARENTS, Skeleton
 
 SKELETON = Skeleton.default()
@@ -45,23 +46,22 @@ STAND_PELVIS = FLAT_MAX_PELVIS - 0.012  # relaxed standing height (knees nearly 
 SIDES = (0, 1)  # 0 = left, 1 = right
 SIDE_SIGN = np.array([1.0, -1.0])  # +X is the body's left
 
-_UP = np.array([0.0, 1.0, 0.0])
-
 
 # --------------------------------------------------------------------------- rotations
 def euler(angles: np.ndarray) -> np.ndarray:
     """(..., 3) (pitch, yaw, roll) -> (..., 3, 3) = Ry(yaw) @ Rx(pitch) @ Rz(roll)."""
     x, y, z = angles[..., 0], angles[..., 1], angles[..., 2]
     cx, sx, cy, sy, cz, sz = np.cos(x), np.sin(x), np.cos(y), np.sin(y), np.cos(z), np.sin(z)
+    sysx, cysx = sy * sx, cy * sx
     out = np.empty(angles.shape[:-1] + (3, 3))
-    out[..., 0, 0] = cy * cz + sy * sx * sz
-    out[..., 0, 1] = -cy * sz + sy * sx * cz
+    out[..., 0, 0] = cy * cz + sysx * sz
+    out[..., 0, 1] = -cy * sz + sysx * cz
     out[..., 0, 2] = sy * cx
     out[..., 1, 0] = cx * sz
     out[..., 1, 1] = cx * cz
     out[..., 1, 2] = -sx
-    out[..., 2, 0] = -sy * cz + cy * sx * sz
-    out[..., 2, 1] = sy * sz + cy * sx * cz
+    out[..., 2, 0] = -sy * cz + cysx * sz
+    out[..., 2, 1] = sy * sz + cysx * cz
     out[..., 2, 2] = cy * cx
     return out
 
@@ -78,16 +78,30 @@ def yaw_rotation(angle: np.ndarray) -> np.ndarray:
     return out
 
 
+def vector3(x: np.ndarray | float, y: np.ndarray | float, z: np.ndarray | float) -> np.ndarray:
+    """Vectors (..., 3) from broadcastable components (cheaper than np.stack on small arrays)."""
+    out = np.empty(np.broadcast(x, y, z).shape + (3,))
+    out[..., 0] = x
+    out[..., 1] = y
+    out[..., 2] = z
+    return out
+
+
+def floor_vector(x: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Vectors on the floor plane from their x and z parts: (...,) -> (..., 3)."""
+    return vector3(x, 0.0, z)
+
+
 def forward_vector(heading: np.ndarray) -> np.ndarray:
     """Facing direction on the floor for a heading angle: (...,) -> (..., 3)."""
     h = np.asarray(heading, dtype=np.float64)
-    return np.stack([np.sin(h), np.zeros_like(h), np.cos(h)], -1)
+    return floor_vector(np.sin(h), np.cos(h))
 
 
 def left_vector(heading: np.ndarray) -> np.ndarray:
     """The body's left on the floor for a heading angle: (...,) -> (..., 3)."""
     h = np.asarray(heading, dtype=np.float64)
-    return np.stack([np.cos(h), np.zeros_like(h), -np.sin(h)], -1)
+    return floor_vector(np.cos(h), -np.sin(h))
 
 
 def foot_rotation(yaw: np.ndarray, pitch: np.ndarray) -> np.ndarray:
@@ -99,7 +113,7 @@ def toe_from_ankle(ankle: np.ndarray, yaw: np.ndarray, pitch: np.ndarray) -> np.
     """Toe position for an ankle position and foot orientation (closed form)."""
     ang = TOE_ANGLE + pitch
     horiz = TOE_LENGTH * np.cos(ang)
-    out = np.empty(np.broadcast_shapes(np.shape(ankle)))
+    out = np.empty(np.shape(ankle))
     out[..., 0] = ankle[..., 0] + horiz * np.sin(yaw)
     out[..., 1] = ankle[..., 1] - TOE_LENGTH * np.sin(ang)
     out[..., 2] = ankle[..., 2] + horiz * np.cos(yaw)
@@ -119,7 +133,7 @@ def ankle_from_toe(toe: np.ndarray, yaw: np.ndarray, pitch: np.ndarray) -> np.nd
 
 def pitch_for_ankle_height(height: np.ndarray) -> np.ndarray:
     """Foot pitch that lifts the ankle to ``height`` with the toe on the floor (heel rise)."""
-    ratio = np.clip(np.asarray(height) / TOE_LENGTH, np.sin(TOE_ANGLE), 0.995)
+    ratio = np.minimum(np.maximum(np.asarray(height) / TOE_LENGTH, np.sin(TOE_ANGLE)), 0.995)
     return np.arcsin(ratio) - TOE_ANGLE
 
 
@@ -148,14 +162,17 @@ class Channels:
         return int(self.root.shape[0])
 
     def slice(self, start: int, stop: int) -> "Channels":
-        return Channels(**{f.name: getattr(self, f.name)[start:stop] for f in fields(self)})
+        return Channels(**{name: getattr(self, name)[start:stop] for name in _CHANNELS})
 
     def copy(self) -> "Channels":
-        return Channels(**{f.name: getattr(self, f.name).copy() for f in fields(self)})
+        return Channels(**{name: getattr(self, name).copy() for name in _CHANNELS})
 
     @staticmethod
     def concat(parts: list["Channels"]) -> "Channels":
-        return Channels(**{f.name: np.concatenate([getattr(p, f.name) for p in parts], 0) for f in fields(Channels)})
+        return Channels(**{name: np.concatenate([getattr(p, name) for p in parts], 0) for name in _CHANNELS})
+
+
+_CHANNELS = tuple(f.name for f in fields(Channels))
 
 
 def neutral_hands(frames: int) -> tuple[np.ndarray, np.ndarray]:
@@ -169,6 +186,13 @@ def neutral_hands(frames: int) -> tuple[np.ndarray, np.ndarray]:
     pole[:, :, 1] = 0.0
     pole[:, :, 2] = -1.0
     return hand, pole
+
+
+def _repeat(value: np.ndarray, frames: int) -> np.ndarray:
+    """``value`` repeated over a new leading axis of ``frames`` (a writable copy)."""
+    out = np.empty((frames,) + np.shape(value))
+    out[:] = value
+    return out
 
 
 def standing_channels(frames: int, *, root_xz: np.ndarray, heading: float, feet: np.ndarray,
@@ -187,8 +211,8 @@ def standing_channels(frames: int, *, root_xz: np.ndarray, heading: float, feet:
         spine=np.zeros((frames, 3, 3)),
         neck=np.zeros((frames, 3)),
         collar=np.zeros((frames, 2, 3)),
-        ankle=np.broadcast_to(feet, (frames, 2, 3)).copy(),
-        foot_yaw=np.broadcast_to(feet_yaw, (frames, 2)).copy(),
+        ankle=_repeat(feet, frames),
+        foot_yaw=_repeat(feet_yaw, frames),
         foot_pitch=np.zeros((frames, 2)),
         knee_out=np.zeros((frames, 2)),
         hand=hand,
@@ -204,13 +228,12 @@ def two_bone(base: np.ndarray, target: np.ndarray, pole: np.ndarray, l1: float, 
     """Analytic two-bone IK (vectorised). Returns (mid, end, d1, d2): joint positions and unit
     bone directions. The mid joint bends toward ``pole``; unreachable targets are clamped."""
     d = target - base
-    dist = np.sqrt((d * d).sum(-1, keepdims=True))
+    dist = np.sqrt(dot(d, d))[..., None]
     u = d / np.maximum(dist, 1e-9)
-    dist = np.clip(dist, abs(l1 - l2) + 1e-3, (l1 + l2) * 0.9999)
-    p = pole - (pole * u).sum(-1, keepdims=True) * u
-    pn = np.sqrt((p * p).sum(-1, keepdims=True))
-    p = p / np.maximum(pn, 1e-9)
-    cos_a = np.clip((l1 * l1 + dist * dist - l2 * l2) / (2.0 * l1 * dist), -1.0, 1.0)
+    dist = np.minimum(np.maximum(dist, abs(l1 - l2) + 1e-3), (l1 + l2) * 0.9999)
+    p = pole - dot(pole, u)[..., None] * u
+    p = p / np.maximum(np.sqrt(dot(p, p)), 1e-9)[..., None]
+    cos_a = np.minimum(np.maximum((l1 * l1 + dist * dist - l2 * l2) / (2.0 * l1 * dist), -1.0), 1.0)
     sin_a = np.sqrt(1.0 - cos_a * cos_a)
     d1 = cos_a * u + sin_a * p
     mid = base + l1 * d1
@@ -227,113 +250,125 @@ class Solved:
     joints: np.ndarray  # (T, 22, 3)
     trunk: dict[int, np.ndarray]  # joint -> global rotation (T, 3, 3) for pelvis/spine/neck/collars
     limb_dirs: dict[int, tuple[np.ndarray, np.ndarray]]  # joint -> (bone dir, bend normal) (T, 3)
-    foot_rot: np.ndarray  # (T, 2, 3, 3) ankle world rotations
+    foot_yaw: np.ndarray  # (T, 2) world yaw of each foot
+    foot_pitch: np.ndarray  # (T, 2)
+
+    @property
+    def foot_rot(self) -> np.ndarray:
+        """Ankle world rotations (T, 2, 3, 3) (built on demand: only local rotations need them)."""
+        return foot_rotation(self.foot_yaw, self.foot_pitch)
 
 
-def fit_pelvis_height(root: np.ndarray, pelvis_rot: np.ndarray, ankle: np.ndarray,
+def fit_pelvis_height(root: np.ndarray, hip_offset: np.ndarray, ankle: np.ndarray,
                       contact: np.ndarray, *, softness: float = 0.01) -> np.ndarray:
     """Lower the pelvis (smooth minimum) wherever a planted foot could not be reached.
 
-    root (T, 3), pelvis_rot (T, 3, 3), ankle (T, 2, 3), contact (T, 2) bool -> new root y (T,).
+    root (T, 3), hip_offset (T, 2, 3) (world offsets of the hips from the pelvis joint), ankle (T, 2, 3), contact (T, 2) bool
+    -> new root y (T,).
     """
-    hips = root[:, None, :] + (pelvis_rot[:, None] @ OFFSETS[[1, 2]][None, :, :, None])[..., 0]
+    hips = root[:, None, :] + hip_offset
     dxz2 = (hips[..., 0] - ankle[..., 0]) ** 2 + (hips[..., 2] - ankle[..., 2]) ** 2
     reach = np.sqrt(np.maximum(LEG_REACH**2 - dxz2, 0.05))
-    limit = ankle[..., 1] + reach - (hips[..., 1] - root[:, None, 1])  # (T, 2) max root y
-    limit = np.where(contact, limit, np.inf)
-    y = root[:, 1]
+    limit = ankle[..., 1] + reach - hip_offset[..., 1]  # (T, 2) max root y
     # smooth minimum of (desired, limits): -k log sum exp(-v / k), always <= the true minimum
-    stack = np.concatenate([y[:, None], limit], 1)
-    lo = stack.min(1, keepdims=True)
-    soft = lo[:, 0] - softness * np.log(np.exp(-(stack - lo) / softness).sum(1))
-    return soft
+    values = np.empty((len(root), 3))
+    values[:, 0] = root[:, 1]
+    values[:, 1:] = np.where(contact, limit, np.inf)
+    lo = values.min(1)
+    e = np.exp((values - lo[:, None]) / -softness)
+    return lo - softness * np.log(e[:, 0] + e[:, 1] + e[:, 2])
 
 
-def fit_pelvis_reach(root: np.ndarray, pelvis_rot: np.ndarray, ankle: np.ndarray, contact: np.ndarray,
+def fit_pelvis_reach(root: np.ndarray, hip_offset: np.ndarray, ankle: np.ndarray, contact: np.ndarray,
                      *, limit: float = 0.55, softness: float = 0.02) -> np.ndarray:
     """Pull the pelvis (on the floor plane) toward planted feet that are too far away to reach.
 
     A smooth hinge: feet within ``limit`` metres (horizontally, from their hip) are untouched.
     Returns the new root x, z (T, 2).
     """
-    hips = root[:, None, :] + (pelvis_rot[:, None] @ OFFSETS[[1, 2]][None, :, :, None])[..., 0]
-    d = ankle[..., [0, 2]] - hips[..., [0, 2]]
-    dist = np.sqrt((d * d).sum(-1))
+    root_xz = root[:, ::2]
+    d = ankle[..., ::2] - (root_xz[:, None] + hip_offset[..., ::2])  # (T, 2 feet, xz)
+    dist = np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2)
     x = dist - limit
     excess = 0.5 * (x + np.sqrt(x * x + softness * softness)) * contact
-    pull = (d / np.maximum(dist, 1e-9)[..., None] * excess[..., None]).sum(1)
-    return root[:, [0, 2]] + pull
+    pull = d * (excess / np.maximum(dist, 1e-9))[..., None]
+    return root_xz + (pull[:, 0] + pull[:, 1])
+
+
+# trunk forward kinematics in order: (joint, parent joint, index of the parent's global frame)
+_TRUNK_FK = ((3, 0, 0), (6, 3, 1), (9, 6, 2), (12, 9, 3), (15, 12, 4), (13, 9, 3), (14, 9, 3),
+             (16, 13, 5), (17, 14, 6), (1, 0, 0), (2, 0, 0))
+_TRUNK_JOINTS = (0, 3, 6, 9, 12, 13, 14)  # joints whose global frames the trunk angles set
+
+
+def trunk_frames(heading_rot: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """Global frames (T, 7, 3, 3) of :data:`_TRUNK_JOINTS` for the heading rotations (T, 3, 3)
+    and trunk angles (T, 7, 3): pelvis, spine1, spine2, spine3, neck, collar L, collar R."""
+    E = euler(angles)
+    G = np.empty_like(E)
+    G[:, 0] = heading_rot @ E[:, 0]
+    for k in (1, 2, 3):
+        G[:, k] = G[:, k - 1] @ E[:, k]
+    G[:, 4:] = G[:, 3, None] @ E[:, 4:]
+    return G
 
 
 def solve(ch: Channels) -> Solved:
     """Channels -> joint positions (T, 22, 3) and the frames for local rotations."""
     T = ch.frames
-    trunk_angles = np.concatenate([ch.pelvis[:, None], ch.spine, ch.neck[:, None], ch.collar], 1)
-    E = euler(trunk_angles)  # (T, 7, 3, 3): pelvis, spine1, spine2, spine3, neck, collar L, collar R
     heading_rot = yaw_rotation(ch.heading)
-    G0 = heading_rot @ E[:, 0]
+    G = trunk_frames(heading_rot, np.concatenate([ch.pelvis[:, None], ch.spine, ch.neck[:, None], ch.collar], 1))
+    # every trunk frame applied to every rest offset in one matrix product: (T, 7 frames, 3, 22 offsets)
+    rotated = (G.reshape(-1, 3) @ OFFSETS.T).reshape(T, 7, 3, 22)
+    hip_offset = np.swapaxes(rotated[:, 0, :, 1:3], 1, 2)  # (T, 2, 3)
     root = ch.root.copy()
-    contact_any = ch.contact.any(-1)
-    root[:, [0, 2]] = fit_pelvis_reach(root, G0, ch.ankle, contact_any)
-    root[:, 1] = fit_pelvis_height(root, G0, ch.ankle, contact_any)
+    contact_any = ch.contact[..., 0] | ch.contact[..., 1]
+    root[:, ::2] = fit_pelvis_reach(root, hip_offset, ch.ankle, contact_any)
+    root[:, 1] = fit_pelvis_height(root, hip_offset, ch.ankle, contact_any)
 
     J = np.empty((T, 22, 3))
     J[:, 0] = root
-    G3 = G0 @ E[:, 1]
-    G6 = G3 @ E[:, 2]
-    G9 = G6 @ E[:, 3]
-    G12 = G9 @ E[:, 4]
-    G13 = G9 @ E[:, 5]
-    G14 = G9 @ E[:, 6]
-    J[:, 3] = root + G0 @ OFFSETS[3]
-    J[:, 6] = J[:, 3] + G3 @ OFFSETS[6]
-    J[:, 9] = J[:, 6] + G6 @ OFFSETS[9]
-    J[:, 12] = J[:, 9] + G9 @ OFFSETS[12]
-    J[:, 15] = J[:, 12] + G12 @ OFFSETS[15]
-    J[:, 13] = J[:, 9] + G9 @ OFFSETS[13]
-    J[:, 14] = J[:, 9] + G9 @ OFFSETS[14]
-    J[:, 16] = J[:, 13] + G13 @ OFFSETS[16]
-    J[:, 17] = J[:, 14] + G14 @ OFFSETS[17]
-    J[:, 1] = root + G0 @ OFFSETS[1]
-    J[:, 2] = root + G0 @ OFFSETS[2]
+    for joint, parent, frame in _TRUNK_FK:
+        J[:, joint] = J[:, parent] + rotated[:, frame, :, joint]
 
     # legs
-    fwd = forward_vector(ch.foot_yaw)  # (T, 2, 3)
-    lat = left_vector(ch.foot_yaw) * SIDE_SIGN[None, :, None]  # outward
+    sin_yaw, cos_yaw = np.sin(ch.foot_yaw), np.cos(ch.foot_yaw)
+    fwd = floor_vector(sin_yaw, cos_yaw)  # (T, 2, 3), as forward_vector(ch.foot_yaw)
+    lat = floor_vector(cos_yaw, -sin_yaw) * SIDE_SIGN[None, :, None]  # left_vector, outward
     knee_pole = fwd * np.cos(ch.knee_out)[..., None] + lat * np.sin(ch.knee_out)[..., None]
     knee_pole = knee_pole + 0.15 * lat
-    hips = J[:, [1, 2]]
+    hips = J[:, 1:3]
     # a leg raised forward (kick, high knee) bends its knee upward, not into the pole's line
     leg = ch.ankle - hips
-    ahead = np.maximum((leg * fwd).sum(-1) / np.maximum(np.linalg.norm(leg, axis=-1), 1e-9), 0.0)
-    knee_pole = knee_pole + 2.0 * ahead[..., None] * _UP
+    ahead = np.maximum(dot(leg, fwd) / np.maximum(np.sqrt(dot(leg, leg)), 1e-9), 0.0)
+    knee_pole[..., 1] += 2.0 * ahead
     # never put a toe or heel under the floor (planted feet sit exactly on it already)
     target = ch.ankle.copy()
     floor = np.where(ch.foot_pitch < 0, ANKLE_HEIGHT, TOE_LENGTH * np.sin(TOE_ANGLE + ch.foot_pitch))
     target[..., 1] = np.maximum(target[..., 1], floor - 1e-9)
     knee, ankle, d_thigh, d_shin = two_bone(hips, target, knee_pole, THIGH, SHIN)
-    J[:, [4, 5]] = knee
-    J[:, [7, 8]] = ankle
-    J[:, [10, 11]] = toe_from_ankle(ankle, ch.foot_yaw, ch.foot_pitch)
+    J[:, 4:6] = knee
+    J[:, 7:9] = ankle
+    J[:, 10:12] = toe_from_ankle(ankle, ch.foot_yaw, ch.foot_pitch)
 
     # arms
-    shoulders = J[:, [16, 17]]
+    shoulders = J[:, 16:18]
     w = ch.hand_frame[..., None, None]
-    frame = (1.0 - w) * heading_rot[:, None] + w * G9[:, None]  # (T, 2, 3, 3)
+    frame = (1.0 - w) * heading_rot[:, None] + w * G[:, None, 3]  # (T, 2, 3, 3)
     target = shoulders + (frame @ ch.hand[..., None])[..., 0]
     pole = (frame @ ch.elbow_pole[..., None])[..., 0]
     elbow, wrist, d_upper, d_fore = two_bone(shoulders, target, pole, UPPER_ARM, FOREARM)
-    J[:, [18, 19]] = elbow
-    J[:, [20, 21]] = wrist
+    J[:, 18:20] = elbow
+    J[:, 20:22] = wrist
 
-    trunk = {0: G0, 3: G3, 6: G6, 9: G9, 12: G12, 13: G13, 14: G14}
+    trunk = {j: G[:, k] for k, j in enumerate(_TRUNK_JOINTS)}
     limb = {
         1: (d_thigh[:, 0], knee_pole[:, 0]), 2: (d_thigh[:, 1], knee_pole[:, 1]),
         4: (d_shin[:, 0], knee_pole[:, 0]), 5: (d_shin[:, 1], knee_pole[:, 1]),
         16: (d_upper[:, 0], pole[:, 0]), 17: (d_upper[:, 1], pole[:, 1]),
         18: (d_fore[:, 0], pole[:, 0]), 19: (d_fore[:, 1], pole[:, 1]),
     }
-    return Solved(joints=J, trunk=trunk, limb_dirs=limb, foot_rot=foot_rotation(ch.foot_yaw, ch.foot_pitch))
+    return Solved(joints=J, trunk=trunk, limb_dirs=limb, foot_yaw=ch.foot_yaw, foot_pitch=ch.foot_pitch)
 
 
 def _frame_from(direction: np.ndarray, hint: np.ndarray) -> np.ndarray:

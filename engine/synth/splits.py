@@ -75,8 +75,13 @@ def natural_seconds(seg: Segment, rng: np.random.Generator) -> float:
     return (c * per + pad) * rng.uniform(0.95, 1.15) / max(sp, 0.5) ** 0.7
 
 
+def _choice(rng: np.random.Generator, options, p=None):
+    """``rng.choice(options, p=p)`` (the same draw) without turning the options into an array."""
+    return options[int(rng.choice(len(options), p=p))]
+
+
 def _count(rng) -> int:
-    return int(rng.choice([1, 2, 3, 4, 5], p=[0.22, 0.32, 0.24, 0.13, 0.09]))
+    return _choice(rng, (1, 2, 3, 4, 5), p=[0.22, 0.32, 0.24, 0.13, 0.09])
 
 
 def random_segment(rng: np.random.Generator, action: str) -> Segment:
@@ -88,19 +93,19 @@ def random_segment(rng: np.random.Generator, action: str) -> Segment:
         intensity_word = "high" if rng.random() < 0.5 else "a little"
     direction, side, turn, count = "none", "none", 0.0, 1
     if action in ("walk", "run", "jog"):
-        direction = str(rng.choice(["forward", "forward", "forward", "left", "right", "circle_left", "circle_right"],
+        direction = str(_choice(rng, ["forward", "forward", "forward", "left", "right", "circle_left", "circle_right"],
                                    p=[0.3, 0.15, 0.15, 0.1, 0.1, 0.1, 0.1]))
     elif action == "walk_backward":
         direction = "backward"
     elif action == "side_step":
-        direction = str(rng.choice(["left", "right"]))
+        direction = str(_choice(rng, ["left", "right"]))
     elif action == "turn":
-        direction = str(rng.choice(["around", "left", "right"]))
+        direction = str(_choice(rng, ["around", "left", "right"]))
         turn = {"around": np.pi * (1 if rng.random() < 0.5 else -1), "left": np.pi / 2, "right": -np.pi / 2}[direction]
     if action in ("kick", "punch", "wave", "hop"):
-        side = str(rng.choice(["left", "right"])) if action != "punch" or rng.random() < 0.8 else "both"
+        side = str(_choice(rng, ["left", "right"])) if action != "punch" or rng.random() < 0.8 else "both"
     elif action == "raise_arms":
-        side = str(rng.choice(["both", "left", "right"], p=[0.5, 0.25, 0.25]))
+        side = str(_choice(rng, ["both", "left", "right"], p=[0.5, 0.25, 0.25]))
     if action in _COUNTED:
         count = _count(rng)
         if action in ("raise_arms", "bow", "squat") and count > 3:
@@ -118,7 +123,7 @@ def _choose_action(rng, style: str, split: str, exclude=()) -> str:
     if split != "ood":
         names = [a for a in names if (a, style) not in HELD_OUT_COMBOS]
     w = np.array([_ACTION_WEIGHTS[a] for a in names])
-    return str(rng.choice(names, p=w / w.sum()))
+    return str(_choice(rng, names, p=w / w.sum()))
 
 
 def random_person(rng) -> Person:
@@ -154,7 +159,7 @@ def sample_program(rng: np.random.Generator, split: str, *, max_frames: int = MA
             action = _choose_action(rng, style, split, exclude=(prev,) if prev else ())
         seg = random_segment(rng, action)
         if (action in _OVERLAY_BASES and style not in ARM_STYLES and rng.random() < 0.25):
-            over_action = str(rng.choice(["wave", "clap", "raise_arms", "punch"], p=[0.45, 0.2, 0.2, 0.15]))
+            over_action = str(_choice(rng, ["wave", "clap", "raise_arms", "punch"], p=[0.45, 0.2, 0.2, 0.15]))
             if split == "ood" or (over_action, style) not in HELD_OUT_COMBOS:
                 over = random_segment(rng, over_action)
                 seg = Segment(**{**seg.__dict__, "overlay": over})

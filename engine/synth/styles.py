@@ -2,7 +2,7 @@
 posture/arm layer applied to the composed channels (:func:`apply_style`)."""
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -46,14 +46,15 @@ class StyleSpec:
         """Interpolate every knob toward neutral (strength 0) or beyond (> 1)."""
         if strength == 1.0:
             return self
-        base = StyleSpec()
-        out = {}
-        for name, value in self.__dict__.items():
-            ref = getattr(base, name)
+        out = dict(self.__dict__)
+        for name, value in out.items():
             if isinstance(value, float):
+                ref = _NEUTRAL_VALUES[name]
                 out[name] = ref + (value - ref) * strength
-        return replace(self, **out)
+        return StyleSpec(**out)
 
+
+_NEUTRAL_VALUES = dict(StyleSpec().__dict__)  # read-only: the knobs' neutral values
 
 SPECS: dict[str, StyleSpec] = {
     "none": StyleSpec(),
@@ -155,14 +156,15 @@ def _stepped(x: np.ndarray, hold: int) -> np.ndarray:
 
 
 def apply_style(ch: Channels, spec: StyleSpec, *, arm_free: np.ndarray, gait_phase: np.ndarray,
-                posture_weight: np.ndarray, fps: float = 20.0, seed: int = 0) -> Channels:
-    """Layer the style's posture and arms onto composed channels (returns a new object).
+                posture_weight: np.ndarray, fps: float = 20.0, seed: int = 0, in_place: bool = False) -> Channels:
+    """Layer the style's posture and arms onto composed channels (returns a new object unless
+    ``in_place``).
 
     arm_free (T, 2): 1 where an arm is not used by a gesture (the style may take it over).
     gait_phase (T,): stride phase (used by flapping / head bob). posture_weight (T,): 1 where the
     posture offsets apply fully (0 for actions that need their own trunk, e.g. a bow).
     """
-    out = ch.copy()
+    out = ch if in_place else ch.copy()
     T = ch.frames
     t = np.arange(T) / fps
     w = posture_weight

@@ -6,7 +6,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from engine.synth.program import Person, Segment
-from engine.synth.rig import ANKLE_HEIGHT, ARM, FOREARM, SIDE_SIGN, UPPER_ARM, Channels, left_vector
+from engine.rotations import cross
+from engine.synth.rig import ANKLE_HEIGHT, ARM, FOREARM, SIDE_SIGN, UPPER_ARM, Channels, left_vector, vector3
 from engine.synth.styles import StyleSpec
 
 STANCE_HALF = 0.095  # half the distance between the ankles when standing (m)
@@ -76,6 +77,11 @@ class Result:
     params: dict = field(default_factory=dict)  # resolved numbers worth labelling
 
 
+def feet_center(feet: np.ndarray) -> np.ndarray:
+    """Floor point (x, z) midway between the two feet: (..., 2, 3) -> (..., 2)."""
+    return (feet[..., 0, ::2] + feet[..., 1, ::2]) / 2
+
+
 def end_state(ch: Channels) -> State:
     """The state a segment leaves behind (last frame)."""
     return State(root_xz=ch.root[-1, [0, 2]].copy(), heading=float(ch.heading[-1]),
@@ -88,19 +94,20 @@ def arm_angles(swing: np.ndarray, flex: np.ndarray, *, abduct: float | np.ndarra
     outward, twist turns the elbow's bending plane upward. Returns hand, pole (T, 2, 3)."""
     swing = np.asarray(swing, dtype=np.float64)
     T = swing.shape[0]
-    ab = np.broadcast_to(abduct, (T, 2)) * SIDE_SIGN
+    ab = np.multiply(abduct, SIDE_SIGN)  # broadcasts against (T, 2)
     cs, ss = np.cos(swing), np.sin(swing)
     ca, sa = np.cos(ab), np.sin(ab)
     # u = Rz(ab) Rx(-swing) (0,-1,0); b = Rz(ab) Rx(-swing) (0,0,1)
-    u = np.stack([sa * cs, -ca * cs, ss], -1)
-    b = np.stack([-sa * ss, ca * ss, cs], -1)
-    tw = -np.broadcast_to(twist, (T, 2)) * SIDE_SIGN
-    if np.any(tw):
-        ub = np.cross(u, b)
+    u = vector3(sa * cs, -ca * cs, ss)
+    b = vector3(-sa * ss, ca * ss, cs)
+    if isinstance(twist, np.ndarray) or twist != 0.0:
+        tw = -np.broadcast_to(twist, (T, 2)) * SIDE_SIGN
+        ub = cross(u, b)
         b = b * np.cos(tw)[..., None] + ub * np.sin(tw)[..., None]
     f = np.cos(flex)[..., None] * u + np.sin(flex)[..., None] * b
     hand = UPPER_ARM * u + FOREARM * f
-    pole = -b + 0.3 * np.stack([SIDE_SIGN * np.ones(T)[:, None] * np.ones(2), np.zeros((T, 2)), np.zeros((T, 2))], -1)
+    pole = -b
+    pole[..., 0] += 0.3 * SIDE_SIGN
     return hand, pole
 
 
@@ -114,4 +121,4 @@ def blend_in_out(frames: int, start: float, stop: float, ramp: float) -> np.ndar
     return w * w * (3 - 2 * w)
 
 
-__all__ = ["ARM", "Context", "Event", "Result", "State", "arm_angles", "blend_in_out", "end_state"]
+__all__ = ["ARM", "Context", "Event", "Result", "State", "arm_angles", "blend_in_out", "end_state", "feet_center"]

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from engine.synth.physics import smoothstep
-from engine.synth.primitives.base import Context, Event, Result, end_state
+from engine.synth.primitives.base import Context, Event, Result, end_state, feet_center
 from engine.synth.rig import STAND_PELVIS, Channels, forward_vector, left_vector, standing_channels
 
 
@@ -12,7 +12,7 @@ def base_stand(ctx: Context, *, idle: float = 1.0) -> Channels:
     """Standing on the state's feet with a little idle motion (weight shift, breathing)."""
     n = ctx.segment.frames
     st = ctx.state
-    mid = st.feet[:, [0, 2]].mean(0)
+    mid = feet_center(st.feet)
     ch = standing_channels(n, root_xz=mid, heading=st.heading, feet=st.feet, feet_yaw=st.feet_yaw)
     t = np.arange(n) / ctx.fps
     rng = np.random.default_rng(ctx.seed + 3)

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine.synth.physics import StepPlan, foot_track
-from engine.synth.primitives.base import STANCE_HALF, Context, Event, Result, arm_angles, end_state
+from engine.synth.physics import StepPlan, foot_track, smooth5
+from engine.synth.primitives.base import STANCE_HALF, Context, Event, Result, arm_angles, end_state, feet_center
 from engine.synth.rig import ANKLE_HEIGHT, SIDE_SIGN, STAND_PELVIS, Channels, left_vector
 
 
@@ -18,7 +18,7 @@ def dance(ctx: Context) -> Result:
     bpm = 110.0 * seg.speed * ctx.style.tempo
     beat = fps * 60.0 / bpm  # frames per beat
     beats = max(2, int(n / beat) - 1)
-    center = st.feet[:, [0, 2]].mean(0)
+    center = feet_center(st.feet)
     width = 0.28 * min(seg.intensity, 1.4)
     half = STANCE_HALF * ctx.style.stance
     # pattern: L out, R closes, R out, L closes (positions along the lateral axis)
@@ -63,11 +63,10 @@ def dance(ctx: Context) -> Result:
         ankle[:, side], yaw[:, side], pitch[:, side], contact[:, side] = a, y, p, c
     t = np.arange(n, dtype=np.float64)
     bphase = t / beat
-    mid = ankle[:, :, [0, 2]].mean(1)
-    kern = np.ones(5) / 5
-    mid = np.stack([np.convolve(np.pad(mid[:, i], 2, mode="edge"), kern, mode="valid") for i in range(2)], -1)
+    mid = feet_center(ankle)
     root = np.empty((n, 3))
-    root[:, [0, 2]] = mid
+    root[:, 0] = smooth5(mid[:, 0])
+    root[:, 2] = smooth5(mid[:, 1])
     amp = 0.035 * seg.intensity * ctx.style.bounce
     root[:, 1] = STAND_PELVIS - 0.03 - ctx.style.crouch - amp * (0.5 + 0.5 * np.cos(2 * np.pi * bphase))
     sway = np.sin(np.pi * bphase)

@@ -8,18 +8,28 @@ extends (cubic Hermite reaching v0), rolling onto the toes; landing mirrors it.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from engine.synth.physics import GRAVITY, flight_time, hermite, smoothstep, takeoff_speed
-from engine.synth.primitives.base import STANCE_HALF, Context, Event, Result, arm_angles, end_state
+from engine.synth.physics import GRAVITY, clip, flight_time, hermite, smooth5, smoothstep, takeoff_speed
+from engine.synth.primitives.base import STANCE_HALF, Context, Event, Result, arm_angles, end_state, feet_center
 from engine.synth.primitives.body import base_stand
 from engine.synth.rig import (ANKLE_HEIGHT, HIP_DROP, LEG, SIDE_SIGN, STAND_PELVIS, ankle_from_toe,
                               forward_vector, left_vector, pitch_for_ankle_height, toe_from_ankle)
 
 LEG_EXT = 0.955 * LEG  # hip-ankle distance used on the toes before take-off / after landing
 TAKEOFF_PITCH = 0.8
+
+
+def frame_span(n: int, start: float, stop: float, *, after_start: bool = False,
+               through_stop: bool = False) -> slice:
+    """The frames t = 0..n-1 with start <= t < stop as a slice (start < t with ``after_start``,
+    t <= stop with ``through_stop``): a cheaper stand-in for the boolean mask."""
+    lo = math.floor(start) + 1 if after_start else math.ceil(start)
+    hi = math.floor(stop) + 1 if through_stop else math.ceil(stop)
+    return slice(min(max(lo, 0), n), min(max(hi, 0), n))
 
 
 def ankle_height_at(pitch: float) -> float:
@@ -77,8 +87,8 @@ def ballistic_reps(ctx: Context, reps: list[Rep], *, lifted: int | None = None, 
     for k, rep in enumerate(reps):
         v0 = takeoff_speed(rep.height)
         tf = flight_time(rep.height)
-        center0 = rep.before[:, [0, 2]].mean(0) if lifted is None else rep.before[1 - lifted, [0, 2]] + 0.0
-        center1 = rep.after[:, [0, 2]].mean(0) if lifted is None else rep.after[1 - lifted, [0, 2]] + 0.0
+        center0 = feet_center(rep.before) if lifted is None else rep.before[1 - lifted, [0, 2]] + 0.0
+        center1 = feet_center(rep.after) if lifted is None else rep.after[1 - lifted, [0, 2]] + 0.0
         if lifted is not None:
             inward = left_vector(np.float64(heading))[[0, 2]] * SIDE_SIGN[lifted] * 0.03
             center0 = center0 + inward
@@ -114,38 +124,36 @@ def ballistic_reps(ctx: Context, reps: list[Rep], *, lifted: int | None = None, 
         P_land = center1 + lean
         vxz = (P_land - P_to) / tf  # m/s
         # --- vertical
-        m = (t >= tA0) & (t < tA1)
+        m = frame_span(n, tA0, tA1)
         u = (t[m] - tA0) / max(tA1 - tA0, 1e-6)
         y[m] = hermite(y_stand, 0.0, y_low, 0.0, u)
-        m = (t >= tA1) & (t < t_to)
+        m = frame_span(n, tA1, t_to)
         D = t_to - tA1
         u = (t[m] - tA1) / D
         y[m] = hermite(y_low, 0.0, y_to, v0 * D / fps, u)
-        m = (t >= t_to) & (t <= t_land)
-        tau = (t[m] - t_to) / fps
+        air = frame_span(n, t_to, t_land, through_stop=True)
+        tau = (t[air] - t_to) / fps
         uu = tau * fps / (t_land - t_to)
-        y[m] = y_to + (y_land - y_to) * smoothstep(uu) + v0 * tau - 0.5 * GRAVITY * tau * tau
-        m = (t > t_land) & (t < tD1)
+        y[air] = y_to + (y_land - y_to) * smoothstep(uu) + v0 * tau - 0.5 * GRAVITY * tau * tau
+        m = frame_span(n, t_land, tD1, after_start=True)
         D = tD1 - t_land
         u = (t[m] - t_land) / D
         y[m] = hermite(y_land, -v0 * D / fps, y_low2, 0.0, u)
-        m = (t >= tD1) & (t < tE1)
+        m = frame_span(n, tD1, tE1)
         u = (t[m] - tD1) / max(tE1 - tD1, 1e-6)
         y[m] = hermite(y_low2, 0.0, y_stand, 0.0, u)
         # --- horizontal
-        m = (t >= tA0) & (t < t_to)
+        m = frame_span(n, tA0, t_to)
         D = t_to - tA0
         u = ((t[m] - tA0) / D)[:, None]
         pxz[m] = hermite(center0, 0.0, P_to, vxz * D / fps, u)
-        m = (t >= t_to) & (t <= t_land)
-        u = ((t[m] - t_to) / (t_land - t_to))[:, None]
-        pxz[m] = P_to + (P_land - P_to) * u
-        m = (t > t_land) & (t < tE1)
+        u = ((t[air] - t_to) / (t_land - t_to))[:, None]
+        pxz[air] = P_to + (P_land - P_to) * u
+        m = frame_span(n, t_land, tE1, after_start=True)
         D = tE1 - t_land
         u = ((t[m] - t_land) / D)[:, None]
         pxz[m] = hermite(P_land, vxz * D / fps, center1, 0.0, u)
-        m = t >= tE1
-        pxz[m] = center1
+        pxz[frame_span(n, tE1, n)] = center1
         events.append(Event(kind=rep.kind, frame=apex, start=int(np.floor(tA0)), end=int(np.ceil(tE1)),
                             height=float(rep.height),
                             extra={"takeoff": round(float(t_to), 3), "landing": round(float(t_land), 3),
@@ -168,13 +176,13 @@ def ballistic_reps(ctx: Context, reps: list[Rep], *, lifted: int | None = None, 
     in_air = np.zeros(n, dtype=bool)
     air_k = np.zeros(n, dtype=int)
     for k in range(c):
-        m = (t > to_times[k]) & (t < land_times[k])
-        in_air |= m
+        m = frame_span(n, to_times[k], land_times[k], after_start=True)
+        in_air[m] = True
         air_k[m] = k
     # ground: toe plant index = number of landings at or before t
     plants = np.stack(toe_plants, 0)  # (c+1, 2, 3)
     ground_toe = plants[k_after]  # (n, 2, 3)
-    need = np.clip(y[:, None] - HIP_DROP - LEG_EXT * np.ones((n, 2)), ANKLE_HEIGHT, None)
+    need = np.maximum(y[:, None] - HIP_DROP - LEG_EXT * np.ones((n, 2)), ANKLE_HEIGHT)
     # horizontal offset between hip and ankle reduces the available vertical reach
     g_pitch = pitch_for_ankle_height(need)
     g_pitch = np.where(need <= ANKLE_HEIGHT + 1e-6, 0.0, g_pitch)
@@ -193,7 +201,7 @@ def ballistic_reps(ctx: Context, reps: list[Rep], *, lifted: int | None = None, 
         a_to = ankle_from_toe(plants[ka], yaw_b[in_air], pitch_air)
         a_land = ankle_from_toe(plants[ka + 1], yaw_b[in_air], pitch_air)
         shift = a_land - a_to
-        common = shift.mean(1, keepdims=True)
+        common = ((shift[:, 0] + shift[:, 1]) / 2)[:, None]  # mean over the feet
         a = a_to + common * u[:, None, None] + (shift - common) * smoothstep(u)[:, None, None]
         a[..., 1] += rise[:, None]
         ankle[in_air] = a
@@ -227,13 +235,13 @@ def ballistic_reps(ctx: Context, reps: list[Rep], *, lifted: int | None = None, 
     ch.contact = contact
 
     # --- trunk and arms, from the crouch depth and the airborne state
-    crouch = np.clip((y_stand - y) / 0.18, 0.0, 1.2)
+    crouch = clip((y_stand - y) / 0.18, 0.0, 1.2)
     rising = np.zeros(n)
     for (tA0, tA1, t_to, apex, t_land, tD1, tE1), rep in zip(times, reps):
         k = np.interp(t, [tA0, tA1, t_to, apex, t_land, tD1, tE1],
                       [0.0, -0.8, 0.9, 1.2, 0.7, 0.2, 0.0], left=0.0, right=0.0)
         rising += k * min(1.0, 0.5 + rep.height / 0.3)
-    rising = np.convolve(np.pad(rising, 2, mode="edge"), np.ones(5) / 5, mode="valid")
+    rising = smooth5(rising)
     ch.spine[:, :, 0] += (0.35 * crouch)[:, None] * np.array([0.4, 0.35, 0.25])
     ch.pelvis[:, 0] += 0.3 * crouch
     ch.neck[:, 0] -= 0.35 * crouch
@@ -243,7 +251,7 @@ def ballistic_reps(ctx: Context, reps: list[Rep], *, lifted: int | None = None, 
         ch.hand, ch.elbow_pole = hand, pole
     elif arms == "jacks":
         feet_lat = np.abs(((ankle[:, 0] - ankle[:, 1]) * left_vector(np.float64(heading))).sum(-1))
-        spread = np.clip((feet_lat - 2 * STANCE_HALF) / 0.4, 0.0, 1.0)
+        spread = clip((feet_lat - 2 * STANCE_HALF) / 0.4, 0.0, 1.0)
         hand, pole = arm_angles(np.zeros((n, 2)), 0.15 + 0.25 * spread[:, None] * np.ones(2),
                                 abduct=(0.15 + 2.75 * spread)[:, None] * np.ones(2))
         ch.hand, ch.elbow_pole = hand, pole
@@ -253,7 +261,7 @@ def ballistic_reps(ctx: Context, reps: list[Rep], *, lifted: int | None = None, 
         ch.hand, ch.elbow_pole = hand, pole
     st = end_state(ch)
     return Result(channels=ch, state=st, events=events, arm_busy=np.zeros((n, 2)),
-                  gait_phase=np.arange(n) / fps * 0.8, posture=np.ones(n) - 0.5 * np.clip(crouch, 0, 1))
+                  gait_phase=np.arange(n) / fps * 0.8, posture=np.ones(n) - 0.5 * clip(crouch, 0, 1))
 
 
 def _toes(ctx: Context) -> np.ndarray:
@@ -305,7 +313,7 @@ def jumping_jacks(ctx: Context) -> Result:
     heading = np.float64(ctx.state.heading)
     lat = left_vector(heading)
     toes = _toes(ctx)
-    center = toes.mean(0)
+    center = (toes[0] + toes[1]) / 2
     narrow = np.stack([center + lat * STANCE_HALF, center - lat * STANCE_HALF])
     wide_half = STANCE_HALF + 0.22 * min(seg.intensity, 1.3)
     wide = np.stack([center + lat * wide_half, center - lat * wide_half])

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from engine.synth.physics import smoothstep
-from engine.synth.primitives.base import Context, Event, Result, arm_angles, end_state
+from engine.synth.primitives.base import Context, Event, Result, arm_angles, end_state, feet_center
 from engine.synth.primitives.body import base_stand
 from engine.synth.rig import ANKLE_HEIGHT, SIDE_SIGN, forward_vector, left_vector
 
@@ -86,7 +86,7 @@ def kick(ctx: Context) -> Result:
         events.append(Event(kind="kick", frame=int(round(b + ext)), start=int(t0), end=int(min(n - 1, e + shift)),
                             side=("left", "right")[side]))
     # weight over the stance foot
-    mid = ctx.state.feet[:, [0, 2]].mean(0)
+    mid = feet_center(ctx.state.feet)
     over = stance_foot[[0, 2]] * 0.8 + mid * 0.2
     ch.root[:, 0] += (over[0] - mid[0]) * shift_w
     ch.root[:, 2] += (over[1] - mid[1]) * shift_w

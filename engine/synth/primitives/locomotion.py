@@ -8,12 +8,14 @@ counter-rotation and the arm swing are derived from the phase and the realised f
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from engine.synth.physics import StepPlan, foot_track, ramp_profile
-from engine.synth.primitives.base import STANCE_HALF, TOE_OUT, Context, Event, Result, arm_angles, end_state
+from engine.synth.physics import StepPlan, foot_track, gradient, ramp_profile, unwrap
+from engine.synth.primitives.base import (STANCE_HALF, TOE_OUT, Context, Event, Result, arm_angles, end_state,
+                                          feet_center)
 from engine.synth.rig import ANKLE_HEIGHT, SIDE_SIGN, STAND_PELVIS, Channels, forward_vector, left_vector
 
 
@@ -95,14 +97,16 @@ def _path_points(ctx: Context, distance: float, heading_offset: float) -> tuple[
 def _along(pts: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Points (n, 2) and tangent angles (n,) at arc lengths s along a polyline."""
     seg = np.diff(pts, axis=0)
-    seglen = np.linalg.norm(seg, axis=1)
-    cum = np.concatenate([[0.0], np.cumsum(seglen)])
-    x = np.interp(s, cum, pts[:, 0])
-    z = np.interp(s, cum, pts[:, 1])
-    ang = np.unwrap(np.arctan2(seg[:, 0], seg[:, 1]))
+    cum = np.empty(len(pts))
+    cum[0] = 0.0
+    np.cumsum(np.sqrt(seg[:, 0] ** 2 + seg[:, 1] ** 2), out=cum[1:])
+    out = np.empty((len(s), 2))
+    out[:, 0] = np.interp(s, cum, pts[:, 0])
+    out[:, 1] = np.interp(s, cum, pts[:, 1])
+    ang = unwrap(np.arctan2(seg[:, 0], seg[:, 1]))
     mids = 0.5 * (cum[1:] + cum[:-1])
     tangent = np.interp(s, mids, ang)
-    return np.stack([x, z], -1), tangent
+    return out, tangent
 
 
 def gait(ctx: Context) -> Result:
@@ -125,13 +129,12 @@ def gait(ctx: Context) -> Result:
     s_prof = np.concatenate([ramp_profile(n - settle, ramp_m), np.ones(settle)])
     move_s = (n - settle) / fps * (1.0 - ramp_m)
     distance = min(step_len * cadence * move_s, step_len * 0.85 * K) if seg.action != "turn" else 0.0
-    env = np.gradient(s_prof)
+    env = gradient(s_prof)
     env = env / max(env.max(), 1e-9)
     if seg.action == "turn":
         heading = ctx.state.heading + seg.turn * s_prof
         root_xz = np.broadcast_to(ctx.state.root_xz, (n, 2)).copy()
-        root_xz = root_xz + (np.mean(ctx.state.feet[:, [0, 2]], 0) - ctx.state.root_xz) * 1.0
-        env = np.gradient(s_prof) / max(np.gradient(s_prof).max(), 1e-9)
+        root_xz = root_xz + (feet_center(ctx.state.feet) - ctx.state.root_xz) * 1.0
     else:
         pts, distance, h_off = _path_points(ctx, distance, g.heading_offset)
         root_xz, tangent = _along(pts, distance * s_prof)
@@ -171,22 +174,21 @@ def gait(ctx: Context) -> Result:
         land_t = np.minimum(land_t, n - 1.0)
         h_k = np.interp(t_k, t, heading)
         lat = left_vector(h_k)
-        rxz = np.stack([np.interp(t_k, t, root_xz[:, 0]), np.interp(t_k, t, root_xz[:, 1])], -1)
         plant = np.empty((len(ks), 3))
-        plant[:, 0] = rxz[:, 0] + lat[:, 0] * SIDE_SIGN[side] * half
+        plant[:, 0] = np.interp(t_k, t, root_xz[:, 0]) + lat[:, 0] * SIDE_SIGN[side] * half
         plant[:, 1] = ANKLE_HEIGHT
-        plant[:, 2] = rxz[:, 1] + lat[:, 2] * SIDE_SIGN[side] * half
+        plant[:, 2] = np.interp(t_k, t, root_xz[:, 1]) + lat[:, 2] * SIDE_SIGN[side] * half
         if rng is not None and len(ks) > 1:
             jitter = rng.normal(0, 0.025, len(ks))
             jitter[-1] = 0.0
             plant[:, 0] += lat[:, 0] * jitter
             plant[:, 2] += lat[:, 2] * jitter
         yaw = h_k + SIDE_SIGN[side] * TOE_OUT
-        roll_scale = style.roll * np.clip(env_k, 0.3, 1.0)
+        roll_scale = style.roll * np.minimum(np.maximum(env_k, 0.3), 1.0)
         plan = StepPlan(
             start_ankle=ctx.state.feet[side].copy(), start_yaw=float(ctx.state.feet_yaw[side]),
             lift=lift_t, land=land_t, plant=plant, yaw=yaw, height=lift * (0.5 + 0.5 * env_k),
-            toe_off=g.toe_off * float(np.mean(roll_scale)) if len(ks) else g.toe_off,
+            toe_off=g.toe_off * float(roll_scale.sum() / len(roll_scale)) if len(ks) else g.toe_off,
             heel_strike=g.heel_strike * style.roll,
             roll_off=max(2.0, 0.2 * fps / cadence * 2), roll_on=max(1.5, 0.1 * fps / cadence * 2),
         )
@@ -195,8 +197,8 @@ def gait(ctx: Context) -> Result:
         feet_yaw[:, side] = y
         feet_pitch[:, side] = p
         contact[:, side] = c
-        for lt, ld in zip(lift_t, land_t):
-            events.append(Event(kind="step", frame=int(round(ld)), start=int(np.floor(lt)), end=int(np.ceil(ld)),
+        for lt, ld in zip(lift_t.tolist(), land_t.tolist()):
+            events.append(Event(kind="step", frame=round(ld), start=math.floor(lt), end=math.ceil(ld),
                                 side=("left", "right")[side]))
     events.sort(key=lambda e: e.frame)
 
@@ -232,7 +234,7 @@ def gait(ctx: Context) -> Result:
         swing = np.zeros((n, 2))
     flex_base = g.elbow * env + 0.25 * (1 - env) + style.elbow * env + person.elbow
     flex = flex_base[:, None] + 0.35 * np.maximum(swing, 0.0) + np.zeros((n, 2))
-    hand_g, pole_g = arm_angles(swing, np.clip(flex, 0.05, 2.3), abduct=0.12 + 0.05 * env[:, None])
+    hand_g, pole_g = arm_angles(swing, np.minimum(np.maximum(flex, 0.05), 2.3), abduct=0.12 + 0.05 * env[:, None])
     hand, pole = hand_g, pole_g
     ch = Channels(
         root=root, heading=heading, pelvis=pelvis, spine=spine, neck=neck, collar=np.zeros((n, 2, 3)),
