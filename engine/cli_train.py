@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 from dataclasses import fields
+from pathlib import Path
 
 from engine.model.denoiser import ModelConfig
 
@@ -35,6 +36,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         p.add_argument(f"--{f.name.replace('_', '-')}", dest=f"model_{f.name}", type=type(value), default=value,
                        help=f"model {f.name} (default: {value})")
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
+    p.add_argument("--init-from", type=Path, default=None,
+                   help="start from a shipped model folder (e.g. assets/model): its weights, vocabulary, stats "
+                        "and step; a fresh optimizer (used when no checkpoint in --out exists)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs still written)")
     p.set_defaults(run=run)
 
@@ -45,6 +49,6 @@ def run(args: argparse.Namespace) -> int:
     model = ModelConfig(**{f.name: getattr(args, f"model_{f.name}") for f in fields(ModelConfig)
                            if hasattr(args, f"model_{f.name}")})
     config = TrainConfig(model=model, **{f.name: getattr(args, f.name) for f in fields(TrainConfig) if f.name != "model"})
-    result = train(config, resume=args.resume, progress=not args.no_progress)
+    result = train(config, resume=args.resume, progress=not args.no_progress, init_from=args.init_from)
     print(json.dumps(result))
     return 0

@@ -100,7 +100,21 @@ class _Stop:
         self.requested = True
 
 
-def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, source: MotionSource | None = None) -> dict:
+def _state_from_model_folder(folder: Path, batch_size: int) -> tuple[dict, dict]:
+    """(saved config, a train state) from a shipped model folder: its weights start both the model
+    and the EMA; the optimizer starts fresh. Lets a later session continue from assets/model."""
+    import torch as _torch
+
+    saved = read_config(folder)
+    weights = _torch.load(folder / "weights.pt", map_location="cpu", weights_only=True)
+    weights = {k: (v.float() if v.is_floating_point() else v) for k, v in weights.items()}
+    step = int(saved.get("step", 0))
+    return saved, {"model": weights, "ema": weights, "optimizer": None, "step": step,
+                   "next_index": step * batch_size}
+
+
+def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, source: MotionSource | None = None,
+          init_from: str | Path | None = None) -> dict:
     distributed = int(os.environ.get("WORLD_SIZE", "1")) > 1
     if distributed:
         dist.init_process_group("gloo")
@@ -117,14 +131,23 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
     source = source or make_source(config)
     words = tuple(source.words())
     state = None
-    if resume and (out / "train_state.pt").exists():
-        saved = read_config(out)
+    resumable = resume and (out / "train_state.pt").exists()
+    if resumable or init_from is not None:
+        if resumable:
+            saved, state = read_config(out), load_train_state(out)
+            stats_folder = out
+        else:
+            saved, state = _state_from_model_folder(Path(init_from), config.batch_size)
+            stats_folder = Path(init_from)
+            if rank == 0:
+                print(f"starting from the model in {init_from} (step {state['step']}); optimizer state is new")
         # the run's hyper-parameters come from the checkpoint; how to run it now comes from the call
         runtime = {k: getattr(config, k) for k in _RUNTIME_FIELDS}
         config = TrainConfig.from_json({**saved["train"], **runtime, "out": str(out)})
         tokenizer = Tokenizer(saved["vocabulary"])
-        state = load_train_state(out)
-        normalizer = Normalizer.load(out)
+        normalizer = Normalizer.load(stats_folder)
+        if rank == 0 and stats_folder != out:
+            normalizer.save(out)
     else:
         if resume and rank == 0:
             print(f"no checkpoint in {out}; starting from scratch")
@@ -142,14 +165,13 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
     config.model = model_config
 
     torch.manual_seed(config.seed)
-    model = Denoiser(model_config)
     opt_state = None
     start_step, next_index = 0, 0
     if state is not None:
         params = state["model"]
         vocab_rows = params["text_encoder.embed.weight"].shape[0]
-        if vocab_rows != model_config.vocab_size:
-            model.text_encoder.resize_vocabulary(vocab_rows)
+        # build at the saved size, load, then grow the word table if the vocabulary grew
+        model = Denoiser(ModelConfig.from_json({**model_config.to_json(), "vocab_size": vocab_rows}))
         model.load_state_dict(params)
         if vocab_rows < model_config.vocab_size:
             model.text_encoder.resize_vocabulary(model_config.vocab_size)
@@ -157,10 +179,12 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
         else:
             opt_state = state["optimizer"]
         start_step, next_index = int(state["step"]), int(state["next_index"])
+    else:
+        model = Denoiser(model_config)
     tokenizer = grown
     ema = copy.deepcopy(model).eval()
     if state is not None and state["ema"]["text_encoder.embed.weight"].shape == ema.text_encoder.embed.weight.shape:
-        ema.load_state_dict(state["ema"])
+        ema.load_state_dict({k: (v.float() if v.is_floating_point() else v) for k, v in state["ema"].items()})
     for p in ema.parameters():
         p.requires_grad_(False)
 

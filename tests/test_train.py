@@ -112,3 +112,16 @@ def test_torchrun_two_processes(tmp_path):
     assert state["next_index"] == 12 * 4 * 2
     log = [json.loads(line) for line in (out / "log.jsonl").read_text().splitlines()]
     assert [r["step"] for r in log] == [4, 8, 12]
+
+
+def test_continue_from_a_shipped_model_folder(tmp_path):
+    from engine.cli_export import export_model
+
+    train(config(tmp_path, steps=20), source=ToySource(), progress=False)
+    shipped = export_model(tmp_path / "run", tmp_path / "shipped", command="test", reports=[])
+    assert (shipped / "TRAINING.md").read_text().count("test") >= 1
+    result = train(config(tmp_path, out=str(tmp_path / "next"), steps=30), source=ToySource(), progress=False,
+                   init_from=shipped)
+    assert result["step"] == 30
+    steps = [json.loads(line)["step"] for line in (tmp_path / "next" / "log.jsonl").read_text().splitlines()]
+    assert steps == [30]  # it started at the shipped model's step 20
