@@ -198,19 +198,25 @@ class StudioState(param.Parameterized):
         self._notify("info", text)
 
     # ------------------------------------------------------------------ generation
+    def _idle_model(self):
+        """The loaded model when no job is running; else None after telling the user why."""
+        if self.running:
+            self.error(f"a {self.job or 'job'} is already running: wait for it or press Cancel")
+            return None
+        try:
+            return self.model
+        except Exception as exc:
+            self.error(f"no model loaded: {exc}")
+            return None
+
     def settings(self) -> GenerationSettings:
         return GenerationSettings(prompt=self.prompt, seconds=self.seconds, seed=self.seed, steps=self.steps,
                                   guidance=self.guidance, record_steps=self.record_steps)
 
     def generate(self) -> bool:
         """Check the inputs and start sampling on a worker thread; False (and a notification) if refused."""
-        if self.running:
-            self.error(f"a {self.job or 'generation'} is already running: wait for it or press Cancel")
-            return False
-        try:
-            loaded = self.model
-        except Exception as exc:
-            self.error(f"no model loaded: {exc}")
+        loaded = self._idle_model()
+        if loaded is None:
             return False
         try:
             checked = check(loaded, self.settings())
@@ -328,13 +334,8 @@ class StudioState(param.Parameterized):
         """Check the Edit tab's settings and run the edit on the worker; False (and a notification) if refused."""
         if self.edit.engine_kind == "count":
             return self.count_current()
-        if self.running:
-            self.error(f"a {self.job or 'job'} is already running: wait for it or press Cancel")
-            return False
-        try:
-            loaded = self.model
-        except Exception as exc:
-            self.error(f"no model loaded: {exc}")
+        loaded = self._idle_model()
+        if loaded is None:
             return False
         try:
             job = prepare(self)

@@ -25,3 +25,11 @@ def real_joints() -> np.ndarray:
 @pytest.fixture(scope="session")
 def real_vecs() -> np.ndarray:
     return np.load(real_file("humanml3d_012314_vecs.npy"), allow_pickle=False)
+
+
+@pytest.fixture(scope="session")
+def tiny_model_dir(tmp_path_factory):
+    """A tiny model trained once per test session on the corpus (for app tests)."""
+    from app.testing import tiny_model
+
+    return tiny_model(tmp_path_factory.getbasetemp() / "tiny-model")

@@ -18,11 +18,6 @@ from app.testing import tiny_model
 from app.views.files import EXPORTS, MAX_UPLOAD_BYTES, export_bytes, import_bytes
 
 
-@pytest.fixture(scope="session")
-def tiny_model_dir(tmp_path_factory):
-    return tiny_model(tmp_path_factory.getbasetemp() / "tiny-model")
-
-
 @pytest.fixture(scope="module")
 def studio(tiny_model_dir):
     """One session with one generated motion (8 steps, all recorded)."""

@@ -16,11 +16,6 @@ from app.testing import tiny_model
 from engine.methods.edit_options import EditOptions, build_config
 
 
-@pytest.fixture(scope="session")
-def tiny_model_dir(tmp_path_factory):
-    return tiny_model(tmp_path_factory.getbasetemp() / "tiny-model")
-
-
 @pytest.fixture(scope="module")
 def studio(tiny_model_dir):
     """A session with a plain generation of the prompt (the reference every pair edit must reproduce)."""

@@ -7,20 +7,12 @@ from pathlib import Path
 import pytest
 
 from app import browser as br
-from app.testing import tiny_model
 
 
-def pytest_collection_modifyitems(items):
-    if not br.chromium_available():
-        skip = pytest.mark.skip(reason=f"{br.CHROMIUM} not installed (make test installs Debian's chromium)")
-        for item in items:
-            if "tests/browser" in str(item.fspath):
-                item.add_marker(skip)
-
-
-@pytest.fixture(scope="session")
-def tiny_model_dir(tmp_path_factory):
-    return tiny_model(tmp_path_factory.getbasetemp() / "tiny-model")
+@pytest.fixture(scope="session", autouse=True)
+def chromium_installed():
+    """Browser tests need Debian's chromium; `make test` installs it. Missing is a failure, not a skip."""
+    assert br.chromium_available(), f"{br.CHROMIUM} is not installed: run `make test` (it installs Debian's chromium)"
 
 
 @pytest.fixture(scope="session")
