@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import real_file
+from tests.conftest import real_file
 from engine.io import import_bvh, load_bvh, load_motion, save_bvh, save_motion
 from engine.io.bvh import BVHError, parse_bvh
 from engine.io.bvh_export import EXPORT_JOINTS, format_bvh
