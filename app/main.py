@@ -32,7 +32,7 @@ class Studio:
         self.edit = EditTab(state=self.state)
         self.imports = ImportPanel(state=self.state)
         self.exports = ExportPanel(state=self.state)
-        path = initial if initial is not None else (EXAMPLE if EXAMPLE.exists() else None)
+        path = initial
         if path is not None:
             try:
                 from engine.io import load_motion
@@ -105,7 +105,12 @@ def create_app(*, model_dir: Path | None = MODEL_DIR, initial: Path | None = Non
 
 def serve(*, port: int = 5006, show: bool = False, address: str = "localhost", initial: Path | None = None,
           model_dir: Path | None = MODEL_DIR) -> None:
-    """Start the Panel server (blocks). The model is loaded once, before the first page."""
+    """Start the Panel server (blocks). The model is loaded once, before the first page.
+
+    Each page opens ``initial`` (default: the shipped example walk) so a new user sees a motion.
+    """
+    if initial is None and EXAMPLE.exists():
+        initial = EXAMPLE
     from app.model_cache import get_model
 
     pn.extension(notifications=True)
