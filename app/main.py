@@ -5,7 +5,6 @@ import logging
 from pathlib import Path
 
 import panel as pn
-from panel.theme.fast import Fast
 
 from app.state import StudioState
 from app.views.attention import AttentionExplorer
@@ -61,14 +60,7 @@ class Studio:
             sidebar=[self.controls, pn.layout.Divider(), self.imports, self.exports],
             main=[main], sidebar_width=340, theme_toggle=False, main_layout=None,
             font="system-ui, -apple-system, Segoe UI, Roboto, sans-serif", font_url="data:text/css,",  # no CDN
-            design=OfflineFast,
         )
-
-
-class OfflineFast(Fast):
-    """Panel's Fast design without its Google-fonts resource: the studio must load nothing from outside."""
-
-    _resources = {key: value for key, value in Fast._resources.items() if key != "font"}
 
 
 def create_app(*, model_dir: Path | None = MODEL_DIR, initial: Path | None = None) -> pn.template.BaseTemplate:
