@@ -81,7 +81,7 @@ Frame Time: 0.01
 
 
 def test_real_files_parse():
-    from conftest import real_file
+    from tests.conftest import real_file
 
     cmu = read_bvh(real_file("cmu_131_01_walk.bvh"))
     assert cmu.num_frames == 995 and cmu.num_channels == 96 and cmu.channels[0][:3] == (

@@ -50,7 +50,7 @@ def test_folder_round_trip(tmp_path, real_joints):
 
 
 def test_reads_the_real_humanml3d_files(tmp_path, real_vecs):
-    from conftest import real_file
+    from tests.conftest import real_file
 
     (tmp_path / "new_joint_vecs").mkdir()
     np.save(tmp_path / "new_joint_vecs" / "012314.npy", real_vecs)
