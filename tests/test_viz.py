@@ -26,8 +26,6 @@ from viz.render import (  # noqa: E402
 )
 from viz.scene import SkeletonScene, side_by_side_offsets  # noqa: E402
 
-REAL = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "real"
-REAL_JOINTS = REAL / "humanml3d_012314_joints.npy"
 SMALL = (200, 160)
 
 # A standing pose facing +Z (left = +X), metres, feet on the floor.
@@ -52,13 +50,6 @@ def walker(n_frames: int = 12, *, speed: float = 0.06) -> np.ndarray:
     for joint, sign in (("left_wrist", 1), ("left_elbow", 0.5), ("right_wrist", -1), ("right_elbow", -0.5)):
         motion[:, JOINT_NAMES.index(joint), 2] += sign * swing
     return motion
-
-
-@pytest.fixture(scope="module")
-def real_joints() -> np.ndarray:
-    if not REAL_JOINTS.exists():
-        pytest.skip(f"real reference data not found at {REAL} (shared data folder absent)")
-    return np.load(REAL_JOINTS)
 
 
 def skeleton_mask(with_skeleton: np.ndarray, without: np.ndarray, *, threshold: int = 40) -> np.ndarray:
