@@ -13,7 +13,6 @@ The command line lives in ``engine/cli_bench.py``; this module measures and prin
 """
 from __future__ import annotations
 
-import argparse
 import json
 import statistics
 import time
