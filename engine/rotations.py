@@ -165,21 +165,6 @@ def matrix_to_quat(m: np.ndarray) -> np.ndarray:
     return qnormalize(q).reshape(*shape, 4)
 
 
-def matrix_to_cont6d(m: np.ndarray) -> np.ndarray:
-    """First two columns of the rotation matrix (HumanML3D's continuous 6D): (..., 3, 3) -> (..., 6)."""
-    return np.concatenate([m[..., :, 0], m[..., :, 1]], axis=-1)
-
-
-def cont6d_to_matrix(d6: np.ndarray) -> np.ndarray:
-    """Gram-Schmidt back to a rotation matrix: (..., 6) -> (..., 3, 3)."""
-    a, b = d6[..., :3], d6[..., 3:]
-    x = a / np.maximum(np.linalg.norm(a, axis=-1, keepdims=True), _EPS)
-    z = np.cross(x, b)
-    z = z / np.maximum(np.linalg.norm(z, axis=-1, keepdims=True), _EPS)
-    y = np.cross(z, x)
-    return np.stack([x, y, z], axis=-1)
-
-
 def axis_angle_to_matrix(axis_angle: np.ndarray) -> np.ndarray:
     """Rodrigues: (..., 3) rotation vectors -> (..., 3, 3)."""
     aa = np.asarray(axis_angle, dtype=np.float64)
@@ -243,11 +228,6 @@ def matrix_to_euler(m: np.ndarray, order: str) -> np.ndarray:
         third = np.where(lock, 0.0, third)
         first = np.where(lock, np.arctan2(sign * m[..., k, j], m[..., j, j]), first)
     return np.rad2deg(np.stack([first, second, third], axis=-1))
-
-
-def yaw_matrix(angle: np.ndarray) -> np.ndarray:
-    """Rotation about +Y (up) by angle radians."""
-    return axis_rotation("y", angle)
 
 
 def kabsch(src: np.ndarray, dst: np.ndarray) -> np.ndarray:

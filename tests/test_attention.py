@@ -6,7 +6,7 @@ import threading
 import pytest
 import torch
 
-from engine.attention import AttentionStore, BatchRoles, Controller, StoreConfig, attach, stack, steps_window, layer_window
+from engine.attention import AttentionStore, BatchRoles, Controller, StoreConfig, attach, stack
 from engine.attention.context import WordIndex
 from engine.diffusion import ClassifierFreeGuidance, CosineSchedule, ddim, final
 from engine.model import Condition, Denoiser, ModelConfig
@@ -162,9 +162,15 @@ def test_unconditional_rows_ignore_text():
 
 
 def test_windows():
-    assert list(steps_window(10, 0.0, 0.5)) == [0, 1, 2, 3, 4]
-    assert layer_window(None, 4) == {0, 1, 2, 3} and layer_window(1, 4) == {1, 2, 3}
+    from engine.attention.context import AttnCtx
+    from engine.methods.windows import Window
+
+    bound = Window(0.0, 0.5, layers=(1, 2)).bind(10)
+    assert sorted(bound.steps) == [0, 1, 2, 3, 4]
+    ctx = AttnCtx(layer=1, kind="self", step=4, t=0, roles=BatchRoles.of("out"))
+    assert bound.covers(ctx) and not bound.covers(AttnCtx(layer=0, kind="self", step=4, t=0, roles=ctx.roles))
+    assert not bound.covers(AttnCtx(layer=1, kind="self", step=5, t=0, roles=ctx.roles))
     with pytest.raises(ValueError):
-        steps_window(10, 0.6, 0.5)
+        Window(0.6, 0.5)
     with pytest.raises(ValueError):
-        layer_window([5], 4)
+        Window().bind(0)

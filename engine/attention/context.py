@@ -1,7 +1,6 @@
 """What every attention call knows about itself: layer, kind, step, timestep, batch roles, words."""
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -93,22 +92,3 @@ class StepInfo:
 
     def ctx(self, *, layer: int, kind: AttnKind) -> AttnCtx:
         return AttnCtx(layer=layer, kind=kind, step=self.step, t=self.t, roles=self.roles, words=self.words)
-
-
-def steps_window(num_steps: int, start: float, end: float) -> range:
-    """Sampling steps in the fraction window [start, end) of ``num_steps`` (papers' "first half" etc.)."""
-    if not 0.0 <= start <= end <= 1.0:
-        raise ValueError(f"step window must satisfy 0 <= start <= end <= 1, got ({start}, {end})")
-    return range(int(round(start * num_steps)), int(round(end * num_steps)))
-
-
-def layer_window(layers: int | Sequence[int] | None, num_layers: int) -> frozenset[int]:
-    """None = all layers; an int n = layers n..last; a sequence = exactly those."""
-    if layers is None:
-        return frozenset(range(num_layers))
-    if isinstance(layers, int):
-        return frozenset(range(layers, num_layers))
-    bad = [l for l in layers if not 0 <= l < num_layers]
-    if bad:
-        raise ValueError(f"layers {bad} outside 0..{num_layers - 1}")
-    return frozenset(layers)

@@ -59,16 +59,6 @@ class Condition:
     def __len__(self) -> int:
         return self.text_ids.shape[0]
 
-    def select(self, slots: list[int]) -> "Condition":
-        idx = torch.as_tensor(slots, dtype=torch.long)
-        return Condition(
-            text_ids=self.text_ids[idx], text_mask=self.text_mask[idx], frame_mask=self.frame_mask[idx],
-            use_text=self.use_text[idx],
-            roles=BatchRoles(names=tuple(self.roles.names[i] for i in slots), uncond=tuple(self.roles.uncond[i] for i in slots)),
-            words=None if self.words is None else WordIndex(words=tuple(self.words.words[i] for i in slots)),
-            extras={k: v[idx] if isinstance(v, torch.Tensor) else v for k, v in self.extras.items()},
-        )
-
     def with_uncond(self) -> "Condition":
         """The CFG batch: these slots, then the same slots without text."""
         return Condition(
