@@ -146,8 +146,12 @@ def launch(playwright, compositing: str = "swiftshader"):
     return playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS + COMPOSITING[compositing])
 
 
-def open_studio(browser, url: str, *, timeout_ms: float = 60000):
-    """A page with the studio loaded (player mounted) and the helpers installed."""
+def open_studio(browser, url: str, *, timeout_ms: float = 60000, opening_motion: bool = True):
+    """A page with the studio loaded (player mounted) and the helpers installed.
+
+    ``opening_motion``: the server opens every page on a motion (``moattn serve`` shows the example
+    walk); wait until it is drawn, so that it cannot arrive after the first generated one.
+    """
     page = browser.new_page(viewport=VIEWPORT)
     page.console_messages = []
     page.on("console", lambda m: page.console_messages.append(f"{m.type}: {m.text}"))
@@ -155,6 +159,9 @@ def open_studio(browser, url: str, *, timeout_ms: float = 60000):
     page.goto(url)
     page.wait_for_function("window.moattnPlayer !== undefined", timeout=timeout_ms)
     page.evaluate(PAGE_HELPERS)
+    if opening_motion:
+        page.wait_for_function("window.moattnPlayer.motion_key >= 0 && "
+                               "(window.moattnPlayer.motion_key in window.moattnPlayer.first_draw)", timeout=timeout_ms)
     return page
 
 

@@ -78,6 +78,8 @@ class GenerateControls(pn.viewable.Viewer):
     def _on_analysis(self, *_):
         s = self.state
         unknown = set(s.unknown_words)
+        # the button state goes first so that it is never behind the highlighted words
+        self.generate.disabled = bool(unknown) or s.running
         if not s.prompt_words:
             self.words.object = '<span class="prompt-empty">type a prompt</span>'
         else:
@@ -96,7 +98,6 @@ class GenerateControls(pn.viewable.Viewer):
                 b.on_click(lambda _, w=word, sug=suggestion: self.state.replace_word(w, sug))
                 buttons.append(b)
         self.suggestion_row.objects = buttons
-        self.generate.disabled = bool(unknown) or s.running
 
     def _on_progress(self, *_):
         s = self.state

@@ -9,6 +9,7 @@ import io
 import numpy as np
 import pytest
 from PIL import Image
+from playwright.sync_api import expect
 
 from app import browser as br
 from engine.paths import MODEL_DIR
@@ -136,7 +137,7 @@ def test_bad_input_shows_notifications_and_the_app_keeps_working(page, generated
     prompt = page.locator(".prompt-input input")
     prompt.fill("a person flurbs")
     page.locator(".word-unknown", has_text="flurbs").wait_for(timeout=10000)
-    assert page.locator(".generate-button button").is_disabled()
+    expect(page.locator(".generate-button button")).to_be_disabled(timeout=10000)
     prompt.press("Enter")
     assert "unknown word" in _notification(page, "flurbs")
     page.wait_for_timeout(600)  # let the toast slide in before the screenshot
