@@ -3,6 +3,7 @@
 --app        the studio in Chromium against a real server (app/bench.py)
 --edits      MotionCLR edits against corpus ground truth (engine/evaluation/bench_edits.py)
 --inversion  DDIM inversion round trip in metres on corpus motions and given files
+--transfer   MoMo leader -> follower transfer against corpus ground truth, with baselines
 """
 from __future__ import annotations
 
@@ -15,12 +16,13 @@ from engine.paths import EVALUATOR_DIR, MODEL_DIR
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("bench", help="benchmarks: --app (studio in Chromium), --edits (MotionCLR), --inversion",
+    p = sub.add_parser("bench", help="benchmarks: --app (studio in Chromium), --edits (MotionCLR), --inversion, --transfer (MoMo)",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     mode = p.add_mutually_exclusive_group(required=True)
     mode.add_argument("--app", action="store_true", help="click -> first frame, playback fps, layer switch in Chromium")
     mode.add_argument("--edits", action="store_true", help="score the MotionCLR edits against corpus ground truth")
     mode.add_argument("--inversion", action="store_true", help="inversion round-trip error (m)")
+    mode.add_argument("--transfer", action="store_true", help="MoMo transfer vs ground truth and baselines")
     p.add_argument("--model", type=Path, default=MODEL_DIR, help=f"model folder (default {MODEL_DIR})")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     app = p.add_argument_group("--app")
@@ -29,10 +31,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     app.add_argument("--log", type=Path, default=None, help="write the server's output here")
     app.add_argument("--compositing", choices=["swiftshader", "software", "both"], default="both",
                      help="Chromium compositing: SwiftShader GPU emulation, CPU (--disable-gpu), or both (default)")
-    edits = p.add_argument_group("--edits / --inversion")
+    edits = p.add_argument_group("--edits / --inversion / --transfer")
     edits.add_argument("--quick", action="store_true", help="fewer samples and steps")
     edits.add_argument("--evaluator", type=Path, default=EVALUATOR_DIR)
-    edits.add_argument("--samples", type=int, default=None, help="--inversion: corpus test motions (default 16, quick 6)")
+    edits.add_argument("--samples", type=int, default=None,
+                       help="--inversion: corpus test motions (default 16, quick 6); --transfer: in-distribution pairs")
+    edits.add_argument("--ood-pairs", type=int, default=None, help="--transfer: held-out pairs")
     edits.add_argument("--steps", type=int, default=50, help="--inversion: DDIM steps")
     edits.add_argument("files", nargs="*", type=Path, help="--inversion: real motions (.bvh/.npy) to invert as well")
     p.set_defaults(run=run)
@@ -45,6 +49,8 @@ def run(args: argparse.Namespace) -> int:
         return run_app_bench(args)
     if args.edits:
         return run_edits(args)
+    if args.transfer:
+        return run_transfer(args)
     return run_inversion(args)
 
 
@@ -73,6 +79,25 @@ def run_edits(args: argparse.Namespace) -> int:
     print(f"example-based: FID {e['fid']:.3f} diversity {e['diversity']:.3f} | perturbed noise: FID "
           f"{e['perturbed_noise_fid']:.3f} diversity {e['perturbed_noise_diversity']:.3f}")
     print("FID per edit: " + ", ".join(f"{k} {v:.3f}" for k, v in result["fid"].items() if v is not None))
+    return 0
+
+
+def run_transfer(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from engine.checkpoint import load_model
+    from engine.evaluation.bench_transfer import TransferBenchConfig, bench_transfer, format_table
+    from engine.evaluation.evaluator import load_evaluator
+
+    config = TransferBenchConfig.quick() if args.quick else TransferBenchConfig()
+    if args.samples is not None:
+        config = replace(config, pairs=args.samples)
+    if args.ood_pairs is not None:
+        config = replace(config, ood_pairs=args.ood_pairs)
+    if args.steps != 50 or not args.quick:
+        config = replace(config, steps=args.steps)
+    result = bench_transfer(load_model(args.model), load_evaluator(args.evaluator), config, log=_log)
+    print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0
 
 

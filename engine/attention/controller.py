@@ -1,7 +1,8 @@
 """The attention extension point: controllers and their stack.
 
 A controller is a plain object passed to a sampling call. The model's one attention module calls
-``on_qkv`` (may replace Q/K/V) and, when any controller ``needs_maps``, ``on_probs`` (may replace
+``on_qkv`` (may replace Q/K/V), then ``on_key_mask`` (may replace which keys each slot may attend
+to: a slot that borrows another slot's K and V must also borrow its padding mask) and, when any controller ``needs_maps``, ``on_probs`` (may replace
 the softmax map); the sampling loop calls ``on_step_end``. Returning None means "unchanged".
 """
 from __future__ import annotations
@@ -20,6 +21,8 @@ class AttentionController(Protocol):
 
     def on_qkv(self, q: torch.Tensor, k: torch.Tensor, v: torch.Tensor, ctx: AttnCtx) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor] | None: ...
 
+    def on_key_mask(self, key_mask: torch.Tensor, ctx: AttnCtx) -> torch.Tensor | None: ...
+
     def on_probs(self, probs: torch.Tensor, ctx: AttnCtx) -> torch.Tensor | None: ...
 
     def on_step_end(self, state) -> None: ...
@@ -28,12 +31,16 @@ class AttentionController(Protocol):
 class Controller:
     """Convenience base: does nothing, needs no maps. Override what you use.
 
-    Shapes: q (B, H, N, dh), k and v (B, H, M, dh), probs (B, H, N, M); N frames, M frames or words.
+    Shapes: q (B, H, N, dh), k and v (B, H, M, dh), key_mask (B, M) bool, probs (B, H, N, M);
+    N frames, M frames or words.
     """
 
     needs_maps: bool = False
 
     def on_qkv(self, q, k, v, ctx: AttnCtx):
+        return None
+
+    def on_key_mask(self, key_mask, ctx: AttnCtx):
         return None
 
     def on_probs(self, probs, ctx: AttnCtx):
@@ -61,6 +68,15 @@ class ControllerStack(Controller):
                 q, k, v = out
                 changed = True
         return (q, k, v) if changed else None
+
+    def on_key_mask(self, key_mask, ctx):
+        changed = False
+        for c in self.controllers:
+            out = c.on_key_mask(key_mask, ctx)
+            if out is not None:
+                key_mask = out
+                changed = True
+        return key_mask if changed else None
 
     def on_probs(self, probs, ctx):
         changed = False

@@ -1,7 +1,7 @@
 """DDIM inversion of real motions: motion -> noise that the model maps back to the motion."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import torch
@@ -9,6 +9,7 @@ import torch
 from engine.attention.context import BatchRoles, WordIndex
 from engine.checkpoint import LoadedModel
 from engine.diffusion import ClassifierFreeGuidance, CosineSchedule, ddim, ddim_invert, final
+from engine.diffusion.sampler import CLEAN
 from engine.model.denoiser import Condition
 from engine.representation import features_to_joints, joints_to_features
 
@@ -29,6 +30,9 @@ class Inverted:
     x0: torch.Tensor  # (1, T, 263) normalised features of the input
     features: np.ndarray  # (T, 263) the input's features
     cond: Condition
+    # timestep -> latent (1, T, 263) on the inversion's path (CLEAN -> x0): what a sampler with the
+    # same number of steps should see at each timestep to rebuild the motion exactly
+    trajectory: dict[int, torch.Tensor] = field(default_factory=dict)
 
 
 def motion_condition(loaded: LoadedModel, prompt: str, frames: int, *, role: str = "out") -> Condition:
@@ -54,8 +58,12 @@ def invert(loaded: LoadedModel, joints: np.ndarray, config: InversionConfig = In
     x0 = torch.from_numpy(loaded.normalizer.normalize(features)).float()[None]
     cond = motion_condition(loaded, config.prompt, x0.shape[1])
     denoiser = _denoiser(loaded, config)
-    state = final(ddim_invert(denoiser, x0, cond, schedule=CosineSchedule(), num_steps=config.steps, refine=config.refine))
-    return Inverted(noise=state.x_prev, x0=x0, features=features, cond=cond)
+    trajectory = {CLEAN: x0}
+    state = None
+    for state in ddim_invert(denoiser, x0, cond, schedule=CosineSchedule(), num_steps=config.steps, refine=config.refine):
+        trajectory.setdefault(state.t, state.x_t)  # the first: the inversion takes x0 as the latent at the smallest t
+        trajectory[state.t_next] = state.x_prev
+    return Inverted(noise=state.x_prev, x0=x0, features=features, cond=cond, trajectory=trajectory)
 
 
 def reconstruct(loaded: LoadedModel, inverted: Inverted, config: InversionConfig = InversionConfig()) -> np.ndarray:

@@ -13,6 +13,7 @@ import torch
 
 from engine.attention.context import AttnCtx
 from engine.attention.controller import Controller
+from engine.methods.mixing import MixConfig, MixedAttention
 from engine.methods.windows import BoundWindow, Window
 
 
@@ -266,16 +267,8 @@ class StyleTransferConfig:
     target: str = "out"
 
 
-class StyleTransfer(Controller):
+class StyleTransfer(MixedAttention):
     def __init__(self, config: StyleTransferConfig, *, num_steps: int):
-        self.config = config
-        self.window = config.window.bind(num_steps)
-
-    def on_qkv(self, q, k, v, ctx: AttnCtx):
-        c = self.config
-        if ctx.kind != "self" or not self.window.covers(ctx):
-            return None
-        q, k, v = q.clone(), k.clone(), v.clone()
-        for style, content, out in halves(ctx, c.style, c.content, c.target):
-            q[out], k[out], v[out] = q[style], k[content], v[content]
-        return q, k, v
+        super().__init__(MixConfig(queries=config.style, keys=config.content, target=config.target,
+                                   window=config.window), num_steps=num_steps)
+        self.style_config = config

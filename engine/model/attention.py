@@ -47,6 +47,9 @@ class Attention(nn.Module):
             replaced = controller.on_qkv(q, k, v, ctx)
             if replaced is not None:
                 q, k, v = replaced
+            borrowed = controller.on_key_mask(key_mask, ctx)
+            if borrowed is not None:
+                key_mask = borrowed
         # fully masked rows (e.g. no words) attend to nothing: guard against NaN
         safe_mask = key_mask.clone()
         safe_mask[~key_mask.any(-1), 0] = True

@@ -53,6 +53,8 @@ def _path_points(ctx: Context, distance: float, heading_offset: float) -> tuple[
     h0 = ctx.state.heading
     r0 = ctx.state.root_xz
     M = 48
+    if seg.action == "side_step":  # the body faces across its travel, with a path too
+        heading_offset = np.pi / 2 if seg.direction != "right" else -np.pi / 2
     if seg.path is not None and len(seg.path) >= 2:
         pts = np.asarray(seg.path, dtype=np.float64)
         c, s = np.cos(h0), np.sin(h0)
@@ -68,11 +70,7 @@ def _path_points(ctx: Context, distance: float, heading_offset: float) -> tuple[
             world = np.concatenate([world[:1], inner, world[-1:]], 0)
         length = float(np.linalg.norm(np.diff(world, axis=0), axis=1).sum())
         return world, length, heading_offset
-    if seg.action == "side_step":
-        travel = h0 + (np.pi / 2 if seg.direction != "right" else -np.pi / 2)
-        heading_offset = np.pi / 2 if seg.direction != "right" else -np.pi / 2
-    else:
-        travel = h0 + heading_offset
+    travel = h0 + heading_offset
     turn_total = {"left": np.pi / 2, "right": -np.pi / 2, "circle_left": 2 * np.pi,
                   "circle_right": -2 * np.pi}.get(seg.direction, 0.0)
     if seg.action in ("side_step", "walk_backward"):

@@ -1,0 +1,224 @@
+"""`moattn bench --transfer`: MoMo against corpus ground truth, baselines in the same run.
+
+The synthetic transfer benchmark: leaders are locomotion outlines of the held-out test split
+(walk, run, jog, jump, dance, side steps, ... with no style), followers are styled motions or
+motions with a gesture, and the ground truth of a pair is the corpus program
+``combine(outline_of=leader, motifs_of=follower)``. Pairs whose ground truth is a held-out
+(action, style) combination form the ``ood`` subset. Leaders and followers are the corpus
+motions themselves, DDIM-inverted (MoMo Inv.).
+
+Figures per method (JSON keys, the paper's definitions):
+- ``fid``: evaluator FID of the outputs vs the ground-truth motions of the pairs;
+- ``r_precision_top3``: the follower's prompt ranks its output among it and 31 fixed corpus
+  motions (the same distractors for every method);
+- ``foot_contact``: agreement of binary foot contacts of the output and the leader;
+- ``follower_rot`` / ``follower_loc``: share of output frames whose nearest frame among leader
+  and follower (by joint rotations / root-relative joint positions) is the follower's;
+- ``gt_mpjpe``: mean joint error (m) against the ground truth, both started at the origin
+  facing +Z (heading aligned);
+- ``ood``: the same figures on the held-out subset.
+
+Methods: ``momo`` (leader's root trajectory kept, the default), ``momo_paper_root`` (the paper's
+root-rotation copy only), ``nn_motion``, ``nn_latent``, ``inpaint_upper`` (see momo_baselines).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from engine.checkpoint import LoadedModel
+from engine.evaluation.evaluator import LoadedEvaluator
+from engine.evaluation.metrics import fid
+from engine.generate import SampleConfig
+from engine.methods.momo import Source, TransferConfig, canonical, prepare, transfer_streams
+from engine.methods.momo_baselines import inpaint_upper_body, latent_nn, motion_space_nn
+from engine.representation import SLICES, foot_contacts, joints_to_features
+
+LEADER_ACTIONS = ("walk", "run", "jog", "jump", "jump_forward", "dance", "side_step", "walk_backward", "hop")
+FOLLOWER_ACTIONS = ("walk", "run", "jog", "dance", "jump", "side_step")
+METHODS = ("momo", "momo_paper_root", "nn_motion", "nn_latent", "inpaint_upper")
+KEYS = ("fid", "r_precision_top3", "foot_contact", "follower_rot", "follower_loc", "gt_mpjpe")
+
+
+@dataclass(frozen=True)
+class TransferBenchConfig:
+    pairs: int = 32
+    ood_pairs: int = 16
+    steps: int = 50
+    guidance: float = 2.5
+    distractors: int = 31
+    min_seconds: float = 2.5
+    seed: int = 0
+
+    @classmethod
+    def quick(cls) -> "TransferBenchConfig":
+        return cls(pairs=10, ood_pairs=6, steps=20)
+
+
+@dataclass
+class Pair:
+    leader: object  # engine.synth.Sample
+    follower: object
+    truth: object
+    ood: bool
+
+
+def _single(program) -> bool:
+    return len(program.segments) == 1
+
+
+def build_pairs(config: TransferBenchConfig) -> list[Pair]:
+    """Deterministic leader/follower pairs from the test split; held-out ground truths go to ``ood``."""
+    from engine.synth import Corpus, make_sample
+    from engine.synth.splits import is_held_out
+    from engine.synth.transforms import combine
+
+    corpus = Corpus(split="test", seed=config.seed)
+    leaders, followers = [], []
+    i = 0
+    min_frames = config.min_seconds * 20
+    while (len(leaders) < 4 * (config.pairs + config.ood_pairs) or len(followers) < 40) and i < 20000:
+        program = corpus.program(i)[0]
+        i += 1
+        if not _single(program) or program.segments[0].frames < min_frames:
+            continue
+        seg = program.segments[0]
+        if program.style == "none" and seg.overlay is None and seg.action in LEADER_ACTIONS:
+            leaders.append(program)
+        elif seg.action in FOLLOWER_ACTIONS and (program.style != "none" or seg.overlay is not None):
+            followers.append(program)
+    rng = np.random.default_rng(config.seed)
+    pairs_in, pairs_ood = [], []
+    for attempt in range(20000):
+        if len(pairs_in) >= config.pairs and len(pairs_ood) >= config.ood_pairs:
+            break
+        lead = leaders[int(rng.integers(len(leaders)))]
+        follow = followers[int(rng.integers(len(followers)))]
+        truth = combine(outline_of=lead, motifs_of=follow)
+        held = is_held_out(truth)
+        bucket, quota = (pairs_ood, config.ood_pairs) if held else (pairs_in, config.pairs)
+        if len(bucket) < quota:
+            bucket.append(Pair(leader=make_sample(lead, split="test"), follower=make_sample(follow, split="test"),
+                               truth=make_sample(truth, split="test"), ood=held))
+    return pairs_in + pairs_ood
+
+
+# ----------------------------------------------------------------------------- per-output measurements
+def _nearest_is_follower(out: np.ndarray, leader: np.ndarray, follower: np.ndarray) -> float:
+    def d(a, b):
+        return ((a**2).sum(1)[:, None] + (b**2).sum(1)[None] - 2 * a @ b.T).min(1)
+
+    return float((d(out, follower) < d(out, leader)).mean())
+
+
+def measure(out: np.ndarray, pair: Pair) -> dict:
+    """Ground-truth and similarity figures of one output (joints (T, 22, 3) of the leader's length)."""
+    truth = canonical(pair.truth.joints)
+    lead_j, foll_j = canonical(pair.leader.joints), canonical(pair.follower.joints)
+    n = min(len(out), len(truth))
+    mpjpe = float(np.linalg.norm(out[:n] - truth[:n], axis=-1).mean())
+    m = min(len(out), len(lead_j))
+    contact = float((foot_contacts(out[:m]) == foot_contacts(lead_j[:m])).mean())
+    fo, fl, ff = joints_to_features(out), joints_to_features(lead_j), joints_to_features(foll_j)
+    rot, ric = SLICES["rot6d"], SLICES["ric"]
+    return {"gt_mpjpe": mpjpe, "foot_contact": contact,
+            "follower_rot": _nearest_is_follower(fo[:, rot], fl[:, rot], ff[:, rot]),
+            "follower_loc": _nearest_is_follower(fo[:, ric], fl[:, ric], ff[:, ric])}
+
+
+def _r_precision_top3(text: np.ndarray, motion: np.ndarray, distractors: np.ndarray) -> float:
+    """Each text ranks its motion among it and the fixed distractors: share ranked in the top 3."""
+    own = np.linalg.norm(text - motion, axis=1)
+    others = np.linalg.norm(text[:, None, :] - distractors[None], axis=-1)
+    return float(((others < own[:, None]).sum(1) < 3).mean())
+
+
+def _summary(rows: list[dict], outputs: list[np.ndarray], captions: list[str], evaluator: LoadedEvaluator,
+             truth_emb: np.ndarray, distractors: np.ndarray) -> dict:
+    feats = [joints_to_features(j) for j in outputs]
+    emb = evaluator.motion_embeddings(feats)
+    text = evaluator.text_embeddings(captions)
+    out = {k: float(np.mean([r[k] for r in rows])) for k in ("foot_contact", "follower_rot", "follower_loc", "gt_mpjpe")}
+    out["fid"] = fid(emb, truth_emb)
+    out["r_precision_top3"] = _r_precision_top3(text, emb, distractors)
+    out["n"] = len(rows)
+    return {k: out[k] for k in (*KEYS, "n")}
+
+
+def bench_transfer(loaded: LoadedModel, evaluator: LoadedEvaluator, config: TransferBenchConfig = TransferBenchConfig(),
+                   *, log=print) -> dict:
+    from engine.synth import Corpus
+
+    t0 = time.time()
+    pairs = build_pairs(config)
+    log(f"transfer benchmark: {sum(not p.ood for p in pairs)} in-distribution pairs, {sum(p.ood for p in pairs)} held-out")
+    sample = SampleConfig(steps=config.steps, guidance=config.guidance, seed=config.seed)
+    transfer_config = TransferConfig()
+    paper_root = TransferConfig(root="rotation")
+    scale = (loaded.normalizer.std[SLICES["ric"]], loaded.normalizer.std[SLICES["rot6d"]])
+    pose_scale = np.concatenate(scale)
+    outputs = {m: [] for m in METHODS}
+    rows = {m: [] for m in METHODS}
+    inversion = []
+    for i, pair in enumerate(pairs):
+        lead = prepare(loaded, Source(joints=pair.leader.joints, prompt=pair.leader.captions[0]), seed=config.seed,
+                       steps=config.steps, measure_inversion=False)
+        follow = prepare(loaded, Source(joints=pair.follower.joints, prompt=pair.follower.captions[0]),
+                         seed=config.seed + 1, steps=config.steps, measure_inversion=False)
+        results = {
+            "momo": transfer_streams(loaded, lead, [follow], transfer_config, sample=sample).out(0),
+            "momo_paper_root": transfer_streams(loaded, lead, [follow], paper_root, sample=sample).out(0),
+            "nn_motion": motion_space_nn(pair.leader.joints, pair.follower.joints, scale=pose_scale),
+            "nn_latent": latent_nn(loaded, lead, follow, transfer_config, sample=sample),
+            "inpaint_upper": inpaint_upper_body(loaded, lead, follow, sample=sample),
+        }
+        for m, joints in results.items():
+            outputs[m].append(joints)
+            rows[m].append(measure(joints, pair))
+        log(f"  pair {i + 1}/{len(pairs)}{' (ood)' if pair.ood else ''}: {pair.leader.captions[0]!r} <- "
+            f"{pair.follower.captions[0]!r}: momo {rows['momo'][-1]['gt_mpjpe']:.3f} m, "
+            f"nn {rows['nn_motion'][-1]['gt_mpjpe']:.3f} m ({time.time() - t0:.0f} s)")
+    truth_feats = [joints_to_features(canonical(p.truth.joints)) for p in pairs]
+    truth_emb = evaluator.motion_embeddings(truth_feats)
+    corpus = Corpus(split="test", seed=config.seed + 1)
+    distractors = evaluator.motion_embeddings([corpus.sample(10000 + j).features for j in range(config.distractors)])
+    captions = [p.follower.captions[0] for p in pairs]
+    ood = np.array([p.ood for p in pairs])
+    result = {"pairs": len(pairs), "ood_pairs": int(ood.sum()), "steps": config.steps, "methods": {}}
+    for m in METHODS:
+        pick = lambda mask: ([r for r, k in zip(rows[m], mask) if k], [o for o, k in zip(outputs[m], mask) if k],  # noqa: E731
+                             [c for c, k in zip(captions, mask) if k])
+        r_in, o_in, c_in = pick(~ood)
+        r_ood, o_ood, c_ood = pick(ood)
+        summary = _summary(r_in, o_in, c_in, evaluator, truth_emb[~ood], distractors)
+        summary["ood"] = _summary(r_ood, o_ood, c_ood, evaluator, truth_emb[ood], distractors) if r_ood else None
+        result["methods"][m] = summary
+    momo, nn = result["methods"]["momo"], result["methods"]["nn_motion"]
+    result["targets"] = {
+        "gt_mpjpe_vs_nn_motion": momo["gt_mpjpe"] / max(nn["gt_mpjpe"], 1e-9),
+        "foot_contact": momo["foot_contact"],
+        "follower_loc": momo["follower_loc"],
+        "ood_vs_in_distribution": (momo["ood"]["gt_mpjpe"] / max(momo["gt_mpjpe"], 1e-9)) if momo["ood"] else None,
+    }
+    result["seconds"] = time.time() - t0
+    return result
+
+
+def format_table(result: dict) -> str:
+    head = f"{'method':<15}" + "".join(f"{k:>18}" for k in KEYS)
+    lines = [head, "-" * len(head)]
+    for m, row in result["methods"].items():
+        for name, r in ((m, row), (f"  {m} ood", row.get("ood"))):
+            if r is None:
+                continue
+            lines.append(f"{name:<15}" + "".join(f"{r[k]:>18.3f}" for k in KEYS))
+    t = result["targets"]
+    lines.append("")
+    lines.append(f"momo gt_mpjpe / nn_motion: {t['gt_mpjpe_vs_nn_motion']:.2f} (target <= 0.5); foot_contact "
+                 f"{t['foot_contact']:.3f} (>= 0.90); follower_loc {t['follower_loc']:.3f} (>= 0.97); ood / in "
+                 + ("n/a" if t["ood_vs_in_distribution"] is None else f"{t['ood_vs_in_distribution']:.2f}") + " (<= 1.5)")
+    lines.append(f"{result['pairs']} pairs ({result['ood_pairs']} held-out), {result['steps']} steps, "
+                 f"{result['seconds']:.0f} s")
+    return "\n".join(lines)
