@@ -22,6 +22,8 @@ SUBCOMMANDS: dict[str, str] = {
     "generate": "engine.cli_generate",
     "edit": "engine.cli_edit",
     "invert": "engine.cli_invert",
+    "transfer": "engine.cli_transfer",
+    "analyze-qk": "engine.cli_transfer",
     "serve": "app.cli_serve",
     "bench": "engine.cli_bench",
 }

@@ -153,3 +153,70 @@ def attention_map(q: np.ndarray, k: np.ndarray, *, heads: int) -> np.ndarray:
     kh = torch.from_numpy(rearrange(k, "m (h d) -> h m d", h=heads))
     scores = qh @ kh.transpose(-1, -2) / qh.shape[-1] ** 0.5
     return scores.softmax(-1).mean(0).numpy()
+
+
+# ----------------------------------------------------------------------------- one transfer, analysed
+FIT_PROMPTS = (
+    "a person walks forward", "a person runs forward", "a person jumps twice", "a person dances",
+    "a person walks like a zombie", "a person walks like a chicken", "a person jogs in a circle",
+    "a person steps sideways to the left", "a person walks backwards", "a person hops on one foot",
+    "a person does jumping jacks", "a person squats", "a person kicks with the right leg",
+    "a person waves the right hand", "a person walks like an old man", "a person walks proudly",
+)
+
+
+@dataclass
+class TransferAnalysis:
+    """Everything the analysis views show for one transfer (frames = each stream's own length).
+
+    ``q_labels`` / ``k_labels``: role -> cluster per frame (Q and K at the cluster site);
+    ``nearest``: per leader frame, the follower frame with the largest q_leader . k_follower
+    (correspondence site); ``maps``: name -> (N, M) head-averaged attention at the maps site
+    ("leader", "follower" self-attention and the "mixed" map softmax(Q_leader K_followerᵀ)).
+    """
+
+    cluster_site: Site
+    correspondence_site: Site
+    maps_site: Site
+    q_labels: dict[str, np.ndarray]
+    k_labels: dict[str, np.ndarray]
+    nearest: np.ndarray
+    maps: dict[str, np.ndarray]
+
+    def per_query(self, frame: int) -> dict[str, np.ndarray]:
+        """Rows of the leader's own map and of the mixed map for one leader frame (MoMo's Fig. 5)."""
+        if not 0 <= frame < len(self.maps["leader"]):
+            raise IndexError(f"leader frame {frame} is outside 0..{len(self.maps['leader']) - 1}")
+        return {"leader": self.maps["leader"][frame], "mixed": self.maps["mixed"][frame]}
+
+    def to_json(self) -> dict:
+        return {
+            "cluster_site": vars(self.cluster_site), "correspondence_site": vars(self.correspondence_site),
+            "maps_site": vars(self.maps_site),
+            "q_labels": {k: v.tolist() for k, v in self.q_labels.items()},
+            "k_labels": {k: v.tolist() for k, v in self.k_labels.items()},
+            "nearest": self.nearest.tolist(),
+        }
+
+
+def analysis_sites(n_layers: int, n_steps: int) -> tuple[Site, Site, Site]:
+    return cluster_site(n_layers, n_steps), correspondence_site(n_layers, n_steps), maps_site(n_layers, n_steps)
+
+
+def analyze_transfer(store: AttentionStore, *, frames: dict[str, int], slots: dict[str, int], clusters: QKClusters,
+                     correspondence: Site, maps: Site) -> TransferAnalysis:
+    """``frames`` / ``slots``: role ("leader", "follower", "out") -> length and batch slot."""
+    q_labels, k_labels = {}, {}
+    for role, slot in slots.items():
+        q, k = qk_at(store, clusters.site, slot=slot, frames=frames[role])
+        q_labels[role], k_labels[role] = clusters.labels(q, k)
+    ql, _ = qk_at(store, correspondence, slot=slots["leader"], frames=frames["leader"])
+    _, kf = qk_at(store, correspondence, slot=slots["follower"], frames=frames["follower"])
+    nearest = nearest_keys(ql, kf)
+    heads = heads_of(store, maps)
+    ql, kl = qk_at(store, maps, slot=slots["leader"], frames=frames["leader"])
+    qf, kf = qk_at(store, maps, slot=slots["follower"], frames=frames["follower"])
+    maps_out = {"leader": attention_map(ql, kl, heads=heads), "follower": attention_map(qf, kf, heads=heads),
+                "mixed": attention_map(ql, kf, heads=heads)}
+    return TransferAnalysis(cluster_site=clusters.site, correspondence_site=correspondence, maps_site=maps,
+                            q_labels=q_labels, k_labels=k_labels, nearest=nearest, maps=maps_out)

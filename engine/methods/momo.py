@@ -221,3 +221,19 @@ def qk_record(*, steps: Sequence[int] | None = None, layers: Sequence[int] | Non
 def canonical(joints: np.ndarray) -> np.ndarray:
     """A motion as the model sees it: decoded from its own features (start at the origin, facing +Z)."""
     return features_to_joints(joints_to_features(joints))
+
+
+def analyze(loaded: LoadedModel, result: Transfer, *, clusters, follower: int = 0, sample: SampleConfig = SampleConfig()):
+    """Q/K clusters, correspondences and maps of a transfer recorded with :func:`qk_record`.
+
+    ``clusters``: a fitted :class:`engine.analysis.qk.QKClusters` (see ``fit_clusters``).
+    """
+    from engine.analysis.qk import analysis_sites, analyze_transfer
+
+    if result.output.store is None:
+        raise ValueError("the transfer was run without recording Q and K: pass record=qk_record()")
+    _, corr, maps = analysis_sites(loaded.model.config.layers, sample.steps)
+    slots = {LEADER: 0, FOLLOWER: result.slot(FOLLOWER, follower), OUT: result.slot(OUT, follower)}
+    frames = {LEADER: result.leader.frames, FOLLOWER: result.followers[follower].frames, OUT: result.leader.frames}
+    return analyze_transfer(result.output.store, frames=frames, slots=slots, clusters=clusters, correspondence=corr,
+                            maps=maps)

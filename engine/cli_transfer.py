@@ -1,0 +1,149 @@
+"""`moattn transfer` and `moattn analyze-qk`: MoMo from the command line (same functions as the Transfer tab)."""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from engine.paths import MODEL_DIR
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--leader", required=True, help="the leader: a prompt, or a .bvh/.npy motion to invert")
+    p.add_argument("--leader-prompt", default=None, help="describes an imported leader (guides its inversion)")
+    p.add_argument("--follower", action="append", required=True,
+                   help="a follower: a prompt or a .bvh/.npy motion (repeat for several followers)")
+    p.add_argument("--follower-prompt", action="append", default=None,
+                   help="describes an imported follower (repeat in the order of --follower)")
+    p.add_argument("--seconds", type=float, default=5.0, help="length of generated leaders/followers")
+    p.add_argument("--layers", type=int, nargs=2, default=None, metavar=("FIRST", "LAST"),
+                   help="mixed layers, inclusive 0-based range (default: every layer but the first)")
+    p.add_argument("--step-window", type=float, nargs=2, default=(0.1, 0.9), metavar=("START", "END"),
+                   help="fractions of the sampling steps that mix (default 0.1 0.9)")
+    p.add_argument("--root", choices=("trajectory", "rotation", "none"), default="trajectory",
+                   help="what the output takes from the leader's root (default: its whole trajectory)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--steps", type=int, default=50)
+    p.add_argument("--guidance", type=float, default=2.5)
+    p.add_argument("--model", type=Path, default=MODEL_DIR)
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("transfer", help="MoMo: the leader's outline with the follower's motifs",
+                       description="Leader -> follower motion transfer by mixed self-attention (MoMo). Writes the "
+                       "output motion(s) and optionally a leader | follower | out render.")
+    _common(p)
+    p.add_argument("--out", type=Path, required=True,
+                   help="output motion (.npy or .bvh); several followers write NAME_1.npy, NAME_2.npy, ...")
+    p.add_argument("--render", type=Path, default=None, help="leader | follower | out render (.gif, .mp4 or .png)")
+    p.set_defaults(run=run_transfer)
+    a = sub.add_parser("analyze-qk", help="MoMo's analysis: Q/K clusters, correspondences, attention maps",
+                       description="Run a transfer with Q and K recorded and write the figures: clusters.png (PCA + "
+                       "K-Means of Q and of K), correspondence.png (nearest follower frame per leader frame), "
+                       "maps.png (leader, follower and mixed maps, per-query rows) and analysis.json.")
+    _common(a)
+    a.add_argument("--out", type=Path, required=True, help="folder for the figures")
+    a.add_argument("--per-prompt", type=int, default=2, help="motions per built-in prompt to fit the clusters on")
+    a.add_argument("--components", type=int, default=10, help="PCA dimensions (paper: 10)")
+    a.add_argument("--clusters", type=int, default=10, help="K-Means clusters (paper: 10)")
+    a.add_argument("--query-frames", type=int, nargs="+", default=None, help="leader frames for per-query maps")
+    a.set_defaults(run=run_analyze)
+
+
+def sources(args: argparse.Namespace):
+    """The leader and followers as ``Source``s: prompts stay prompts, .bvh/.npy files are loaded."""
+    from engine.methods.momo import Source
+
+    def one(text: str, prompt: str | None) -> Source:
+        path = Path(text)
+        if path.suffix.lower() in (".bvh", ".npy"):
+            from engine.io import load_motion
+
+            return Source(joints=load_motion(path), prompt=prompt, name=path.name)
+        return Source(prompt=text, seconds=args.seconds)
+
+    prompts = list(args.follower_prompt or [])
+    if len(prompts) > len(args.follower):
+        raise ValueError("more --follower-prompt than --follower")
+    prompts += [None] * (len(args.follower) - len(prompts))
+    return one(args.leader, args.leader_prompt), [one(f, p) for f, p in zip(args.follower, prompts)]
+
+
+def config_from_args(args: argparse.Namespace):
+    from engine.methods.momo import TransferConfig
+
+    layers = None
+    if args.layers is not None:
+        first, last = args.layers
+        if last < first:
+            raise ValueError(f"--layers {first} {last}: the last layer comes before the first")
+        layers = tuple(range(first, last + 1))
+    return TransferConfig(start=args.step_window[0], end=args.step_window[1], layers=layers, root=args.root)
+
+
+def _run(args: argparse.Namespace, *, record: bool):
+    from engine.checkpoint import load_model
+    from engine.generate import SampleConfig
+    from engine.methods.momo import qk_record, transfer
+
+    leader, followers = sources(args)
+    loaded = load_model(args.model)
+    sample = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed)
+    result = transfer(loaded, leader, followers, config_from_args(args), sample=sample,
+                      record=qk_record() if record else None)
+    report = {"leader": leader.label, "followers": [f.label for f in followers],
+              "leader_inversion_m": result.leader.inversion,
+              "follower_inversion_m": [f.inversion for f in result.followers]}
+    return loaded, sample, result, report
+
+
+def run_transfer(args: argparse.Namespace) -> int:
+    from engine.io import save_motion
+
+    _, _, result, report = _run(args, record=False)
+    outs = []
+    for i in range(len(result.followers)):
+        path = args.out if len(result.followers) == 1 else args.out.with_name(f"{args.out.stem}_{i + 1}{args.out.suffix}")
+        save_motion(result.out(i), path)
+        outs.append(str(path))
+    report["out"] = outs
+    if args.render is not None:
+        from viz.render import render_file
+
+        motions = {"leader": result.leader_joints()}
+        for i in range(len(result.followers)):
+            motions[f"follower {i + 1}"] = result.follower(i)
+            motions[f"out {i + 1}"] = result.out(i)
+        render_file(motions, args.render)
+        report["render"] = str(args.render)
+    print(json.dumps(report, indent=2))
+    return 0
+
+
+def run_analyze(args: argparse.Namespace) -> int:
+    from engine.analysis.qk import FIT_PROMPTS, ClusterConfig, cluster_site, fit_clusters
+    from engine.methods.momo import analyze
+    from viz.qk_figures import cluster_figure, correspondence_figure, maps_figure
+
+    loaded, sample, result, report = _run(args, record=True)
+    site = cluster_site(loaded.model.config.layers, sample.steps)
+    clusters = fit_clusters(loaded, FIT_PROMPTS, site=site, sample=sample, per_prompt=args.per_prompt,
+                            config=ClusterConfig(components=args.components, clusters=args.clusters))
+    analysis = analyze(loaded, result, clusters=clusters, sample=sample)
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    motions = {"leader": result.leader_joints(), "follower": result.follower(0), "out": result.out(0)}
+    n = len(analysis.maps["leader"])
+    frames = args.query_frames or [n // 4, n // 2]
+    bad = [f for f in frames if not 0 <= f < n]
+    if bad:
+        raise ValueError(f"--query-frames {bad} are outside the leader's frames 0..{n - 1}")
+    cluster_figure(motions, analysis.q_labels, analysis.k_labels, out / "clusters.png")
+    correspondence_figure(motions["leader"], motions["follower"], analysis.nearest, out / "correspondence.png")
+    maps_figure(analysis.maps, out / "maps.png", per_query={f: analysis.per_query(f) for f in frames})
+    report.update(figures=[str(out / n) for n in ("clusters.png", "correspondence.png", "maps.png")],
+                  fitted_frames=clusters.fitted_frames, **analysis.to_json())
+    (out / "analysis.json").write_text(json.dumps(report, indent=1))
+    print(json.dumps({k: report[k] for k in ("leader", "followers", "figures", "cluster_site", "correspondence_site",
+                                             "maps_site", "fitted_frames")}, indent=2))
+    return 0
