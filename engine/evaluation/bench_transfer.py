@@ -150,7 +150,7 @@ def _summary(rows: list[dict], outputs: list[np.ndarray], captions: list[str], e
     emb = evaluator.motion_embeddings(feats)
     text = evaluator.text_embeddings(captions)
     out = {k: float(np.mean([r[k] for r in rows])) for k in KEYS if k in rows[0]}
-    out["fid"] = fid(emb, truth_emb)
+    out["fid"] = fid(emb, truth_emb) if len(emb) >= 2 else float("nan")  # a covariance needs two motions
     out["r_precision_top3"] = _r_precision_top3(text, emb, distractors)
     out["n"] = len(rows)
     return {k: out[k] for k in (*KEYS, "n")}

@@ -1,0 +1,230 @@
+"""MoMo on a tiny seeded model: mixing only inside its windows, key masks, pinned inversion, analysis, CLI."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from engine.analysis.qk import (
+    ClusterConfig, Site, attention_map, cluster_site, fit, fit_clusters, nearest_keys, paper_site, qk_at,
+)
+from engine.attention import AttentionStore, BatchRoles, stack
+from engine.attention.context import AttnCtx
+from engine.checkpoint import LoadedModel
+from engine.generate import Request, SampleConfig, generate
+from engine.methods.mixing import MixConfig, MixedAttention
+from engine.methods.momo import (
+    FOLLOWER, LEADER, OUT, Source, TransferConfig, analyze, canonical, prepare, qk_record, transfer, transfer_streams,
+)
+from engine.methods.momo_baselines import inpaint_upper_body, lower_body_dims, motion_space_nn
+from engine.methods.windows import Window
+from engine.model import Denoiser, ModelConfig
+from engine.representation import SLICES
+from engine.synth import Corpus, vocabulary
+from engine.text import PromptError, Tokenizer
+
+STEPS = 6
+
+
+@pytest.fixture(scope="module")
+def loaded() -> LoadedModel:
+    torch.manual_seed(0)
+    words = vocabulary()
+    model = Denoiser(ModelConfig(width=32, layers=3, heads=2, text_layers=1, vocab_size=len(words) + 8)).eval()
+    return LoadedModel(model=model, tokenizer=Tokenizer(words), normalizer=Corpus(split="train").stats(n=32),
+                       config={}, folder=Path("."))
+
+
+@pytest.fixture(scope="module")
+def corpus_motion() -> np.ndarray:
+    return Corpus(split="test").sample(3).joints[:61]
+
+
+def _ctx(names, *, layer=1, step=2, uncond=()):
+    return AttnCtx(layer=layer, kind="self", step=step, t=500, roles=BatchRoles(names=tuple(names), uncond=tuple(uncond)))
+
+
+def test_mixed_attention_takes_q_from_leader_and_kv_from_follower_only_inside_the_window():
+    mix = MixedAttention(MixConfig(queries=LEADER, keys=FOLLOWER, target=OUT, window=Window(0.2, 0.6, layers=(1, 2))),
+                         num_steps=10)
+    g = torch.Generator().manual_seed(0)
+    q, k, v = (torch.randn(3, 2, 7, 4, generator=g) for _ in range(3))
+    names = (LEADER, FOLLOWER, OUT)
+    q2, k2, v2 = mix.on_qkv(q, k, v, _ctx(names, layer=1, step=3))
+    assert torch.equal(q2[2], q[0]) and torch.equal(k2[2], k[1]) and torch.equal(v2[2], v[1])
+    assert torch.equal(q2[:2], q[:2]) and torch.equal(k2[:2], k[:2])  # leader and follower untouched
+    for layer, step in ((0, 3), (1, 1), (1, 6), (2, 9)):  # outside the layers or the steps
+        assert mix.on_qkv(q, k, v, _ctx(names, layer=layer, step=step)) is None
+    cross = AttnCtx(layer=1, kind="cross", step=3, t=500, roles=BatchRoles(names=names))
+    assert mix.on_qkv(q, k, v, cross) is None
+
+
+def test_mixing_reaches_both_cfg_halves_and_pairs_several_followers():
+    names = (LEADER, FOLLOWER, OUT, FOLLOWER, OUT)
+    roles = BatchRoles(names=names).with_uncond()
+    ctx = AttnCtx(layer=1, kind="self", step=0, t=900, roles=roles)
+    mix = MixedAttention(MixConfig(queries=LEADER, keys=FOLLOWER), num_steps=4)
+    q = torch.arange(10.0).view(10, 1, 1, 1).expand(10, 1, 3, 2).clone()
+    q2, k2, _ = mix.on_qkv(q, q.clone(), q.clone(), ctx)
+    assert q2[:, 0, 0, 0].tolist() == [0, 1, 0, 3, 0, 5, 6, 5, 8, 5]
+    assert k2[:, 0, 0, 0].tolist() == [0, 1, 1, 3, 3, 5, 6, 6, 8, 8]
+    mask = torch.tensor([[True] * 3 + [False]] * 10)
+    mask[1, :] = True  # follower 1 is longer than the others
+    borrowed = mix.on_key_mask(mask, ctx)
+    assert borrowed[2].all() and not borrowed[4].all() and borrowed[0].tolist() == mask[0].tolist()
+
+
+def test_mixing_without_its_roles_is_a_clear_error():
+    mix = MixedAttention(MixConfig(queries=LEADER, keys=FOLLOWER), num_steps=4)
+    q = torch.zeros(2, 1, 3, 2)
+    with pytest.raises(KeyError, match="leader"):
+        mix.on_qkv(q, q, q, _ctx((FOLLOWER, OUT), step=0, layer=0))
+
+
+def test_an_empty_window_gives_the_plain_generation(loaded):
+    """No mixing step: `out` is the follower prompt sampled from the leader's noise (up to batched float sums)."""
+    config = TransferConfig(start=0.5, end=0.5, root="none")
+    sample = SampleConfig(steps=STEPS, guidance=2.0, seed=3)
+    result = transfer(loaded, Source(prompt="a person walks forward", seconds=2), [Source(prompt="a person jumps", seconds=2)],
+                      config, sample=sample)
+    noise = result.leader.noise
+    plain = generate(loaded, Request(prompts=["a person jumps"], frames=[40], noise=noise), sample)
+    np.testing.assert_allclose(result.out(0), plain.joints[0], atol=1e-5)
+
+
+def test_transfer_changes_the_output_and_keeps_lengths_and_root(loaded):
+    sample = SampleConfig(steps=STEPS, guidance=2.0)
+    leader = Source(prompt="a person walks forward", seconds=2.5)
+    followers = [Source(prompt="a person jumps", seconds=1.5), Source(prompt="a person runs forward", seconds=3)]
+    result = transfer(loaded, leader, followers, sample=sample)
+    assert result.leader_joints().shape == (50, 22, 3)
+    assert [result.follower(i).shape[0] for i in range(2)] == [30, 60]
+    assert [result.out(i).shape[0] for i in range(2)] == [50, 50]
+    plain = transfer(loaded, leader, followers[:1], TransferConfig(start=0.0, end=0.0), sample=sample)
+    assert np.abs(result.out(0) - plain.out(0)).max() > 1e-4  # mixing changed the output
+    feats = result.output.generation.features
+    root = slice(0, SLICES["root_height"].stop)
+    for i in range(2):  # "trajectory": the leader's root, exactly
+        np.testing.assert_array_equal(feats[result.slot(OUT, i), :50, root], feats[0, :50, root])
+
+
+def test_paper_root_option_copies_only_the_rotation(loaded):
+    sample = SampleConfig(steps=STEPS, guidance=1.0)
+    result = transfer(loaded, Source(prompt="a person walks forward", seconds=2), [Source(prompt="a person jumps", seconds=2)],
+                      TransferConfig(root="rotation"), sample=sample)
+    f = result.output.generation.features
+    out = result.slot(OUT)
+    np.testing.assert_array_equal(f[out, :40, 0], f[0, :40, 0])
+    assert np.abs(f[out, :40, 1:3] - f[0, :40, 1:3]).max() > 1e-6
+
+
+def test_inverted_leader_is_rebuilt_exactly_and_reports_its_inversion_error(loaded, corpus_motion):
+    sample = SampleConfig(steps=STEPS, guidance=2.5)
+    result = transfer(loaded, Source(joints=corpus_motion, prompt="a person walks"), [Source(prompt="a person jumps", seconds=2)],
+                      sample=sample)
+    assert result.leader.inverted and result.leader.frames == len(corpus_motion) - 1
+    np.testing.assert_allclose(result.leader_joints(), canonical(corpus_motion), atol=1e-4)
+    err = result.leader.inversion
+    assert err is not None and np.isfinite(err["mean_m"]) and err["max_m"] >= err["mean_m"] >= 0
+    assert result.followers[0].inversion is None
+    assert result.out(0).shape[0] == len(corpus_motion) - 1
+
+
+def test_inversion_steps_must_match_the_sampler(loaded, corpus_motion):
+    stream = prepare(loaded, Source(joints=corpus_motion), seed=0, steps=4, measure_inversion=False)
+    other = prepare(loaded, Source(prompt="a person jumps", seconds=2), seed=0, steps=4)
+    with pytest.raises(ValueError, match="same number"):
+        transfer_streams(loaded, stream, [other], sample=SampleConfig(steps=5))
+
+
+def test_bad_sources_and_configs_fail_clearly(loaded):
+    with pytest.raises(ValueError, match="prompt or a motion"):
+        Source(prompt="  ")
+    with pytest.raises(PromptError, match="flurbs"):
+        transfer(loaded, Source(prompt="a person flurbs"), [Source(prompt="a person jumps")], sample=SampleConfig(steps=2))
+    with pytest.raises(ValueError, match="do not exist"):
+        TransferConfig(layers=(0, 7)).window(3)
+    with pytest.raises(ValueError, match="root"):
+        TransferConfig(root="sideways")
+    with pytest.raises(ValueError, match="start <= end"):
+        TransferConfig(start=0.8, end=0.2)
+    with pytest.raises(ValueError, match="between 1 and"):
+        transfer(loaded, Source(prompt="a person jumps"), [], sample=SampleConfig(steps=2))
+
+
+def test_baselines_run_on_prepared_streams(loaded, corpus_motion):
+    follower = Corpus(split="test").sample(5).joints[:41]
+    nn = motion_space_nn(corpus_motion, follower)
+    assert nn.shape == (len(corpus_motion) - 1, 22, 3)
+    np.testing.assert_allclose(nn[:, 0], canonical(corpus_motion)[:, 0], atol=1e-5)  # the leader's root
+    dims = lower_body_dims()
+    assert 0 in dims and 262 in dims and SLICES["ric"].start + 3 * 19 not in dims  # no left-wrist ric
+    sample = SampleConfig(steps=STEPS, guidance=1.0)
+    lead = prepare(loaded, Source(joints=corpus_motion), seed=0, steps=STEPS, measure_inversion=False)
+    foll = prepare(loaded, Source(prompt="a person waves", seconds=2), seed=1, steps=STEPS)
+    out = inpaint_upper_body(loaded, lead, foll, sample=sample)
+    assert out.shape == (len(corpus_motion) - 1, 22, 3)
+    legs = [7, 8, 10, 11]
+    np.testing.assert_allclose(out[:, legs], canonical(corpus_motion)[:, legs], atol=1e-3)
+
+
+# ----------------------------------------------------------------------------- analysis
+def test_paper_sites_map_onto_the_model():
+    assert paper_site(layer=12, t=0, n_layers=12, n_steps=100) == Site(layer=11, step=99)
+    assert paper_site(layer=11, t=30, n_layers=6, n_steps=50) == Site(layer=5, step=35)
+    assert cluster_site(2, 10) == Site(layer=1, step=7)
+
+
+def test_nearest_keys_and_maps():
+    q = np.eye(4)[[0, 1, 2, 3, 0]] * 5
+    k = np.eye(4)[[3, 2, 1, 0]]
+    assert nearest_keys(q, k).tolist() == [3, 2, 1, 0, 3]
+    m = attention_map(q, k, heads=2)
+    assert m.shape == (5, 4) and np.allclose(m.sum(1), 1.0)
+    assert m[0].argmax() == 3
+
+
+def test_clusters_separate_distinct_groups():
+    rng = np.random.default_rng(0)
+    centres = rng.normal(0, 10, (3, 16))
+    x = np.concatenate([c + rng.normal(0, 0.1, (30, 16)) for c in centres])
+    cl = fit(x, x[::-1].copy(), site=Site(0, 0), config=ClusterConfig(components=4, clusters=3))
+    q_lab, k_lab = cl.labels(x, x)
+    assert len(set(q_lab[:30])) == 1 and len(set(q_lab)) == 3
+    with pytest.raises(ValueError, match="at least"):
+        fit(x[:2], x[:2], site=Site(0, 0))
+
+
+def test_analysis_of_a_recorded_transfer(loaded):
+    sample = SampleConfig(steps=STEPS, guidance=2.0)
+    result = transfer(loaded, Source(prompt="a person walks forward", seconds=2), [Source(prompt="a person jumps", seconds=1.5)],
+                      sample=sample, record=qk_record())
+    site = cluster_site(3, STEPS)
+    q, k = qk_at(result.output.store, site, slot=0, frames=40)
+    assert q.shape == (40, 32) and k.shape == (40, 32)
+    clusters = fit_clusters(loaded, ["a person walks forward", "a person jumps"], site=site, sample=sample, seconds=2,
+                            per_prompt=1, config=ClusterConfig(components=4, clusters=4))
+    a = analyze(loaded, result, clusters=clusters, sample=sample)
+    assert {r: len(v) for r, v in a.q_labels.items()} == {LEADER: 40, FOLLOWER: 30, OUT: 40}
+    assert a.nearest.shape == (40,) and a.nearest.max() < 30
+    assert a.maps["mixed"].shape == (40, 30) and a.maps["follower"].shape == (30, 30)
+    assert set(a.per_query(5)) == {"leader", "mixed"}
+    with pytest.raises(IndexError):
+        a.per_query(40)
+    json.dumps(a.to_json())
+    plain = transfer(loaded, Source(prompt="a person walks"), [Source(prompt="a person jumps")], sample=SampleConfig(steps=2))
+    with pytest.raises(ValueError, match="record"):
+        analyze(loaded, plain, clusters=clusters)
+
+
+def test_store_and_mixing_stack_without_changing_the_leader(loaded):
+    """Recording is passive: the leader stream is the same as sampling its prompt alone."""
+    sample = SampleConfig(steps=STEPS, guidance=2.0, seed=1)
+    result = transfer(loaded, Source(prompt="a person walks forward", seconds=2), [Source(prompt="a person jumps", seconds=2)],
+                      sample=sample, record=qk_record())
+    alone = generate(loaded, Request(prompts=["a person walks forward"], frames=[40], noise=result.leader.noise), sample)
+    np.testing.assert_allclose(result.leader_joints(), alone.joints[0], atol=1e-5)
+    assert isinstance(result.output.store, AttentionStore) and stack(None) is None
