@@ -38,6 +38,7 @@ class SceneSpec:
     follow: bool = True
     show_path: bool = True
     frame_values: np.ndarray | None = None  # (T,) colours for the first role (e.g. a word's attention)
+    role_colors: tuple[tuple[str, np.ndarray], ...] = ()  # role -> (T, 3) uint8 per-frame colours (wins over values)
     azimuth_offset: float = 0.0
     camera_serial: int = 0
     title: str = ""
@@ -252,16 +253,21 @@ class FrameRenderer:
         scene = self._scene
         if old is None or old.show_path != spec.show_path:
             scene.set_path_visible(spec.show_path)
-        if old is None or old.frame_values is not spec.frame_values:
-            first = spec.roles[0]
-            if spec.frame_values is None:
-                scene.reset_colors(role=first)
-            else:
-                values = np.asarray(spec.frame_values, dtype=np.float64)
-                n = len(spec.motions[0][1])
-                values = np.interp(np.arange(n), np.linspace(0, n - 1, len(values)), values) if len(values) != n else values
-                hi = float(values.max()) if values.size and values.max() > 0 else 1.0
-                scene.set_frame_values(values, role=first, cmap="plasma", clim=(0.0, hi))
+        if _colors_changed(old, spec):
+            colored = dict(spec.role_colors)
+            for i, (role, joints) in enumerate(spec.motions):
+                if role in colored:
+                    rgb = np.asarray(colored[role])
+                    scene.set_frame_colors(rgb[np.linspace(0, len(rgb) - 1, len(joints)).round().astype(int)],
+                                           role=role)
+                elif i == 0 and spec.frame_values is not None:
+                    values = np.asarray(spec.frame_values, dtype=np.float64)
+                    n = len(joints)
+                    values = np.interp(np.arange(n), np.linspace(0, n - 1, len(values)), values) if len(values) != n else values
+                    hi = float(values.max()) if values.size and values.max() > 0 else 1.0
+                    scene.set_frame_values(values, role=role, cmap="plasma", clim=(0.0, hi))
+                else:
+                    scene.reset_colors(role=role)
         if old is not None and old.title != spec.title:
             scene.set_title(spec.title)
         if (old is None or old.follow != spec.follow or old.azimuth_offset != spec.azimuth_offset
@@ -270,3 +276,10 @@ class FrameRenderer:
             scene.azimuth = self._base_azimuth + spec.azimuth_offset
             scene.reset_camera()
         self._applied = spec
+
+
+def _colors_changed(old: SceneSpec | None, spec: SceneSpec) -> bool:
+    if old is None or old.frame_values is not spec.frame_values:
+        return True
+    a, b = dict(old.role_colors), dict(spec.role_colors)
+    return a.keys() != b.keys() or any(a[r] is not b[r] for r in b)

@@ -17,7 +17,7 @@ from app.attention_record import AttentionRecord, plan_steps
 from app.model_cache import SAMPLING_SLOT
 from engine.checkpoint import LoadedModel
 from engine.generate import Request, SampleConfig, finish, frames_for, sample_states
-from engine.text import TokenizedPrompt
+from engine.text import TokenizedPrompt, split_words
 
 
 @dataclass(frozen=True)
@@ -72,6 +72,15 @@ def sampling_slot(cancel: threading.Event | None = None, on_wait: Callable[[], N
         yield
     finally:
         SAMPLING_SLOT.release()
+
+
+def prompt_analysis(tokenizer, text: str) -> tuple[list[str], list[str], dict[str, list[str]]]:
+    """(words, unknown words, unknown word -> close vocabulary words) of a prompt; nothing is unknown without a
+    tokenizer (no model loaded)."""
+    words = split_words(text)
+    unknown = [] if tokenizer is None else list(dict.fromkeys(w for w in words if w not in tokenizer))
+    suggestions = {} if tokenizer is None else {w: tokenizer.suggest(w) for w in unknown}
+    return words, unknown, suggestions
 
 
 def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:

@@ -11,6 +11,7 @@ from app.views.attention import AttentionExplorer
 from app.views.controls import GenerateControls
 from app.views.edit import EditTab
 from app.views.files import ExportPanel, ImportPanel
+from app.views.transfer import TransferTab
 from app.views.viewer import SkeletonViewer
 from engine.paths import ASSETS, MODEL_DIR
 
@@ -29,6 +30,7 @@ class Studio:
         self.viewer = SkeletonViewer(state=self.state)
         self.attention = AttentionExplorer(state=self.state)
         self.edit = EditTab(state=self.state)
+        self.transfer = TransferTab(state=self.state)
         self.imports = ImportPanel(state=self.state)
         self.exports = ExportPanel(state=self.state)
         path = initial
@@ -52,7 +54,7 @@ class Studio:
     def template(self) -> pn.template.BaseTemplate:
         main = pn.Row(
             pn.Column("### Viewer", self.viewer, sizing_mode="stretch_width", min_width=500, max_width=760),
-            pn.Tabs(("Attention", self.attention), ("Edit", self.edit), width=600, css_classes=["right-tabs"]),
+            pn.Tabs(("Attention", self.attention), ("Edit", self.edit), ("Transfer", self.transfer), width=600, css_classes=["right-tabs"]),
             sizing_mode="stretch_width",
         )
         return pn.template.FastListTemplate(

@@ -18,8 +18,8 @@ import param
 
 from app.attention_record import AttentionRecord
 from app.editing import EditConfig, EditResult, count_imported, count_record, prepare, run_edit_job
-from app.generation import Cancelled, GenerationResult, GenerationSettings, check, run_generation
-from engine.text import split_words
+from app.generation import Cancelled, GenerationResult, GenerationSettings, check, prompt_analysis, run_generation
+from app.transfer import TransferSettings, paint_clusters, start_transfer
 
 MAX_ITEMS = 8
 MAX_ITEMS_WITH_ATTENTION = 3
@@ -32,6 +32,7 @@ class Job:
     cancel: threading.Event
     step: Callable[[int, int], None]
     waiting: Callable[[], None]
+    note: Callable[[str], None] = lambda text: None  # a status line for a phase without steps (e.g. inversion)
 
 
 @dataclass
@@ -82,6 +83,9 @@ class StudioState(param.Parameterized):
     items = param.Dict(default={}, doc="name -> MotionItem, in creation order")
     current = param.String(default="", doc="name of the motion shown (and whose attention is explored)")
     compare = param.String(default="", doc="name of a second motion shown side by side ('' = none)")
+    also = param.List(default=[], item_type=str, doc="more motions shown side by side after the compared one "
+                                                       "(e.g. a transfer's output); cleared when another is shown")
+    frame_colors = param.Dict(default={}, doc="motion name -> (T, 3) uint8 colour per frame (e.g. Q/K clusters)")
     frame = param.Integer(default=0, bounds=(0, None), doc="the playhead")
     playing = param.Boolean(default=False, doc="the browser is playing the motion")
 
@@ -98,6 +102,8 @@ class StudioState(param.Parameterized):
 
     # ---- the Edit tab (MotionCLR): its settings, the last edit and the counting readout
     edit = param.ClassSelector(class_=EditConfig, doc="the session's edit config")
+    # ---- the Transfer tab (MoMo): leader / follower sources, windows, the last transfer and its analysis
+    transfer = param.ClassSelector(class_=TransferSettings, doc="the session's transfer settings")
 
     def __init__(self, *, model_dir: str | Path | None = None, **params):
         super().__init__(**params)
@@ -110,6 +116,9 @@ class StudioState(param.Parameterized):
         self._closed = False
         if self.edit is None:
             self.edit = EditConfig()
+        if self.transfer is None:
+            self.transfer = TransferSettings(tokenizer=self._tokenizer)
+        self.transfer.param.watch(lambda *_: paint_clusters(self), ["color_by", "result"])
         self.param.watch(self._analyse_prompt, "prompt")
         self.param.watch(self._auto_count, "current")
         self._analyse_prompt()
@@ -165,14 +174,14 @@ class StudioState(param.Parameterized):
         except Exception:
             return ()
 
-    def _analyse_prompt(self, *_):
-        words = split_words(self.prompt)
+    def _tokenizer(self):
         try:
-            tokenizer = self.model.tokenizer
+            return self.model.tokenizer
         except Exception:
-            tokenizer = None
-        unknown = [] if tokenizer is None else list(dict.fromkeys(w for w in words if w not in tokenizer))
-        suggestions = {} if tokenizer is None else {w: tokenizer.suggest(w) for w in unknown}
+            return None
+
+    def _analyse_prompt(self, *_):
+        words, unknown, suggestions = prompt_analysis(self._tokenizer(), self.prompt)
         with param.parameterized.batch_call_watchers(self):
             self.prompt_words = words
             self.unknown_words = unknown
@@ -262,7 +271,10 @@ class StudioState(param.Parameterized):
         def on_wait() -> None:
             self.post(lambda: setattr(self, "status", f"waiting for another session's {what} to finish"))
 
-        job = Job(cancel=cancel, step=on_step, waiting=on_wait)
+        def note(text: str) -> None:
+            self.post(lambda: setattr(self, "status", text) if cancel is self._cancel and self.running else None)
+
+        job = Job(cancel=cancel, step=on_step, waiting=on_wait, note=note)
 
         def work_thread() -> None:
             try:
@@ -436,6 +448,12 @@ class StudioState(param.Parameterized):
             self.edit.count_result = None
             self._notify("warning", f"cannot count on {item.name!r}: {exc}")
 
+    # ------------------------------------------------------------------ transfer (MoMo)
+    def run_transfer(self) -> bool:
+        """Check the Transfer tab's settings and run leader -> follower on the worker; False (and a notification)
+        if refused. The result: leader / follower / out side by side, and the analysis on ``transfer.result``."""
+        return start_transfer(self)
+
     # ------------------------------------------------------------------ motions
     def _unique_name(self, base: str) -> str:
         name, k = base, 2
@@ -457,6 +475,8 @@ class StudioState(param.Parameterized):
             self.items = items
             if self.compare and self.compare not in items:
                 self.compare = ""
+            if any(n not in items for n in self.also):
+                self.also = [n for n in self.also if n in items]
             if show:
                 self.show(item.name)
 
@@ -467,6 +487,7 @@ class StudioState(param.Parameterized):
         with param.parameterized.batch_call_watchers(self):
             if self.compare == name:
                 self.compare = ""
+            self.also = []
             self.frame = 0
             self.word = None
             if item.attention is not None:
@@ -503,11 +524,17 @@ class StudioState(param.Parameterized):
         return None if item is None else item.joints
 
     @property
-    def n_frames(self) -> int:
+    def shown_items(self) -> list[MotionItem]:
+        """The motions side by side in the viewer: the current one, the compared one, then ``also``."""
         item = self.item
-        n = 0 if item is None else item.n_frames
-        other = self.compare_item
-        return max(n, other.n_frames if other is not None else 0)
+        if item is None:
+            return []
+        names = [self.compare, *self.also] if self.compare else list(self.also)
+        return [item, *(self.items[n] for n in dict.fromkeys(names) if n in self.items and n != item.name)]
+
+    @property
+    def n_frames(self) -> int:
+        return max((it.n_frames for it in self.shown_items), default=0)
 
     @property
     def attention(self) -> AttentionRecord | None:

@@ -106,7 +106,7 @@ def test_transfer_changes_the_output_and_keeps_lengths_and_root(loaded):
     plain = transfer(loaded, leader, followers[:1], TransferConfig(start=0.0, end=0.0), sample=sample)
     assert np.abs(result.out(0) - plain.out(0)).max() > 1e-4  # mixing changed the output
     feats = result.output.generation.features
-    root = slice(0, SLICES["root_height"].stop)
+    root = slice(0, SLICES["root_lin_vel"].stop)
     for i in range(2):  # "trajectory": the leader's root, exactly
         np.testing.assert_array_equal(feats[result.slot(OUT, i), :50, root], feats[0, :50, root])
 

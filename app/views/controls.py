@@ -80,16 +80,7 @@ class GenerateControls(pn.viewable.Viewer):
         unknown = set(s.unknown_words)
         # the button state goes first so that it is never behind the highlighted words
         self.generate.disabled = bool(unknown) or s.running
-        if not s.prompt_words:
-            self.words.object = '<span class="prompt-empty">type a prompt</span>'
-        else:
-            parts = [f'<span class="word-unknown" title="not in the vocabulary">{html.escape(w)}</span>'
-                     if w in unknown else f'<span class="word-known">{html.escape(w)}</span>' for w in s.prompt_words]
-            note = ""
-            if unknown:
-                note = (f'<div class="unknown-note">unknown: {", ".join(html.escape(w) for w in s.unknown_words)}'
-                        "</div>")
-            self.words.object = f'<div class="prompt-chips">{" ".join(parts)}</div>{note}'
+        self.words.object = word_chips(s.prompt_words, s.unknown_words)
         buttons = []
         for word in s.unknown_words:
             for suggestion in s.suggestions.get(word, [])[:3]:
@@ -148,7 +139,18 @@ class GenerateControls(pn.viewable.Viewer):
         )
 
 
-_CSS = """
+def word_chips(words: list[str], unknown: list[str]) -> str:
+    """A prompt's words as chips, unknown ones flagged (with ``WORD_CSS``); shared by every prompt box."""
+    if not words:
+        return '<span class="prompt-empty">type a prompt</span>'
+    bad = set(unknown)
+    parts = [f'<span class="word-unknown" title="not in the vocabulary">{html.escape(w)}</span>'
+             if w in bad else f'<span class="word-known">{html.escape(w)}</span>' for w in words]
+    note = f'<div class="unknown-note">unknown: {", ".join(html.escape(w) for w in unknown)}</div>' if unknown else ""
+    return f'<div class="prompt-chips">{" ".join(parts)}</div>{note}'
+
+
+WORD_CSS = _CSS = """
 .word-unknown { background: #ffd6d6; color: #a00; border-bottom: 2px wavy #d00; padding: 0 3px; border-radius: 3px; }
 .word-known { background: #e7f0ff; padding: 0 3px; border-radius: 3px; }
 .unknown-note { color: #a00; font-size: 12px; margin-top: 2px; }

@@ -51,7 +51,8 @@ class SkeletonViewer(pn.viewable.Viewer):
         self.player.param.watch(lambda e: setattr(self.state, "playing", e.new), "playing")
 
         s.param.watch(self._on_items, "items")
-        s.param.watch(self._on_current, ["current", "compare"])
+        s.param.watch(self._on_current, ["current", "compare", "also"])
+        s.param.watch(self._refresh, "frame_colors")
         s.param.watch(self._on_frame, "frame")
         s.param.watch(self._refresh, ["follow", "show_path", "color_by_word"])
         s.param.watch(self._on_word_selection, ["word", "att_step", "head"])
@@ -69,19 +70,25 @@ class SkeletonViewer(pn.viewable.Viewer):
 
     def spec(self) -> SceneSpec | None:
         s = self.state
-        item = s.item
-        if item is None:
+        shown = s.shown_items
+        if not shown:
             return None
-        motions = [(_role(item.name), item.joints)]
-        other = s.compare_item
-        if other is not None:
-            motions.append((_role(other.name, avoid=motions[0][0]), other.joints))
+        item = shown[0]
+        motions, colors = [], []
+        for it in shown:
+            role = _role(it.name, avoid=[r for r, _ in motions])
+            motions.append((role, it.joints))
+            if it.name in s.frame_colors:
+                colors.append((role, s.frame_colors[it.name]))
         values = s.word_values() if s.color_by_word else None
-        title = item.name if other is None else ""
+        title = item.name if len(shown) == 1 else ""
         if values is not None and s.word is not None and item.attention is not None:
             title = f'{item.name}  —  colour: "{item.attention.words[s.word]}"'
+        if colors and s.transfer.color_by != "roles":
+            title = f"colour: {s.transfer.color_by} (legend in the Transfer tab)"
         return SceneSpec(motions=tuple(motions), follow=s.follow, show_path=s.show_path, frame_values=values,
-                         azimuth_offset=self._azimuth, camera_serial=self._camera_serial, title=title[:70])
+                         role_colors=tuple(colors), azimuth_offset=self._azimuth, camera_serial=self._camera_serial,
+                         title=title[:70])
 
     def _refresh(self, *_):
         spec = self.spec()
@@ -160,6 +167,9 @@ class SkeletonViewer(pn.viewable.Viewer):
                          css_classes=["viewer"])
 
 
-def _role(name: str, avoid: str = "") -> str:
-    role = name if len(name) <= 40 else name[:39] + "…"
-    return role if role != avoid else role + " (2)"
+def _role(name: str, avoid: list[str] | tuple[str, ...] = ()) -> str:
+    base = name if len(name) <= 40 else name[:39] + "…"
+    role, k = base, 2
+    while role in avoid:
+        role, k = f"{base} ({k})", k + 1
+    return role

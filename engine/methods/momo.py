@@ -39,8 +39,9 @@ class TransferConfig:
     ``start``/``end``: fractions of the sampling steps (paper: steps 90 -> 10 of 100 = 0.1 -> 0.9).
     ``layers``: 0-based blocks that mix; None = every layer but the first (paper: 2-12 of 12).
     ``root``: what the output takes from the leader's root
-      - "trajectory" (default): rotation, linear velocity and height are inpainted from the leader
-        at every step, so the output follows the leader's path and the body is generated for it;
+      - "trajectory" (default): the root's rotation and linear velocity are inpainted from the
+        leader at every step, so the output follows the leader's path on the floor and the body is
+        generated for it (the root height stays the output's: a crouched follower stays low);
       - "rotation": the paper's fix, the leader's root angular velocity copied into the finished
         output (keeps the direction, the output's own speed and path shape);
       - "none": the output's own root.
@@ -184,7 +185,7 @@ def transfer_streams(loaded: LoadedModel, leader: Stream, followers: Sequence[St
     outs = tuple(i for i, r in enumerate(roles) if r == OUT)
     hooks = [PinTrajectory(pins)] if pins else []
     if config.root == "trajectory":
-        hooks.append(KeepDims(source=0, targets=outs, dims=torch.arange(SLICES["root_height"].stop), frames=leader.frames))
+        hooks.append(KeepDims(source=0, targets=outs, dims=torch.arange(SLICES["root_lin_vel"].stop), frames=leader.frames))
     gen = generate(loaded, Request(prompts=prompts, frames=frames, roles=roles, noise=noise), sample,
                    controller=stack(store, mix), hooks=hooks, on_step=on_step)
     if config.root == "rotation":
