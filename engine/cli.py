@@ -24,6 +24,7 @@ SUBCOMMANDS: dict[str, str] = {
     "invert": "engine.cli_invert",
     "transfer": "engine.cli_transfer",
     "analyze-qk": "engine.cli_transfer",
+    "compose": "engine.cli_compose",
     "serve": "app.cli_serve",
     "bench": "engine.cli_bench",
 }

@@ -48,6 +48,9 @@ class TrainConfig:
     stats_samples: int = 2000
     threads: int = 0  # torch threads per process; 0 = torch's default
     bf16: bool = True  # bfloat16 autocast for the forward pass (about 25 % faster on AVX-512 CPUs)
+    # "" = the base model; a control name ("root", "left_wrist", "right_wrist") fine-tunes a control
+    # model by PriorMDM's Algorithm 1: those features reach the model noise-free (only scaled by sqrt(alpha_bar))
+    control: str = ""
     model: ModelConfig = field(default_factory=ModelConfig)
 
     def to_json(self) -> dict:
@@ -141,9 +144,18 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
             stats_folder = Path(init_from)
             if rank == 0:
                 print(f"starting from the model in {init_from} (step {state['step']}); optimizer state is new")
-        # the run's hyper-parameters come from the checkpoint; how to run it now comes from the call
-        runtime = {k: getattr(config, k) for k in _RUNTIME_FIELDS}
-        config = TrainConfig.from_json({**saved["train"], **runtime, "out": str(out)})
+        if not resumable and config.control:
+            # a control fine-tune (PriorMDM Algorithm 1): the base's architecture, this call's
+            # hyper-parameters, steps counted from 0
+            if saved["train"].get("control"):
+                raise ValueError(f"{init_from} is already a control model ({saved['train']['control']}): "
+                                 "fine-tune from the base model")
+            config = TrainConfig.from_json({**config.to_json(), "model": saved["train"]["model"], "out": str(out)})
+            state.update(step=0, next_index=0)
+        else:
+            # the run's hyper-parameters come from the checkpoint; how to run it now comes from the call
+            runtime = {k: getattr(config, k) for k in _RUNTIME_FIELDS}
+            config = TrainConfig.from_json({**saved["train"], **runtime, "out": str(out)})
         tokenizer = Tokenizer(saved["vocabulary"])
         normalizer = Normalizer.load(stats_folder)
         if rank == 0 and stats_folder != out:
@@ -212,6 +224,11 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
                                "optimizer": optimizer.state_dict(), "step": step, "next_index": index})
         export_weights(out, ema.state_dict())
 
+    control_dims = None
+    if config.control:
+        from engine.methods.control import control_dims as _dims
+
+        control_dims = torch.as_tensor(_dims(config.control))
     stop = _Stop()
     previous = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
     log_path = out / "log.jsonl"
@@ -226,6 +243,8 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
             b = batch.x0.shape[0]
             t = torch.randint(0, schedule.steps, (b,), generator=gen)
             noise = torch.randn(batch.x0.shape, generator=gen)
+            if control_dims is not None:
+                noise[..., control_dims] = 0.0
             x_t = schedule.q_sample(batch.x0, t, noise)
             for group in optimizer.param_groups:
                 group["lr"] = lr_at(step, config)
