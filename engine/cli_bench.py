@@ -4,12 +4,15 @@
 --edits      MotionCLR edits against corpus ground truth (engine/evaluation/bench_edits.py)
 --inversion  DDIM inversion round trip in metres on corpus motions and given files
 --transfer   MoMo leader -> follower transfer against corpus ground truth, with baselines
+--compose    DoubleTake transitions vs first take only vs naive concatenation, and a 60-s motion's time
+--control    control models and DiffusionBlending vs inpainting on true paths (with --compose: one run)
 """
 from __future__ import annotations
 
 import argparse
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from engine.paths import EVALUATOR_DIR, MODEL_DIR
@@ -18,11 +21,13 @@ from engine.paths import EVALUATOR_DIR, MODEL_DIR
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="benchmarks: --app (studio in Chromium), --edits (MotionCLR), --inversion, --transfer (MoMo)",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    mode = p.add_mutually_exclusive_group(required=True)
+    mode = p.add_mutually_exclusive_group()
     mode.add_argument("--app", action="store_true", help="click -> first frame, playback fps, layer switch in Chromium")
     mode.add_argument("--edits", action="store_true", help="score the MotionCLR edits against corpus ground truth")
     mode.add_argument("--inversion", action="store_true", help="inversion round-trip error (m)")
     mode.add_argument("--transfer", action="store_true", help="MoMo transfer vs ground truth and baselines")
+    mode.add_argument("--compose", action="store_true", help="DoubleTake vs first take vs naive concatenation")
+    p.add_argument("--control", action="store_true", help="control models and blending vs inpainting (PriorMDM)")
     p.add_argument("--model", type=Path, default=MODEL_DIR, help=f"model folder (default {MODEL_DIR})")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     app = p.add_argument_group("--app")
@@ -43,6 +48,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.compose or args.control:
+        if args.app or args.edits or args.inversion or args.transfer:
+            raise ValueError("--control goes alone or with --compose")
+        return run_priormdm(args)
+    if not (args.app or args.edits or args.inversion or args.transfer):
+        raise ValueError("choose a benchmark: --app, --edits, --inversion, --transfer, --compose and/or --control")
     if args.app:
         from app.bench import run_app_bench
 
@@ -83,8 +94,6 @@ def run_edits(args: argparse.Namespace) -> int:
 
 
 def run_transfer(args: argparse.Namespace) -> int:
-    from dataclasses import replace
-
     from engine.checkpoint import load_model
     from engine.evaluation.bench_transfer import TransferBenchConfig, bench_transfer, format_table
     from engine.evaluation.evaluator import load_evaluator
@@ -98,6 +107,32 @@ def run_transfer(args: argparse.Namespace) -> int:
         config = replace(config, steps=args.steps)
     result = bench_transfer(load_model(args.model), load_evaluator(args.evaluator), config, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
+    return 0
+
+
+def run_priormdm(args: argparse.Namespace) -> int:
+    from engine.checkpoint import load_model
+    from engine.evaluation.evaluator import load_evaluator
+
+    loaded, evaluator = load_model(args.model), load_evaluator(args.evaluator)
+    result, tables = {}, []
+    if args.compose:
+        from engine.evaluation.bench_compose import ComposeBenchConfig, bench_compose, format_table
+
+        config = ComposeBenchConfig.quick() if args.quick else ComposeBenchConfig()
+        if args.samples is not None:
+            config = replace(config, sequences=args.samples)
+        result["compose"] = bench_compose(loaded, evaluator, config, log=_log)
+        tables.append(format_table(result["compose"]))
+    if args.control:
+        from engine.evaluation.bench_control import ControlBenchConfig, bench_control, format_table
+
+        config = ControlBenchConfig.quick() if args.quick else ControlBenchConfig()
+        if args.samples is not None:
+            config = replace(config, motions=args.samples)
+        result["control"] = bench_control(loaded, evaluator, config, log=_log)
+        tables.append(format_table(result["control"]))
+    print(json.dumps(result, indent=2, default=float) if args.json else "\n\n".join(tables))
     return 0
 
 
