@@ -25,6 +25,7 @@ SUBCOMMANDS: dict[str, str] = {
     "transfer": "engine.cli_transfer",
     "analyze-qk": "engine.cli_transfer",
     "compose": "engine.cli_compose",
+    "control": "engine.cli_compose",
     "serve": "app.cli_serve",
     "bench": "engine.cli_bench",
 }

@@ -8,3 +8,4 @@ PROJECT_ROOT = Path(__file__).resolve().parents[1]
 ASSETS = Path(os.environ.get("MOATTN_ASSETS", PROJECT_ROOT / "assets"))
 MODEL_DIR = ASSETS / "model"
 EVALUATOR_DIR = ASSETS / "evaluator"
+CONTROL_DIR = ASSETS / "control"  # one fine-tuned model folder per control: root, left_wrist, right_wrist

@@ -5,8 +5,15 @@
 """
 from __future__ import annotations
 
-import numpy as np
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 
+import numpy as np
+import torch
+
+from engine.checkpoint import LoadedModel
+from engine.diffusion import CLEAN, CosineSchedule, StepState
+from engine.generate import Generation, Request, SampleConfig, denoiser_for, frames_for, generate
 from engine.representation import SLICES
 from engine.skeleton import JOINT_INDEX
 
@@ -21,3 +28,169 @@ def control_dims(name: str) -> np.ndarray:
         start = SLICES["ric"].start + 3 * (j - 1)
         return np.arange(start, start + 3)
     raise ValueError(f"unknown control {name!r}: choose from {', '.join(CONTROLS)}")
+
+
+# ----------------------------------------------------------------------------- sampling (Algorithm 2)
+@dataclass(frozen=True)
+class Control:
+    """Raw feature values (T, 3) that the control's dims must take on the first T frames."""
+
+    name: str
+    values: np.ndarray
+
+    def __post_init__(self) -> None:
+        control_dims(self.name)
+        v = np.asarray(self.values)
+        if v.ndim != 2 or v.shape[1] != 3 or not np.isfinite(v).all():
+            raise ValueError(f"{self.name} control values must be finite, shape (T, 3), got {v.shape}")
+
+
+@dataclass
+class KnownFeatures:
+    """Normalised known values on a set of (frame, dim) cells, shared by every slot of the batch."""
+
+    values: torch.Tensor  # (T, D) normalised, zero where unknown
+    mask: torch.Tensor  # (T, D) bool
+
+    @classmethod
+    def of(cls, controls: list[Control], normalizer, *, frames: int, dim: int) -> "KnownFeatures":
+        values, mask = torch.zeros(frames, dim), torch.zeros(frames, dim, dtype=torch.bool)
+        for c in controls:
+            dims = control_dims(c.name)
+            n = min(frames, len(c.values))
+            raw = np.asarray(c.values[:n], dtype=np.float64)
+            values[:n, dims] = torch.from_numpy((raw - normalizer.mean[dims]) / normalizer.std[dims]).float()
+            mask[:n, dims] = True
+        return cls(values=values, mask=mask)
+
+    def put(self, x: torch.Tensor, known: torch.Tensor) -> torch.Tensor:
+        """x (B, T, D) with the known cells replaced by ``known`` (T, D)."""
+        t = min(x.shape[1], known.shape[0])
+        m = self.mask[:t]
+        out = x.clone()
+        out[:, :t] = torch.where(m, known[:t], out[:, :t])
+        return out
+
+
+@dataclass
+class Inpaint:
+    """Denoiser wrapper: the prediction's known cells are set to the controls (x̂0[control] = c)."""
+
+    denoiser: Callable
+    known: KnownFeatures
+
+    def __call__(self, x, t, cond, *, step: int = 0, controller=None):
+        x0 = self.denoiser(x, t, cond, step=step, controller=controller)
+        return self.known.put(x0, self.known.values.to(x0.dtype))
+
+
+@dataclass
+class KnownLatents:
+    """Step-end hook: x_prev's known cells follow the controls at the next noise level.
+
+    ``noise_free`` (PriorMDM Algorithm 2, control models): sqrt(alpha_bar)·c with ε[control] = 0.
+    Otherwise (plain MDM inpainting) sqrt(alpha_bar)·c + sqrt(1 - alpha_bar)·ε with fresh noise.
+    """
+
+    known: KnownFeatures
+    schedule: CosineSchedule
+    noise_free: bool = True
+    generator: torch.Generator | None = None
+
+    def latent(self, t: int, shape) -> torch.Tensor:
+        if t == CLEAN:
+            return self.known.values
+        ab = self.schedule.alpha_bar(torch.tensor(t)).item()
+        noise = 0.0 if self.noise_free else torch.randn(shape, generator=self.generator)
+        return ab**0.5 * self.known.values + (1 - ab) ** 0.5 * noise
+
+    def __call__(self, state: StepState) -> StepState:
+        return replace(state, x_prev=self.known.put(state.x_prev, self.latent(state.t_next, self.known.values.shape)))
+
+
+@dataclass
+class DiffusionBlending:
+    """Denoiser wrapper: Σ sₙ Gₙ(x, t, cond) over control models (each guidance-wrapped), Σ sₙ = 1."""
+
+    denoisers: list
+    weights: list[float]
+
+    def __post_init__(self) -> None:
+        if not self.denoisers or len(self.denoisers) != len(self.weights):
+            raise ValueError("give one weight per control model")
+        w = np.asarray(self.weights, dtype=np.float64)
+        if not np.isfinite(w).all() or abs(w.sum() - 1.0) > 1e-6:
+            raise ValueError(f"blend weights must sum to 1, got {list(self.weights)}")
+
+    def __call__(self, x, t, cond, *, step: int = 0, controller=None):
+        out = None
+        for g, w in zip(self.denoisers, self.weights):
+            x0 = g(x, t, cond, step=step, controller=controller)
+            out = w * x0 if out is None else out + w * x0
+        return out
+
+
+def normalized_weights(weights: list[float] | None, n: int) -> list[float]:
+    """Equal weights by default; given weights are scaled to sum to 1 (all must be >= 0, some > 0)."""
+    if weights is None:
+        return [1.0 / n] * n
+    if len(weights) != n:
+        raise ValueError(f"{len(weights)} weights for {n} controls")
+    w = np.asarray(weights, dtype=np.float64)
+    if not np.isfinite(w).all() or (w < 0).any() or w.sum() <= 0:
+        raise ValueError("blend weights must be >= 0 and not all 0")
+    return (w / w.sum()).tolist()
+
+
+def controlled(loaded: LoadedModel, prompt: str, controls: list[Control], *, seconds: float,
+               models: dict[str, LoadedModel] | None = None, weights: list[float] | None = None,
+               sample: SampleConfig = SampleConfig(), on_step=None) -> Generation:
+    """Text + controls -> motion. With ``models`` (name -> fine-tuned control model): each control's
+    model, blended (DiffusionBlending), controls noise-free (Algorithm 2). Without: plain inpainting
+    with ``loaded`` (the baseline)."""
+    if not controls:
+        raise ValueError("give at least one control (a root or wrist path)")
+    names = [c.name for c in controls]
+    if len(set(names)) != len(names):
+        raise ValueError(f"each control at most once, got {names}")
+    frames = frames_for(seconds)
+    known = KnownFeatures.of(controls, loaded.normalizer, frames=frames, dim=loaded.model.config.feature_dim)
+    schedule = CosineSchedule()
+    g = torch.Generator().manual_seed(sample.seed)
+    noise = torch.randn(1, frames, loaded.model.config.feature_dim, generator=g)
+    if models is not None:
+        missing = [n for n in names if n not in models]
+        if missing:
+            raise FileNotFoundError(f"no control model for {', '.join(missing)}")
+        denoisers = [denoiser_for(models[n], sample) for n in names]
+        base = DiffusionBlending(denoisers, normalized_weights(weights, len(names)))
+        noise_free = True
+    else:
+        base = denoiser_for(loaded, sample)
+        noise_free = False
+    hook = KnownLatents(known, schedule, noise_free=noise_free, generator=g)
+    noise = known.put(noise, hook.latent(schedule.timesteps(sample.steps)[0], known.values.shape))
+    return generate(loaded, Request(prompts=[prompt], frames=[frames], noise=noise), sample, hooks=[hook],
+                    denoiser=Inpaint(base, known), on_step=on_step)
+
+
+def control_name(loaded: LoadedModel) -> str:
+    """The control a model folder was fine-tuned for ("" for a base model)."""
+    return str(loaded.config.get("train", {}).get("control", "") or "")
+
+
+def load_controls(folder) -> dict[str, LoadedModel]:
+    """Every control model under ``folder`` (one sub-folder per control)."""
+    from pathlib import Path
+
+    from engine.checkpoint import load_model
+
+    out = {}
+    root = Path(folder)
+    for name in CONTROLS:
+        if (root / name / "config.json").exists():
+            m = load_model(root / name)
+            if control_name(m) != name:
+                raise ValueError(f"{root / name} holds a model fine-tuned for {control_name(m)!r}, not {name!r}")
+            out[name] = m
+    return out
