@@ -1,0 +1,187 @@
+"""PriorMDM on a tiny seeded model: DoubleTake hooks, control sampling and blending, path validation, CLI."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from engine.checkpoint import LoadedModel
+from engine.cli import main
+from engine.diffusion import StepState
+from engine.generate import SampleConfig
+from engine.methods.control import (
+    Control, DiffusionBlending, KnownFeatures, control_dims, controlled, normalized_weights,
+)
+from engine.methods.doubletake import (
+    DoubleTakeConfig, Handshake, Interval, SecondTake, allowance, check_intervals, compose, offsets, unfold,
+)
+from engine.methods.paths import RootPath, WristPath, path_error, root_controls, to_world
+from engine.model import Denoiser, ModelConfig
+from engine.representation import SLICES, features_to_joints
+from engine.synth import Corpus, vocabulary
+from engine.text import Tokenizer
+
+
+@pytest.fixture(scope="module")
+def loaded() -> LoadedModel:
+    torch.manual_seed(0)
+    words = vocabulary()
+    model = Denoiser(ModelConfig(width=32, layers=2, heads=2, text_layers=1, vocab_size=len(words) + 8)).eval()
+    return LoadedModel(model=model, tokenizer=Tokenizer(words), normalizer=Corpus(split="train").stats(n=32),
+                       config={}, folder=Path("."))
+
+
+def _state(x):
+    return StepState(step=0, num_steps=1, t=10, t_next=5, x_t=x, x0_hat=x, x_prev=x)
+
+
+# ----------------------------------------------------------------------------- DoubleTake
+def test_handshake_blends_with_a_linear_ramp_and_both_copies_agree():
+    x = torch.zeros(2, 10, 1)
+    x[0] = 1.0  # interval 0 says 1, interval 1 says 0
+    out = Handshake(lengths=[10, 8], h=4)(_state(x)).x_prev
+    tau = out[0, 6:10, 0]
+    torch.testing.assert_close(tau, torch.tensor([1.0, 0.75, 0.5, 0.25]))
+    torch.testing.assert_close(out[1, :4, 0], tau)
+    assert (out[0, :6] == 1).all() and (out[1, 4:] == 0).all()
+
+
+def test_unfold_and_offsets():
+    x = torch.arange(3 * 10, dtype=torch.float32).view(3, 10, 1)
+    lengths, h = [10, 8, 9], 3
+    u = unfold(x, lengths, h)
+    assert u.shape[0] == sum(lengths) - 2 * h
+    assert offsets(lengths, h) == [0, 7, 12]
+    assert u[7, 0] == x[0, 7, 0] and u[10, 0] == x[1, 3, 0]
+
+
+def test_second_take_mask_is_hard_on_the_handshake_and_soft_far_away():
+    take = SecondTake(hard=0.85, soft=0.1, ramp=10)
+    m = allowance(60, slice(20, 40), take)
+    assert torch.allclose(m[20:40], torch.tensor(0.85)) and torch.allclose(m[:5], torch.tensor(0.1))
+    assert (torch.diff(m[9:21]) >= 0).all() and 0.1 < m[15] < 0.85
+
+
+def test_interval_parsing_and_checks():
+    assert Interval.parse("a person walks: 4.5") == Interval("a person walks", 4.5)
+    for bad in ("a person walks", ":3", "a person walks:soon"):
+        with pytest.raises(ValueError):
+            Interval.parse(bad)
+    with pytest.raises(ValueError, match="at least"):
+        check_intervals([Interval("a", 3), Interval("b", 1.0), Interval("c", 3)], 20)
+    with pytest.raises(ValueError, match="length"):
+        check_intervals([Interval("a", 12.0)], 20)
+
+
+def test_compose_makes_one_continuous_long_motion(loaded):
+    ivs = [Interval("a person walks forward", 3.0), Interval("a person jumps", 3.0), Interval("a person runs", 3.0)]
+    for config in (DoubleTakeConfig(second_take=None), DoubleTakeConfig(second_take=SecondTake(context=10))):
+        r = compose(loaded, ivs, config, sample=SampleConfig(steps=4, guidance=2.0))
+        assert r.features.shape == (3 * 60 - 2 * 20, 263)
+        assert r.transitions == [(40, 60), (80, 100)] and r.starts == [0, 40, 80]
+        assert np.isfinite(r.joints).all()
+    # the second take only rewrites the handshakes and their ramps
+    same = np.abs(r.features - r.first_take).max(axis=1) < 1e-5
+    assert same[:25].all() and same[115:].all() and not same[40:60].all()
+
+
+# ----------------------------------------------------------------------------- control
+def test_paths_validate_their_input():
+    with pytest.raises(ValueError, match="finite"):
+        RootPath(points=((0, 0), (float("nan"), 1))).frames(3)
+    with pytest.raises(ValueError, match="at least 2"):
+        RootPath(points=((0, 0),)).frames(3)
+    with pytest.raises(ValueError, match="faster"):
+        RootPath(points=((0, 0), (40, 0))).frames(3)
+    with pytest.raises(ValueError, match="increase"):
+        RootPath(points=((0, 0), (1, 0), (2, 0)), times=(0, 2, 1)).frames(3)
+    with pytest.raises(ValueError, match="within"):
+        WristPath(points=((0, 1, 0.3), (3, 1, 0.3))).controls(3)
+    with pytest.raises(ValueError, match="too fast"):
+        WristPath(points=((0.3, 1, 0.3), (-0.3, 1, 0.3), (0.3, 1, 0.3)), times=(0, 0.05, 0.1)).controls(2)
+
+
+def test_root_controls_decode_onto_the_path():
+    th = np.linspace(0, np.pi, 9)
+    pts = np.stack([2 * np.sin(th) + 1, 2 - 2 * np.cos(th)], -1)
+    values, frame = root_controls(RootPath(points=tuple(map(tuple, pts))), 5.0)
+    assert values.shape == (100, 3)
+    f = np.zeros((100, 263))
+    f[:, :3] = values
+    f[:, 3] = 0.9
+    err = path_error(to_world(features_to_joints(f), frame), frame["target"])
+    assert err["mean_m"] < 1e-5 and err["off_0_5m"] == 0.0
+
+
+def test_control_sampling_puts_the_controls_in_the_motion(loaded):
+    truth = Corpus(split="test").sample(1).features[:60]
+    controls = [Control("root", truth[:, control_dims("root")]), Control("left_wrist", truth[:, control_dims("left_wrist")])]
+    sample = SampleConfig(steps=4, guidance=2.0)
+    for models in (None, {"root": loaded, "left_wrist": loaded}):
+        gen = controlled(loaded, "a person walks", controls, seconds=3.0, models=models, sample=sample)
+        f = gen.features[0]
+        for c in controls:
+            np.testing.assert_allclose(f[:, control_dims(c.name)], c.values, atol=1e-4)
+        assert np.abs(f[:, SLICES["rot6d"]]).sum() > 0
+    with pytest.raises(FileNotFoundError, match="right_wrist"):
+        controlled(loaded, "a person walks", [Control("right_wrist", truth[:, :3])], seconds=3.0, models={}, sample=sample)
+    with pytest.raises(ValueError, match="at most once"):
+        controlled(loaded, "a person walks", controls + controls[:1], seconds=3.0, sample=sample)
+
+
+def test_blending_is_a_weighted_sum_with_weights_summing_to_one():
+    a = lambda x, t, cond, **kw: torch.ones_like(x)  # noqa: E731
+    b = lambda x, t, cond, **kw: 3 * torch.ones_like(x)  # noqa: E731
+    out = DiffusionBlending([a, b], [0.25, 0.75])(torch.zeros(1, 2, 3), None, None)
+    assert torch.allclose(out, torch.full((1, 2, 3), 2.5))
+    with pytest.raises(ValueError, match="sum to 1"):
+        DiffusionBlending([a, b], [0.5, 0.6])
+    assert normalized_weights(None, 4) == [0.25] * 4
+    assert normalized_weights([1, 3], 2) == [0.25, 0.75]
+    for bad in ([1], [-1, 2], [0, 0], [float("nan"), 1]):
+        with pytest.raises(ValueError):
+            normalized_weights(bad, 2)
+
+
+def test_known_features_cover_only_their_dims(loaded):
+    known = KnownFeatures.of([Control("right_wrist", np.ones((5, 3)))], loaded.normalizer, frames=8, dim=263)
+    dims = control_dims("right_wrist")
+    assert known.mask[:5, dims].all() and not known.mask[5:].any() and known.mask.sum() == 15
+    with pytest.raises(ValueError, match="unknown control"):
+        control_dims("left_foot")
+
+
+def test_control_fine_tune_starts_from_the_base_and_zeroes_the_control_noise(tiny_model_dir, tmp_path):
+    out = tmp_path / "root"
+    code = main(["train", "--control", "root", "--init-from", str(tiny_model_dir), "--out", str(out), "--steps", "3",
+                 "--batch-size", "4", "--stats-samples", "20", "--snapshot-every", "0", "--threads", "1",
+                 "--no-progress"])
+    assert code == 0
+    config = json.loads((out / "config.json").read_text())
+    assert config["train"]["control"] == "root" and config["step"] == 3
+    assert main(["train", "--control", "wrist", "--init-from", str(tiny_model_dir), "--out", str(tmp_path / "x"),
+                 "--steps", "1", "--threads", "1", "--no-progress"]) == 2
+
+
+def test_cli_compose_and_control(tiny_model_dir, tmp_path, capsys):
+    out = tmp_path / "long.npy"
+    assert main(["compose", "a person walks forward:3", "a person jumps:2", "--steps", "3", "--model",
+                 str(tiny_model_dir), "--out", str(out)]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert np.load(out).shape[0] == report["frames"] == 80 and report["transitions"] == [[40, 60]]
+    path = tmp_path / "root.json"
+    path.write_text(json.dumps({"points": [[0, 0], [0, 2], [1, 3]]}))
+    assert main(["control", "--prompt", "a person walks", "--root", str(path), "--inpaint", "--seconds", "4",
+                 "--steps", "3", "--model", str(tiny_model_dir), "--out", str(tmp_path / "c.npy")]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["root_error"]["mean_m"] < 0.05
+    assert np.load(tmp_path / "c.npy")[-1, 0, 2] > 2.0  # it went up the path
+    assert main(["control", "--prompt", "a person walks", "--root", str(path), "--controls", str(tmp_path),
+                 "--model", str(tiny_model_dir), "--out", str(tmp_path / "c.npy")]) == 2
+    assert "no fine-tuned control model" in capsys.readouterr().err
+    path.write_text("[[0, 0], [NaN, 1]]")
+    assert main(["control", "--prompt", "a person walks", "--root", str(path), "--inpaint", "--model",
+                 str(tiny_model_dir), "--out", str(tmp_path / "c.npy")]) == 2
