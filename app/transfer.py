@@ -1,0 +1,319 @@
+"""The Transfer tab's model (MoMo, leader -> follower): settings, checks with user-facing messages, the job and
+its result, and the colours the analysis views and the skeletons share.
+
+Nothing here touches Panel widgets. The engine does the work (``engine.methods.momo.transfer`` and ``analyze``);
+this module adds what only the studio needs: sources picked among the session's motions, the Q/K clusters
+fitted once per server and sampling-step count, three session motions per transfer (leader, follower, out)
+shown side by side, and skeletons coloured by their Q or K cluster.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import param
+from bokeh.palettes import Category10_10, Category20_20, Turbo256
+
+from app.generation import Cancelled, prompt_analysis, sampling_slot
+
+ROLES = ("leader", "follower", "out")
+SOURCE_KINDS = ("prompt", "motion")
+ROOT_LABELS = {"leader's path": "trajectory", "leader's heading (paper)": "rotation", "its own": "none"}
+COLOR_BY = ("roles", "Q cluster", "K cluster")
+MIN_MOTION_FRAMES = 20  # 1 s
+#: An imported motion without a description is inverted and read as "a person": an unconditional slot beside
+#: text slots in one batch gets NaN hidden states from the engine (its masked cross-attention times 0).
+NEUTRAL_DESCRIPTION = "a person"
+
+
+class SourceSettings(param.Parameterized):
+    """A leader or a follower: a prompt to generate, or a session motion to DDIM-invert."""
+
+    role = param.String(default="leader", doc="'leader' or 'follower'")
+    kind = param.Selector(default="prompt", objects=list(SOURCE_KINDS), doc="generate from text or invert a motion")
+    prompt = param.String(default="", doc="what to generate; for a motion, an optional description of it")
+    motion = param.String(default="", doc="name of a session motion (kind 'motion')")
+    seconds = param.Number(default=4.0, doc="duration of a generated stream")
+    words = param.List(default=[], doc="words of the prompt")
+    unknown_words = param.List(default=[], doc="words of the prompt the model does not know")
+
+    def __init__(self, *, tokenizer: Callable[[], object] | None = None, **params):
+        super().__init__(**params)
+        self._tokenizer = tokenizer or (lambda: None)
+        self.param.watch(self.analyse, "prompt")
+        self.analyse()
+
+    def analyse(self, *_) -> None:
+        words, unknown, _ = prompt_analysis(self._tokenizer(), self.prompt)
+        self.param.update(words=words, unknown_words=unknown)
+
+
+class TransferSettings(param.Parameterized):
+    """The Transfer tab's state (one per session, on ``StudioState.transfer``)."""
+
+    leader = param.ClassSelector(class_=SourceSettings)
+    follower = param.ClassSelector(class_=SourceSettings)
+    layers = param.Range(default=None, allow_None=True, doc="first and last 0-based layer that mix (None = all but "
+                                                             "the first)")
+    steps = param.Range(default=(0.1, 0.9), doc="fractions of the sampling run that mix (paper: 0.1-0.9)")
+    root = param.Selector(default="trajectory", objects=list(ROOT_LABELS.values()), doc="what the out takes from "
+                                                                                         "the leader's root")
+    color_by = param.Selector(default="roles", objects=list(COLOR_BY), doc="skeleton colours in the viewer")
+    result = param.Parameter(default=None, doc="TransferView of the last finished transfer")
+
+    def __init__(self, *, tokenizer: Callable[[], object] | None = None, **params):
+        super().__init__(**params)
+        if self.leader is None:
+            self.leader = SourceSettings(role="leader", prompt="a person walks forward", tokenizer=tokenizer)
+        if self.follower is None:
+            self.follower = SourceSettings(role="follower", prompt="a person jumps twice", seconds=3.0,
+                                           tokenizer=tokenizer)
+
+
+@dataclass(frozen=True)
+class TransferJob:
+    """A checked transfer, ready for the worker."""
+
+    leader: object  # engine.methods.momo.Source
+    follower: object
+    config: object  # engine.methods.momo.TransferConfig
+    sample: object  # engine.generate.SampleConfig
+    labels: dict  # role -> label for names and titles
+    description: str
+
+
+@dataclass
+class TransferView:
+    """A finished transfer as the views need it: the session motions (role -> item name), the analysis."""
+
+    names: dict[str, str]
+    frames: dict[str, int]
+    analysis: object  # engine.analysis.qk.TransferAnalysis
+    inversion: dict[str, dict | None]  # role -> {"mean_m", "max_m"} for an inverted source, else None
+    joints: dict[str, np.ndarray] = field(repr=False, default_factory=dict)
+    description: str = ""
+    seconds_taken: float = 0.0
+
+
+# ---------------------------------------------------------------------------------------------- checks
+def _source(state, settings: SourceSettings, loaded):
+    from engine.generate import frames_for
+    from engine.methods.momo import Source
+
+    who = settings.role
+    text = settings.prompt.strip()
+    if settings.kind == "prompt":
+        if not text:
+            raise ValueError(f"type a prompt for the {who}")
+        try:
+            loaded.tokenizer.encode(text)
+        except ValueError as exc:
+            raise ValueError(f"the {who}'s prompt: {exc}") from None
+        try:
+            frames = frames_for(float(settings.seconds))
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"the {who}'s duration: {exc}") from None
+        if frames > loaded.model.config.max_frames:
+            raise ValueError(f"the {who} is too long: this model handles at most "
+                             f"{loaded.model.config.max_frames / 20:.1f} s")
+        return Source(prompt=text, seconds=float(settings.seconds), name=text), text
+    item = state.items.get(settings.motion)
+    if item is None:
+        raise ValueError(f"pick a motion for the {who} (import one: BVH or .npy)" if not settings.motion else
+                         f"the motion {settings.motion!r} is no longer in the session: pick another {who}")
+    if item.n_frames < MIN_MOTION_FRAMES:
+        raise ValueError(f"{item.name!r} is too short for the {who} (at least 1 s)")
+    if text:
+        try:
+            loaded.tokenizer.encode(text)
+        except ValueError as exc:
+            raise ValueError(f"the {who}'s description: {exc}") from None
+    elif all(w in loaded.tokenizer for w in NEUTRAL_DESCRIPTION.split()):
+        text = NEUTRAL_DESCRIPTION
+    joints = np.asarray(item.joints[: loaded.model.config.max_frames], dtype=np.float32)
+    return Source(prompt=text or None, joints=joints, name=item.name), item.name
+
+
+def prepare(state) -> TransferJob:
+    """Check the tab's settings against the session and the model; raises ValueError with a message."""
+    from engine.generate import SampleConfig
+    from engine.methods.momo import TransferConfig
+
+    cfg: TransferSettings = state.transfer
+    loaded = state.model
+    leader, leader_label = _source(state, cfg.leader, loaded)
+    follower, follower_label = _source(state, cfg.follower, loaded)
+    layers = None if cfg.layers is None else tuple(range(int(cfg.layers[0]), int(cfg.layers[1]) + 1))
+    config = TransferConfig(start=float(cfg.steps[0]), end=float(cfg.steps[1]), layers=layers, root=cfg.root)
+    window = config.window(loaded.model.config.layers)  # layers outside the model fail here, with the range
+    sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
+    lay = window.layers
+    description = (f"{_short(leader_label)} → {_short(follower_label)} (layers {lay[0]}–{lay[-1]}, steps "
+                   f"{config.start:.0%}–{config.end:.0%})")
+    return TransferJob(leader=leader, follower=follower, config=config, sample=sample,
+                       labels={"leader": leader_label, "follower": follower_label}, description=description)
+
+
+def _short(text: str, limit: int = 28) -> str:
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+# ---------------------------------------------------------------------------------------------- clusters
+_clusters: dict[tuple, object] = {}
+_clusters_lock = threading.Lock()
+
+
+def clusters_for(loaded, sample, *, note: Callable[[str], None] = lambda text: None):
+    """The Q/K clusters of ``loaded`` at this step count (fitted on the first call per server, then cached)."""
+    from engine.analysis.qk import FIT_PROMPTS, cluster_site, fit_clusters
+    from engine.generate import SampleConfig
+
+    key = (id(loaded), int(sample.steps))
+    with _clusters_lock:
+        if key not in _clusters:
+            note(f"fitting the Q/K clusters for {sample.steps} steps (once per server)…")
+            site = cluster_site(loaded.model.config.layers, sample.steps)
+            _clusters[key] = fit_clusters(loaded, FIT_PROMPTS, site=site, sample=SampleConfig(steps=sample.steps))
+        return _clusters[key]
+
+
+def record_for(loaded, steps: int):
+    """Record Q and K only where the analysis reads them (three sites), not at every layer and step."""
+    from engine.analysis.qk import analysis_sites
+    from engine.methods.momo import qk_record
+
+    sites = analysis_sites(loaded.model.config.layers, steps)
+    return qk_record(steps=sorted({s.step for s in sites}), layers=sorted({s.layer for s in sites}))
+
+
+# ---------------------------------------------------------------------------------------------- the worker
+def run_job(loaded, job: TransferJob, *, on_step=None, cancel=None, on_wait=None,
+            note: Callable[[str], None] = lambda text: None) -> TransferView:
+    """Fit (or reuse) the clusters, run the transfer, analyse it; ``on_step(done, total)`` after every step."""
+    from engine.methods.momo import analyze, transfer
+
+    cancel = cancel or threading.Event()
+
+    def step(state) -> None:
+        if cancel.is_set():
+            raise Cancelled()
+        if on_step is not None:
+            on_step(state.step + 1, state.num_steps)
+
+    with sampling_slot(cancel, on_wait):
+        start = time.perf_counter()
+        clusters = clusters_for(loaded, job.sample, note=note)
+        if cancel.is_set():
+            raise Cancelled()
+        inverted = [r for r, s in (("leader", job.leader), ("follower", job.follower)) if s.joints is not None]
+        if inverted:
+            note(f"inverting the {' and the '.join(inverted)} ({job.sample.steps} DDIM steps)…")
+        result = transfer(loaded, job.leader, [job.follower], job.config, sample=job.sample,
+                          record=record_for(loaded, job.sample.steps), on_step=step)
+        joints = {"leader": result.leader_joints(), "follower": result.follower(0), "out": result.out(0)}
+        joints = {r: np.asarray(j, dtype=np.float32) for r, j in joints.items()}
+        bad = [r for r, j in joints.items() if not np.isfinite(j).all()]
+        if bad:
+            raise ValueError(f"the model produced non-finite joints for the {' and the '.join(bad)}")
+        analysis = analyze(loaded, result, clusters=clusters, sample=job.sample)
+    return TransferView(names={}, frames={r: len(j) for r, j in joints.items()}, analysis=analysis,
+                        inversion={"leader": result.leader.inversion, "follower": result.followers[0].inversion},
+                        joints=joints, description=job.description, seconds_taken=time.perf_counter() - start)
+
+
+def start_transfer(state) -> bool:
+    """Check, then run on the session's worker with progress and cancel; False (and a notification) if refused."""
+    loaded = state._idle_model()
+    if loaded is None:
+        return False
+    try:
+        job = prepare(state)
+    except ValueError as exc:
+        state.error(f"cannot transfer: {exc}")
+        return False
+    return state.start_job(
+        lambda worker: run_job(loaded, job, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting,
+                               note=worker.note),
+        on_done=lambda view: finish(state, job, view), total=job.sample.steps, what="transfer",
+        status=f"transfer {job.description}: starting", verb="transfer")
+
+
+def finish(state, job: TransferJob, view: TransferView) -> None:
+    """Three session motions (leader, follower, out) side by side in the viewer; the analysis on the tab."""
+    from app.state import MotionItem
+
+    titles = {"leader": f"leader · {job.labels['leader']}", "follower": f"follower · {job.labels['follower']}",
+              "out": f"out · {_short(job.labels['follower'])} ← {_short(job.labels['leader'])}"}
+    prompts = {"leader": job.leader.prompt or "", "follower": job.follower.prompt or "",
+               "out": job.follower.prompt or ""}
+    for role in ROLES:
+        item = MotionItem(name=state._unique_name(titles[role]), joints=view.joints[role], source="generated",
+                          prompt=prompts[role], info={"transfer": job.description, "role": role,
+                                                      "inversion": view.inversion.get(role)})
+        state.add_item(item, show=False)
+        view.names[role] = item.name
+    state.end_job(f"transfer {job.description}: done in {view.seconds_taken:.1f} s ({job.sample.steps} steps)")
+    state.transfer.result = view
+    show_roles(state)
+
+
+def show_roles(state) -> None:
+    """Leader / follower / out side by side and in sync in the viewer (the last transfer)."""
+    view = state.transfer.result
+    if view is None or any(n not in state.items for n in view.names.values()):
+        state.error("the transfer's motions are no longer in the session: run it again")
+        return
+    with param.parameterized.batch_call_watchers(state):
+        state.show(view.names["leader"])
+        state.compare = view.names["follower"]
+        state.also = [view.names["out"]]
+
+
+# ---------------------------------------------------------------------------------------------- colours
+def cluster_palette(n: int) -> list[str]:
+    """One colour per cluster id (K-Means ids 0..n-1; the paper's m = 10 fits Category10)."""
+    return list(Category10_10 if n <= 10 else Category20_20)
+
+
+def cluster_colors(labels: np.ndarray, n_clusters: int) -> list[str]:
+    palette = cluster_palette(n_clusters)
+    return [palette[int(k) % len(palette)] for k in labels]
+
+
+def index_colors(n: int) -> list[str]:
+    """A colour per frame index (follower frames in the correspondence view)."""
+    return [Turbo256[int(round(20 + 215 * i / max(n - 1, 1)))] for i in range(n)]
+
+
+def hex_rgb(colors: list[str]) -> np.ndarray:
+    return np.array([[int(c[i : i + 2], 16) for i in (1, 3, 5)] for c in colors], dtype=np.uint8)
+
+
+def paint_clusters(state) -> None:
+    """Skeleton colours per frame from the last transfer's Q or K clusters (or none: the role colours)."""
+    cfg = state.transfer
+    view = cfg.result
+    if view is None or cfg.color_by == "roles":
+        colors = {}
+    else:
+        labels = view.analysis.q_labels if cfg.color_by == "Q cluster" else view.analysis.k_labels
+        n = n_clusters(view)
+        colors = {view.names[r]: hex_rgb(cluster_colors(labels[r], n)) for r in ROLES if r in view.names}
+    if colors or state.frame_colors:
+        state.frame_colors = colors
+
+
+def n_clusters(view: TransferView) -> int:
+    """The number of cluster ids to colour (at least the paper's 10, so colours stay put between transfers)."""
+    a = view.analysis
+    return int(max(10, *(v.max() + 1 for v in (*a.q_labels.values(), *a.k_labels.values()))))
+
+
+def describe_inversion(error: dict | None) -> str:
+    """The round-trip error of an inverted source in metres ('' for a generated one)."""
+    if not error:
+        return ""
+    return f"inversion error {error['mean_m']:.3f} m mean, {error['max_m']:.3f} m max"

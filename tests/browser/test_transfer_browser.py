@@ -1,0 +1,102 @@
+"""The Transfer tab in Debian's Chromium against a real `moattn serve` (tiny model): type a leader and a follower
+prompt, run, see leader / follower / out side by side, the Q/K cluster strips, skeletons coloured by cluster,
+and a click on a strip moving the viewer. Screenshots are saved (``screens``)."""
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from app import browser as br
+
+pytestmark = pytest.mark.timeout(300)
+
+
+def _img(png: bytes) -> np.ndarray:
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+
+
+def _role_pixels(img: np.ndarray) -> dict[str, np.ndarray]:
+    """Masks of the three role colours (viz ROLE_PALETTE: blue, orange, green) in a rendered frame."""
+    r, g, b = img[..., 0], img[..., 1], img[..., 2]
+    return {"blue": (b - r > 60) & (b > 120), "orange": (r - b > 80) & (r > 180) & (g > 80),
+            "green": (g - r > 60) & (g - b > 30) & (g > 110)}
+
+
+def test_transfer_from_two_prompts(browser, server_url, screens):
+    page = br.open_studio(browser, server_url)
+    save = lambda name, png: (screens / name).write_bytes(png)  # noqa: E731
+    try:
+        key_before = br.player_stats(page)["motion_key"]
+        page.locator(".bk-tab", has_text="Transfer").click()
+        page.locator(".transfer-leader .source-prompt input").fill("a person walks forward")
+        page.locator(".transfer-follower .source-prompt input").fill("a person jumps twice")
+        page.locator(".transfer-follower .source-words", has_text="jumps").wait_for(timeout=10000)
+        page.wait_for_timeout(500)  # the values travel to the server before the click
+        page.locator(".transfer-run button").click()
+        page.locator(".transfer-result", has_text="a person walks forward → a person jumps twice").wait_for(
+            timeout=180000)
+        page.wait_for_function(f"window.moattnPlayer.motion_key !== {key_before}", timeout=60000)
+        br.wait_all_frames(page, timeout_ms=180000)
+        page.wait_for_timeout(800)
+        save("transfer_tab.png", page.screenshot(full_page=True))
+        canvas = page.locator(".skeleton-view canvas").screenshot()
+        save("transfer_viewer_roles.png", canvas)
+
+        # three skeletons side by side in role colours: leader (blue), follower (orange), out (green), left to right
+        img = _img(canvas)
+        assert img.shape[1] / img.shape[0] > 1.7, f"not the wide side-by-side view: {img.shape}"
+        masks = _role_pixels(img)
+        counts = {k: int(m.sum()) for k, m in masks.items()}
+        assert all(c > 150 for c in counts.values()), counts
+        columns = np.arange(img.shape[1])[None, :].repeat(img.shape[0], 0)
+        xs = [columns[masks[k]].mean() for k in ("blue", "orange", "green")]
+        assert xs[0] < xs[1] < xs[2], xs
+        assert "follower" in page.locator(".compare-select select").input_value()
+        for text in ("leader: 80 frames", "follower: 60 frames", "out: 80 frames"):  # 4 s and 3 s by default
+            page.locator(".transfer-result", has_text=text).wait_for(timeout=5000)
+
+        # the Q / K cluster strips: one cell per frame, several clusters (not one uniform colour)
+        strips = page.locator(".cluster-strips")
+        strips.scroll_into_view_if_needed()
+        shot = strips.screenshot()
+        save("transfer_cluster_strips.png", shot)
+        s = _img(shot)
+        saturated = s[(s.max(-1) - s.min(-1)) > 60]
+        colours = {tuple(c) for c in (saturated // 16).tolist()}
+        assert len(saturated) > 5000 and len(colours) >= 3, (len(saturated), len(colours))
+        page.locator(".cluster-legend", has_text="Clusters:").wait_for(timeout=5000)
+        save("transfer_analysis.png", page.locator(".transfer-plots").screenshot())
+
+        # a click on the out's Q strip (past the row labels, about frame 30) moves the viewer there
+        box = strips.bounding_box()
+        for attempt in range(3):  # a click landing while Bokeh re-lays out the page can be lost: click again
+            page.mouse.click(box["x"] + box["width"] * 0.4, box["y"] + box["height"] * 0.75)
+            try:
+                page.wait_for_function("window.moattnPlayer.frame > 5", timeout=10000)
+                break
+            except Exception:
+                if attempt == 2:
+                    raise
+        frame = br.player_stats(page)["frame"]
+        assert 5 < frame < 80, frame
+
+        # skeletons coloured by their Q cluster: the role colours give way to the cluster palette
+        before = page.evaluate("window.moattnTest.canvasHash('.skeleton-view')")
+        page.locator(".transfer-color button", has_text="Q cluster").click()
+        changed = page.evaluate(f"window.moattnTest.waitChange('.skeleton-view', {before}, 30000)")
+        assert changed >= 0, "the skeletons were not recoloured"
+        br.wait_all_frames(page, timeout_ms=120000)
+        page.wait_for_timeout(800)
+        coloured = page.locator(".skeleton-view canvas").screenshot()
+        save("transfer_viewer_q_clusters.png", coloured)
+        masks = _role_pixels(_img(coloured))
+        assert masks["green"].sum() < counts["green"] / 2 or masks["orange"].sum() < counts["orange"] / 2, \
+            {k: int(m.sum()) for k, m in masks.items()}
+        errors = [m for m in page.console_messages if m.startswith(("error", "pageerror"))
+                  and "ERR_NAME_NOT_RESOLVED" not in m]
+        assert not errors, errors
+    finally:
+        page.close()

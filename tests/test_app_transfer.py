@@ -1,0 +1,160 @@
+"""The Transfer tab (MoMo) without a server, on the tiny model: a transfer from two prompts and one from an
+imported motion through the tab's widgets, the derived state (three roles side by side, analysis sized to the
+frames, inversion error shown), frame picking from the analysis views, skeletons coloured by cluster, and bad
+input refused with a clear message."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.main import Studio
+from engine.generate import frames_for
+
+
+@pytest.fixture(scope="module")
+def studio(tiny_model_dir):
+    st = Studio(model_dir=tiny_model_dir, initial=None)
+    st.state.param.update(steps=8, seed=4)
+    yield st
+    st.close()
+
+
+def _run(studio) -> None:
+    s = studio.state
+    before = len(s.notices)
+    assert s.run_transfer(), s.notices[-1:]
+    assert s.wait(180) and not s.running
+    errors = [n for n in s.notices[before:] if n[0] == "error"]
+    assert not errors, errors
+
+
+def _set_prompts(tab, leader: str, follower: str, *, seconds: tuple[float, float] = (3.0, 2.5)) -> None:
+    for picker, text, sec in ((tab.leader, leader, seconds[0]), (tab.follower, follower, seconds[1])):
+        picker.kind.value = "prompt"
+        picker.prompt.value = text
+        picker.seconds.value = sec
+
+
+def test_transfer_from_two_prompts(studio):
+    s, tab = studio.state, studio.transfer
+    _set_prompts(tab, "a person walks forward", "a person jumps twice")
+    assert "word-unknown" not in tab.leader.words.object and "walks" in tab.leader.words.object
+    seen = []
+    s.param.watch(lambda e: seen.append(e.new), "progress")
+    _run(studio)
+    view = s.transfer.result
+    n, m = frames_for(3.0), frames_for(2.5)
+    # three roles, each a session motion of the right length, side by side in the viewer (leader, follower, out)
+    assert view.frames == {"leader": n, "follower": m, "out": n}
+    for role in ("leader", "follower", "out"):
+        item = s.items[view.names[role]]
+        assert item.joints.shape == (view.frames[role], 22, 3) and item.info["role"] == role
+    assert [it.name for it in s.shown_items] == [view.names[r] for r in ("leader", "follower", "out")]
+    spec = studio.viewer.spec()
+    assert len(spec.motions) == 3 and [len(j) for _, j in spec.motions] == [n, m, n] and s.n_frames == n
+    assert max(seen) == 8 and tab.progress.value == 8  # progress per sampling step
+    assert not np.allclose(s.items[view.names["out"]].joints, s.items[view.names["follower"]].joints[:1])
+    # the analysis is sized to each stream's frames
+    a = view.analysis
+    assert {r: len(a.q_labels[r]) for r in a.q_labels} == {"leader": n, "follower": m, "out": n}
+    assert {r: len(a.k_labels[r]) for r in a.k_labels} == {"leader": n, "follower": m, "out": n}
+    assert a.nearest.shape == (n,) and a.nearest.min() >= 0 and a.nearest.max() < m
+    assert a.maps["mixed"].shape == (n, m) and a.maps["leader"].shape == (n, n) and a.maps["follower"].shape == (m, m)
+    # ... and so are the views: one cell per frame and role in each strip panel, three film strip rows
+    plots = tab.plots
+    assert len(plots.strip_src.data["x"]) == 2 * (n + m + n)
+    assert len(set(plots.strip_src.data["color"])) > 1  # not one uniform colour
+    assert len(plots.cells_src.data["x"]) == m + 2 * n
+    assert plots.map_srcs["mixed"][0].data["image"][0].shape == (n, m)
+    assert "swatch" in plots.legend.object
+    assert "walks forward → a person jumps twice" in tab.result.object and "inversion" not in tab.result.object
+
+
+def test_picking_frames_and_cluster_colours(studio):
+    s, tab = studio.state, studio.transfer
+    view, plots = s.transfer.result, tab.plots
+    n = view.frames["leader"]
+    plots.pick("strips", 12.4)  # a Q cell
+    assert s.frame == 12
+    plots.pick("strips", plots._offset + 20.6)  # a K cell (right panel)
+    assert s.frame == 20
+    plots.pick("film", 33.2, 1.5)
+    assert s.frame == 33
+    plots.pick("mixed", 3.0, 41.7)  # a row of the mixed map = a leader (query) frame
+    assert s.frame == 41
+    row = view.analysis.per_query(41)
+    np.testing.assert_allclose(plots.query_src["mixed"].data["y"], row["mixed"])
+    assert "leader frame 41" in plots.query.title.text
+    plots.pick("query", 5.2)
+    assert s.frame == 5
+    plots.pick("strips", 10_000)
+    assert s.frame == n - 1  # clamped
+    # skeletons coloured by cluster: one colour per frame, the cluster's colour in the strips
+    tab.color.value = "K cluster"
+    spec = studio.viewer.spec()
+    colours = dict(spec.role_colors)
+    assert len(colours) == 3 and "K cluster" in spec.title
+    leader_rgb = colours[spec.motions[0][0]]
+    assert leader_rgb.shape == (n, 3) and leader_rgb.dtype == np.uint8
+    from app.transfer import cluster_colors, hex_rgb, n_clusters
+
+    expected = hex_rgb(cluster_colors(view.analysis.k_labels["leader"], n_clusters(view)))
+    np.testing.assert_array_equal(leader_rgb, expected)
+    assert studio.viewer.renderer.wait_until_done(120) and not studio.viewer.renderer.errors
+    tab.color.value = "roles"
+    assert studio.viewer.spec().role_colors == ()
+    # another motion shown: the trio goes (the compared motion stays, as ever); the tab's button brings it back
+    s.show(view.names["out"])
+    assert s.also == [] and len(studio.viewer.spec().motions) == 2
+    tab.show.clicks += 1
+    assert len(studio.viewer.spec().motions) == 3
+
+
+def test_transfer_from_an_imported_motion(studio):
+    from engine.synth import Corpus
+
+    s, tab = studio.state, studio.transfer
+    joints = Corpus("test").sample(3).joints
+    item = s.show_motion(joints, title="imported: corpus 3")
+    tab.leader.kind.value = "motion"  # the "imported motion" button
+    assert item.name in tab.leader.motion.options and s.transfer.leader.motion == item.name
+    assert "DDIM-inverted" in tab.leader.info.object and not tab.leader.seconds.visible
+    tab.leader.prompt.value = ""  # the description is optional
+    tab.follower.kind.value = "prompt"
+    tab.follower.prompt.value = "a person jumps twice"
+    _run(studio)
+    view = s.transfer.result
+    n = view.frames["leader"]
+    assert abs(n - min(len(joints), 196)) <= 1 and view.frames["out"] == n
+    assert view.analysis.nearest.shape == (n,) and view.analysis.maps["mixed"].shape == (n, view.frames["follower"])
+    inv = view.inversion["leader"]
+    assert inv is not None and np.isfinite(inv["mean_m"]) and inv["max_m"] >= inv["mean_m"]
+    assert view.inversion["follower"] is None  # generated from text
+    assert "inversion error" in tab.result.object and " m mean" in tab.result.object
+    assert "inversion error" in tab.leader.info.object and "inversion" not in tab.follower.info.object
+    tab.leader.kind.value = "prompt"
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda tab, s: setattr(tab.leader.prompt, "value", "   "), "type a prompt for the leader"),
+    (lambda tab, s: setattr(tab.follower.prompt, "value", "a person flumps twice"), "flumps"),
+    (lambda tab, s: setattr(s.transfer, "layers", (1, 5)), "do not exist"),
+    (lambda tab, s: setattr(tab.follower.seconds, "value", 30.0), "duration"),
+    (lambda tab, s: s.transfer.leader.param.update(kind="motion", motion="no such motion"),
+     "no longer in the session"),
+])
+def test_bad_input_is_refused_with_a_message(studio, change, message):
+    s, tab = studio.state, studio.transfer
+    _set_prompts(tab, "a person walks forward", "a person jumps twice")
+    s.transfer.layers = None
+    n_items = len(s.items)
+    change(tab, s)
+    assert s.run_transfer() is False  # refused up front: no worker, no crash
+    level, text = s.notices[-1]
+    assert level == "error" and text.startswith("cannot transfer") and message in text, text
+    assert not s.running and len(s.items) == n_items
+    if "flumps" in message:
+        assert "word-unknown" in tab.follower.words.object and tab.run.disabled  # flagged as typed
+    s.transfer.layers = None
+    s.transfer.leader.param.update(kind="prompt", motion="")
+    tab.follower.seconds.value = 2.5
