@@ -158,3 +158,24 @@ def test_bad_input_is_refused_with_a_message(studio, change, message):
     s.transfer.layers = None
     s.transfer.leader.param.update(kind="prompt", motion="")
     tab.follower.seconds.value = 2.5
+
+
+def test_cancel_stops_the_transfer_and_keeps_the_session(studio):
+    import time
+
+    s, tab = studio.state, studio.transfer
+    _set_prompts(tab, "a person walks forward", "a person jumps twice")
+    s.steps = 120
+    n_items, last = len(s.items), s.transfer.result
+    try:
+        assert s.run_transfer() and s.running and not tab.cancel.disabled
+        end = time.monotonic() + 60
+        while s.progress < 2 and s.running and time.monotonic() < end:
+            time.sleep(0.01)
+        tab.cancel.clicks += 1
+        assert s.wait(120) and not s.running
+    finally:
+        s.steps = 8
+    assert s.notices[-1] == ("info", "transfer cancelled")
+    assert len(s.items) == n_items and s.transfer.result is last  # nothing half-made was added
+    assert not tab.run.disabled and tab.cancel.disabled
