@@ -156,6 +156,8 @@ def open_studio(browser, url: str, *, timeout_ms: float = 60000, opening_motion:
     page.console_messages = []
     page.on("console", lambda m: page.console_messages.append(f"{m.type}: {m.text}"))
     page.on("pageerror", lambda e: page.console_messages.append(f"pageerror: {e}"))
+    page.requests_seen = []  # every URL the page asked for (the studio must not need the network)
+    page.on("request", lambda r: page.requests_seen.append(r.url))
     page.goto(url)
     page.wait_for_function("window.moattnPlayer !== undefined", timeout=timeout_ms)
     page.evaluate(PAGE_HELPERS)
@@ -163,6 +165,15 @@ def open_studio(browser, url: str, *, timeout_ms: float = 60000, opening_motion:
         page.wait_for_function("window.moattnPlayer.motion_key >= 0 && "
                                "(window.moattnPlayer.motion_key in window.moattnPlayer.first_draw)", timeout=timeout_ms)
     return page
+
+
+def external_requests(page) -> list[str]:
+    """URLs the page requested from anywhere but this machine."""
+    from urllib.parse import urlparse
+
+    local = {"localhost", "127.0.0.1", "::1"}
+    return [u for u in page.requests_seen
+            if not u.startswith(("data:", "blob:")) and urlparse(u).hostname not in local]
 
 
 def player_stats(page) -> dict:

@@ -7,6 +7,7 @@ from pathlib import Path
 import panel as pn
 
 from app.state import StudioState
+from app.theme import Fast as OfflineFast
 from app.views.attention import AttentionExplorer
 from app.views.controls import GenerateControls
 from app.views.edit import EditTab
@@ -62,6 +63,7 @@ class Studio:
             sidebar=[self.controls, pn.layout.Divider(), self.imports, self.exports],
             main=[main], sidebar_width=340, theme_toggle=False, main_layout=None,
             font="system-ui, -apple-system, Segoe UI, Roboto, sans-serif", font_url="data:text/css,",  # no CDN
+            design=OfflineFast,
         )
 
 

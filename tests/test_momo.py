@@ -228,3 +228,11 @@ def test_store_and_mixing_stack_without_changing_the_leader(loaded):
     alone = generate(loaded, Request(prompts=["a person walks forward"], frames=[40], noise=result.leader.noise), sample)
     np.testing.assert_allclose(result.leader_joints(), alone.joints[0], atol=1e-5)
     assert isinstance(result.output.store, AttentionStore) and stack(None) is None
+
+
+def test_a_text_less_slot_beside_prompted_ones_stays_finite(loaded, corpus_motion):
+    """An imported motion without a description shares the batch with prompt slots (no NaN leaks)."""
+    result = transfer(loaded, Source(joints=corpus_motion), [Source(prompt="a person jumps", seconds=2)],
+                      sample=SampleConfig(steps=STEPS, guidance=2.5))
+    assert result.leader.prompt is None
+    assert np.isfinite(result.out(0)).all() and np.isfinite(result.follower(0)).all()

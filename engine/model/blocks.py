@@ -54,6 +54,7 @@ class Block(nn.Module):
         h = h + self.dropout(self.self_attn(x, x, frame_mask, info=info, controller=controller))
         if bool(use_text.any()):
             cross = self.cross_attn(self.norm_cross(h), text, text_mask, info=info, controller=controller)
-            h = h + self.dropout(cross) * use_text[:, None, None].to(h.dtype)
+            # where, not a product: a text-less slot's cross-attention may be NaN, and NaN * 0 is NaN
+            h = h + torch.where(use_text[:, None, None], self.dropout(cross), torch.zeros_like(cross))
         h = h + self.dropout(self.ff(self.norm_ff(h, temb)))
         return h

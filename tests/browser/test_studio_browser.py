@@ -56,6 +56,10 @@ def generated(page, screens):
     return result
 
 
+def test_the_studio_needs_no_network(page, generated):
+    assert br.external_requests(page) == []
+
+
 def test_generate_shows_skeleton_heatmap_and_word_curves(page, generated, screens):
     assert generated["click_to_first_frame_ms"] > 0
     stats = br.player_stats(page)
