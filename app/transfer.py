@@ -24,9 +24,6 @@ SOURCE_KINDS = ("prompt", "motion")
 ROOT_LABELS = {"leader's path": "trajectory", "leader's heading (paper)": "rotation", "its own": "none"}
 COLOR_BY = ("roles", "Q cluster", "K cluster")
 MIN_MOTION_FRAMES = 20  # 1 s
-#: An imported motion without a description is inverted and read as "a person": an unconditional slot beside
-#: text slots in one batch gets NaN hidden states from the engine (its masked cross-attention times 0).
-NEUTRAL_DESCRIPTION = "a person"
 
 
 class SourceSettings(param.Parameterized):
@@ -131,8 +128,6 @@ def _source(state, settings: SourceSettings, loaded):
             loaded.tokenizer.encode(text)
         except ValueError as exc:
             raise ValueError(f"the {who}'s description: {exc}") from None
-    elif all(w in loaded.tokenizer for w in NEUTRAL_DESCRIPTION.split()):
-        text = NEUTRAL_DESCRIPTION
     joints = np.asarray(item.joints[: loaded.model.config.max_frames], dtype=np.float32)
     return Source(prompt=text or None, joints=joints, name=item.name), item.name
 

@@ -87,7 +87,7 @@ class SourcePicker(pn.viewable.Viewer):
             self.kind.value = src.kind
         if src.motion and src.motion in self.motion.options and self.motion.value != src.motion:
             self.motion.value = src.motion
-        self.prompt.label = "Prompt" if is_prompt else "Description (optional, guides the inversion; empty = 'a person')"
+        self.prompt.label = "Prompt" if is_prompt else "Description (optional, guides the inversion; empty = read without text)"
         self.prompt.placeholder = "a person walks forward" if is_prompt else "e.g. a person walks"
         self.seconds.visible = is_prompt
         self.motion.visible = self.upload.visible = not is_prompt
