@@ -33,3 +33,19 @@ def tiny_model_dir(tmp_path_factory):
     from app.testing import tiny_model
 
     return tiny_model(tmp_path_factory.getbasetemp() / "tiny-model")
+
+
+def random_corpus_model(*, layers: int, width: int = 32, heads: int = 2):
+    """An untrained seeded model with the corpus vocabulary and statistics (for method tests)."""
+    import torch
+
+    from engine.checkpoint import LoadedModel
+    from engine.model import Denoiser, ModelConfig
+    from engine.synth import Corpus, vocabulary
+    from engine.text import Tokenizer
+
+    torch.manual_seed(0)
+    words = vocabulary()
+    model = Denoiser(ModelConfig(width=width, layers=layers, heads=heads, text_layers=1, vocab_size=len(words) + 8)).eval()
+    return LoadedModel(model=model, tokenizer=Tokenizer(words), normalizer=Corpus(split="train").stats(n=32),
+                       config={}, folder=Path("."))

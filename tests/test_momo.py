@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,6 +13,7 @@ from engine.analysis.qk import (
 from engine.attention import AttentionStore, BatchRoles, stack
 from engine.attention.context import AttnCtx
 from engine.checkpoint import LoadedModel
+from tests.conftest import random_corpus_model
 from engine.generate import Request, SampleConfig, generate
 from engine.methods.mixing import MixConfig, MixedAttention
 from engine.methods.momo import (
@@ -21,21 +21,16 @@ from engine.methods.momo import (
 )
 from engine.methods.momo_baselines import inpaint_upper_body, lower_body_dims, motion_space_nn
 from engine.methods.windows import Window
-from engine.model import Denoiser, ModelConfig
 from engine.representation import SLICES
-from engine.synth import Corpus, vocabulary
-from engine.text import PromptError, Tokenizer
+from engine.synth import Corpus
+from engine.text import PromptError
 
 STEPS = 6
 
 
 @pytest.fixture(scope="module")
 def loaded() -> LoadedModel:
-    torch.manual_seed(0)
-    words = vocabulary()
-    model = Denoiser(ModelConfig(width=32, layers=3, heads=2, text_layers=1, vocab_size=len(words) + 8)).eval()
-    return LoadedModel(model=model, tokenizer=Tokenizer(words), normalizer=Corpus(split="train").stats(n=32),
-                       config={}, folder=Path("."))
+    return random_corpus_model(layers=3)
 
 
 @pytest.fixture(scope="module")

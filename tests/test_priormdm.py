@@ -9,6 +9,7 @@ import pytest
 import torch
 
 from engine.checkpoint import LoadedModel
+from tests.conftest import random_corpus_model
 from engine.cli import main
 from engine.diffusion import StepState
 from engine.generate import SampleConfig
@@ -19,19 +20,13 @@ from engine.methods.doubletake import (
     DoubleTakeConfig, Handshake, Interval, SecondTake, allowance, check_intervals, compose, offsets, unfold,
 )
 from engine.methods.paths import RootPath, WristPath, path_error, root_controls, to_world
-from engine.model import Denoiser, ModelConfig
 from engine.representation import SLICES, features_to_joints
-from engine.synth import Corpus, vocabulary
-from engine.text import Tokenizer
+from engine.synth import Corpus
 
 
 @pytest.fixture(scope="module")
 def loaded() -> LoadedModel:
-    torch.manual_seed(0)
-    words = vocabulary()
-    model = Denoiser(ModelConfig(width=32, layers=2, heads=2, text_layers=1, vocab_size=len(words) + 8)).eval()
-    return LoadedModel(model=model, tokenizer=Tokenizer(words), normalizer=Corpus(split="train").stats(n=32),
-                       config={}, folder=Path("."))
+    return random_corpus_model(layers=2)
 
 
 def _state(x):
