@@ -42,6 +42,7 @@ class SceneSpec:
     azimuth_offset: float = 0.0
     camera_serial: int = 0
     title: str = ""
+    guides: tuple[tuple[str, str, np.ndarray], ...] = ()  # (role, colour, (N, 3) points): target paths drawn in 3-D
 
     @property
     def roles(self) -> tuple[str, ...]:
@@ -268,6 +269,8 @@ class FrameRenderer:
                     scene.set_frame_values(values, role=role, cmap="plasma", clim=(0.0, hi))
                 else:
                     scene.reset_colors(role=role)
+        if old is None or old.guides is not spec.guides or old.show_path != spec.show_path:
+            _draw_guides(scene, spec)
         if old is not None and old.title != spec.title:
             scene.set_title(spec.title)
         if (old is None or old.follow != spec.follow or old.azimuth_offset != spec.azimuth_offset
@@ -276,6 +279,28 @@ class FrameRenderer:
             scene.azimuth = self._base_azimuth + spec.azimuth_offset
             scene.reset_camera()
         self._applied = spec
+
+
+def _draw_guides(scene, spec: SceneSpec) -> None:
+    """Target paths (e.g. a drawn root path) as thin tubes beside the skeletons, shifted like their role."""
+    from viz.geometry import polyline
+    from viz.scene import side_by_side_offsets
+
+    for name in getattr(scene, "_guide_names", []):
+        scene.plotter.remove_actor(name, render=False)
+    scene._guide_names = []
+    if not spec.show_path:  # the "root path" checkbox shows or hides the target paths too
+        return
+    shifts = side_by_side_offsets(dict(spec.motions), spacing=0.6)
+    for k, (role, color, points) in enumerate(spec.guides):
+        pts = np.asarray(points, dtype=np.float64)
+        pts = pts[np.concatenate([[True], np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-5])]
+        if role not in shifts or len(pts) < 2 or not np.isfinite(pts).all():
+            continue
+        name = f"guide/{k}"
+        scene.plotter.add_mesh(polyline(pts + shifts[role]).tube(radius=0.012, n_sides=8), name=name, color=color,
+                               ambient=0.5, diffuse=0.6, opacity=0.85)
+        scene._guide_names.append(name)
 
 
 def _colors_changed(old: SceneSpec | None, spec: SceneSpec) -> bool:

@@ -9,6 +9,8 @@ import panel as pn
 from app.state import StudioState
 from app.theme import Fast as OfflineFast
 from app.views.attention import AttentionExplorer
+from app.views.compose import ComposeTab
+from app.views.control import ControlTab
 from app.views.controls import GenerateControls
 from app.views.edit import EditTab
 from app.views.files import ExportPanel, ImportPanel
@@ -32,6 +34,8 @@ class Studio:
         self.attention = AttentionExplorer(state=self.state)
         self.edit = EditTab(state=self.state)
         self.transfer = TransferTab(state=self.state)
+        self.compose = ComposeTab(state=self.state)
+        self.control = ControlTab(state=self.state)
         self.imports = ImportPanel(state=self.state)
         self.exports = ExportPanel(state=self.state)
         path = initial
@@ -55,7 +59,8 @@ class Studio:
     def template(self) -> pn.template.BaseTemplate:
         main = pn.Row(
             pn.Column("### Viewer", self.viewer, sizing_mode="stretch_width", min_width=500, max_width=760),
-            pn.Tabs(("Attention", self.attention), ("Edit", self.edit), ("Transfer", self.transfer), width=600, css_classes=["right-tabs"]),
+            pn.Tabs(("Attention", self.attention), ("Edit", self.edit), ("Transfer", self.transfer),
+                    ("Compose", self.compose), ("Control", self.control), width=600, css_classes=["right-tabs"]),
             sizing_mode="stretch_width",
         )
         return pn.template.FastListTemplate(

@@ -74,10 +74,11 @@ class SkeletonViewer(pn.viewable.Viewer):
         if not shown:
             return None
         item = shown[0]
-        motions, colors = [], []
+        motions, colors, guides = [], [], []
         for it in shown:
             role = _role(it.name, avoid=[r for r, _ in motions])
             motions.append((role, it.joints))
+            guides += [(role, color, points) for color, points in it.info.get("guides", ())]
             if it.name in s.frame_colors:
                 colors.append((role, s.frame_colors[it.name]))
         values = s.word_values() if s.color_by_word else None
@@ -88,7 +89,14 @@ class SkeletonViewer(pn.viewable.Viewer):
             title = f"colour: {s.transfer.color_by} (legend in the Transfer tab)"
         return SceneSpec(motions=tuple(motions), follow=s.follow, show_path=s.show_path, frame_values=values,
                          role_colors=tuple(colors), azimuth_offset=self._azimuth, camera_serial=self._camera_serial,
-                         title=title[:70])
+                         title=title[:70], guides=self._same_guides(tuple(guides)))
+
+    def _same_guides(self, guides: tuple) -> tuple:
+        """The previous tuple when the guides did not change (the renderer redraws them on a new object only)."""
+        old = getattr(self, "_guides", ())
+        same = len(old) == len(guides) and all(a[0] == b[0] and a[2] is b[2] for a, b in zip(old, guides))
+        self._guides = old if same else guides
+        return self._guides
 
     def _refresh(self, *_):
         spec = self.spec()

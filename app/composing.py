@@ -1,0 +1,234 @@
+"""The Compose tab's model (DoubleTake, PriorMDM): a timeline of intervals, checks with user-facing messages,
+the job and its result.
+
+Nothing here touches Panel widgets. The engine does the work (``engine.methods.doubletake.compose``, the
+function ``moattn compose`` calls); this module adds what only the studio needs: an editable list of
+intervals (add, remove, move, edit) with unknown words flagged, the expected length before anything runs,
+one progress bar across both takes, and the long motion as a session motion whose skeleton is coloured per
+interval, with the handshake (transition) frames highlighted.
+"""
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import param
+
+from app.generation import Cancelled, prompt_analysis, sampling_slot
+
+FPS = 20
+INTERVAL_COLORS = ("#3a6fd8", "#2f9e5a")  # intervals alternate between these
+TRANSITION_COLOR = "#e8552e"  # handshake frames (where DoubleTake joins two intervals)
+DEFAULT_INTERVALS = (("a person walks forward", 4.0), ("a person jumps", 3.0))
+
+
+@dataclass(frozen=True)
+class IntervalRow:
+    """One row of the timeline: what to do and for how long."""
+
+    prompt: str
+    seconds: float
+
+
+@dataclass
+class ComposeSummary:
+    """The last composition, for the timeline strip and the readout."""
+
+    name: str  # the session motion
+    prompts: list[str]
+    starts: list[int]  # first frame of each interval on the timeline
+    ends: list[int]  # one past its last frame
+    transitions: list[tuple[int, int]]  # [start, end) of each handshake
+    n_frames: int
+    handshake: int  # frames
+    second_take: bool
+    seconds_taken: float  # wall time
+
+
+class ComposeSettings(param.Parameterized):
+    """The Compose tab's state (one per session, owned by the tab)."""
+
+    intervals = param.List(default=[], item_type=IntervalRow, doc="the timeline, in order")
+    handshake = param.Number(default=1.0, bounds=(0.0, 3.0), doc="handshake (shared frames) in seconds")
+    second_take = param.Boolean(default=True, doc="re-denoise each transition with soft masks (the second take)")
+    result = param.Parameter(default=None, doc="ComposeSummary of the last composition")
+
+    def __init__(self, *, tokenizer: Callable[[], object] | None = None, **params):
+        super().__init__(**params)
+        self._tokenizer = tokenizer or (lambda: None)
+        if not self.intervals:
+            self.intervals = [IntervalRow(p, s) for p, s in DEFAULT_INTERVALS]
+
+    # ------------------------------------------------------------------ editing the timeline
+    def add(self, *, prompt: str = "a person walks forward", seconds: float = 3.0) -> None:
+        self.intervals = [*self.intervals, IntervalRow(prompt, float(seconds))]
+
+    def remove(self, index: int) -> None:
+        if len(self.intervals) <= 1:
+            raise ValueError("the timeline needs at least one interval")
+        rows = list(self.intervals)
+        del rows[index]
+        self.intervals = rows
+
+    def move(self, index: int, delta: int) -> None:
+        """Swap an interval with its neighbour (delta -1: up, +1: down); nothing past either end."""
+        j = index + delta
+        if not 0 <= j < len(self.intervals):
+            return
+        rows = list(self.intervals)
+        rows[index], rows[j] = rows[j], rows[index]
+        self.intervals = rows
+
+    def edit(self, index: int, *, prompt: str | None = None, seconds: float | None = None) -> None:
+        row = self.intervals[index]
+        new = IntervalRow(row.prompt if prompt is None else prompt, row.seconds if seconds is None else float(seconds))
+        if new != row:
+            rows = list(self.intervals)
+            rows[index] = new
+            self.intervals = rows
+
+    # ------------------------------------------------------------------ derived
+    @property
+    def handshake_frames(self) -> int:
+        return int(round(self.handshake * FPS))
+
+    def unknown_words(self) -> list[list[str]]:
+        """Per interval: the words the model does not know."""
+        tokenizer = self._tokenizer()
+        return [prompt_analysis(tokenizer, row.prompt)[1] for row in self.intervals]
+
+    def expected_frames(self) -> int:
+        """Length of the long motion: the intervals' frames minus one handshake per transition."""
+        lengths = [int(round(row.seconds * FPS)) for row in self.intervals]
+        return sum(lengths) - self.handshake_frames * max(0, len(lengths) - 1)
+
+
+@dataclass
+class ComposeJob:
+    intervals: list  # engine Intervals
+    config: object  # DoubleTakeConfig
+    sample: object  # SampleConfig
+    total_steps: int  # first take + second take
+    description: str
+
+
+def prepare(state, settings: ComposeSettings) -> ComposeJob:
+    """Every check before any work starts; raises ValueError with a message for the user."""
+    from engine.diffusion import CosineSchedule
+    from engine.generate import SampleConfig
+    from engine.methods.doubletake import DoubleTakeConfig, Interval, SecondTake, check_intervals
+
+    loaded = state.model
+    rows = settings.intervals
+    if not rows:
+        raise ValueError("add at least one interval to the timeline")
+    for i, row in enumerate(rows):
+        if not row.prompt.strip():
+            raise ValueError(f"interval {i + 1}: type what the person does")
+        loaded.tokenizer.encode(row.prompt)  # unknown words: a PromptError (ValueError) naming them
+    h = settings.handshake_frames
+    take = SecondTake() if settings.second_take else None
+    config = DoubleTakeConfig(handshake=h, second_take=take)
+    intervals = [Interval(row.prompt.strip(), float(row.seconds)) for row in rows]
+    lengths = check_intervals(intervals, h)
+    limit = loaded.model.config.max_frames
+    for i, n in enumerate(lengths):
+        if n > limit:
+            raise ValueError(f"interval {i + 1} lasts {n} frames: this model handles at most {limit} "
+                             f"({limit / FPS:.1f} s)")
+    if take is not None and len(rows) > 1 and h + 2 * take.context > limit:
+        raise ValueError(f"a handshake of {h} frames is too long for the second take (at most "
+                         f"{(limit - 2 * take.context) / FPS:.1f} s): shorten it or turn the second take off")
+    sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
+    total = sample.steps
+    if take is not None and len(rows) > 1 and h > 0:
+        schedule = CosineSchedule()
+        total += sum(1 for t in schedule.timesteps(sample.steps) if t <= take.renoise * (schedule.steps - 1))
+    description = f"compose {len(rows)} interval{'s' * (len(rows) != 1)}"
+    return ComposeJob(intervals=intervals, config=config, sample=sample, total_steps=total, description=description)
+
+
+def run_job(loaded, job: ComposeJob, *, on_step: Callable[[int, int], None], cancel: threading.Event,
+            on_wait: Callable[[], None] | None = None):
+    """Compose on the worker (holding the sampling slot); ``on_step(done, total)`` across both takes."""
+    from engine.methods.doubletake import compose
+
+    done = [0]
+
+    def step(_state) -> None:
+        if cancel.is_set():
+            raise Cancelled()
+        done[0] += 1
+        on_step(min(done[0], job.total_steps), job.total_steps)
+
+    with sampling_slot(cancel, on_wait):
+        result = compose(loaded, job.intervals, job.config, sample=job.sample, on_step=step)
+    if not np.isfinite(result.joints).all():
+        raise ValueError("the model produced non-finite joints")
+    return result
+
+
+def start_compose(state, settings: ComposeSettings) -> bool:
+    """Check, then compose on the session's worker with progress and cancel; False (and a notification) if refused."""
+    loaded = state._idle_model()
+    if loaded is None:
+        return False
+    try:
+        job = prepare(state, settings)
+    except ValueError as exc:
+        state.error(f"cannot compose: {exc}")
+        return False
+    return state.start_job(
+        lambda worker: run_job(loaded, job, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting),
+        on_done=lambda result: finish(state, settings, job, result), total=job.total_steps, what="composition",
+        status=f"{job.description}: step 0 / {job.total_steps}", verb=job.description)
+
+
+def finish(state, settings: ComposeSettings, job: ComposeJob, result) -> None:
+    """The long motion becomes a session motion, coloured per interval with its transitions highlighted."""
+    from app.state import MotionItem
+
+    n = len(result.joints)
+    ends = [s + int(round(iv.seconds * FPS)) for s, iv in zip(result.starts, job.intervals)]
+    title = f"compose · {' > '.join(_short(iv.prompt) for iv in job.intervals)} · seed {job.sample.seed}"
+    summary = ComposeSummary(name="", prompts=[iv.prompt for iv in job.intervals], starts=list(result.starts),
+                             ends=[min(e, n) for e in ends], transitions=[tuple(t) for t in result.transitions],
+                             n_frames=n, handshake=job.config.handshake,
+                             second_take=job.config.second_take is not None, seconds_taken=result.seconds)
+    item = MotionItem(name=state._unique_name(title), joints=np.asarray(result.joints, dtype=np.float32),
+                      source="generated", prompt=" then ".join(iv.prompt for iv in job.intervals),
+                      info={"compose": summary})
+    summary.name = item.name
+    state.end_job(f"{job.description}: {n} frames ({n / FPS:.1f} s of motion) in {result.seconds:.1f} s")
+    state.add_item(item, show=False)
+    state.frame_colors = {**{k: v for k, v in state.frame_colors.items() if k in state.items},
+                          item.name: frame_colors(summary)}
+    state.show(item.name)
+    settings.result = summary
+
+
+def frame_colors(summary: ComposeSummary) -> np.ndarray:
+    """(T, 22, 3) uint8: each interval in its colour (alternating), the handshake frames in the transition colour."""
+    from viz.colors import default_joint_colors
+
+    out = np.zeros((summary.n_frames, 22, 3), dtype=np.uint8)
+    for i, (a, b) in enumerate(zip(summary.starts, summary.ends)):
+        out[a:b] = default_joint_colors(INTERVAL_COLORS[i % len(INTERVAL_COLORS)])
+    for a, b in summary.transitions:
+        out[a:b] = default_joint_colors(TRANSITION_COLOR)
+    return out
+
+
+def transition_at(summary: ComposeSummary, frame: int) -> int | None:
+    """Which transition (0-based) a frame falls in, or None."""
+    for k, (a, b) in enumerate(summary.transitions):
+        if a <= frame < b:
+            return k
+    return None
+
+
+def _short(prompt: str, n: int = 22) -> str:
+    p = prompt.removeprefix("a person ").strip()
+    return p if len(p) <= n else p[: n - 1] + "…"

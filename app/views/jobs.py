@@ -1,0 +1,66 @@
+"""``JobBar``: a tab's Run button, Cancel, progress bar and status line for the session's shared worker.
+
+The bar shows progress only for its own jobs (``jobs``: the ``what`` names given to ``StudioState.start_job``);
+any running job disables Run (one job per session) and enables Cancel.
+"""
+from __future__ import annotations
+
+import html
+from collections.abc import Callable
+
+import panel as pn
+import param
+
+from app.state import StudioState
+
+
+class JobBar(pn.viewable.Viewer):
+    state = param.ClassSelector(class_=StudioState)
+    jobs = param.List(default=[], item_type=str, doc="the job names this bar reports on")
+    label = param.String(default="Generate")
+    prefix = param.String(default="job", doc="css class prefix: <prefix>-run, -cancel, -progress, -status")
+
+    def __init__(self, *, on_run: Callable[[], object], **params):
+        super().__init__(**params)
+        p = self.prefix
+        self.run = pn.widgets.Button(label=self.label, color="primary", css_classes=[f"{p}-run"],
+                                     sizing_mode="stretch_width")
+        self.cancel = pn.widgets.Button(label="Cancel", color="warning", disabled=True, width=90,
+                                        css_classes=[f"{p}-cancel"])
+        self.progress = pn.indicators.Progress(value=0, max=1, bar_color="primary", height=12,
+                                               sizing_mode="stretch_width", css_classes=[f"{p}-progress"])
+        self.status = pn.pane.Markdown("", css_classes=[f"{p}-status"], margin=(0, 10))
+        self.run.on_click(lambda _: on_run())
+        self.cancel.on_click(lambda _: self.state.cancel())
+        self.state.param.watch(self._update, ["running", "progress", "progress_total", "status", "job"])
+        self._update()
+
+    def _update(self, *_):
+        s = self.state
+        mine = s.job in self.jobs
+        self.progress.max = max(1, s.progress_total)
+        self.progress.value = min(s.progress, self.progress.max) if mine else 0
+        self.status.object = html.escape(s.status) if mine else ""
+        self.cancel.disabled = not s.running
+        self.run.disabled = s.running
+
+    def __panel__(self):
+        return pn.Column(pn.Row(self.run, self.cancel, sizing_mode="stretch_width"), self.progress, self.status,
+                         sizing_mode="stretch_width")
+
+
+def flag_unknown(words: list[str], suggestions: dict[str, list[str]] | None = None) -> str:
+    """HTML for a prompt's unknown words ('' when every word is known)."""
+    if not words:
+        return ""
+    parts = []
+    for w in words:
+        near = (suggestions or {}).get(w) or []
+        parts.append(f"<b>{html.escape(w)}</b>" + (f" (try: {html.escape(', '.join(near))})" if near else ""))
+    return f'<span class="unknown-words">unknown word{"s" * (len(words) > 1)}: {"; ".join(parts)}</span>'
+
+
+UNKNOWN_CSS = """
+.unknown-words { color: #a00; background: #ffecec; border: 1px solid #f3b3b3; padding: 1px 6px; border-radius: 4px;
+  font-size: 12px; }
+"""
