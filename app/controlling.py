@@ -18,6 +18,7 @@ import numpy as np
 import param
 
 from app.generation import Cancelled, prompt_analysis, sampling_slot
+from engine.methods.control import same_base
 from engine.paths import CONTROL_DIR
 
 LABELS = {"root": "root path", "left_wrist": "left wrist", "right_wrist": "right wrist"}
@@ -39,21 +40,12 @@ def control_models(folder: str | Path, *, base=None) -> tuple[dict, str]:
     models, problem = _load(folder)
     if base is None or not models:
         return models, problem
-    fits = {n: m for n, m in models.items() if _same_base(base, m)}
+    fits = {n: m for n, m in models.items() if same_base(base, m)}
     if len(fits) < len(models):
         odd = ", ".join(LABELS[n] for n in models if n not in fits)
         problem = (f"the control models for {odd} in {Path(folder)} were fine-tuned from another base model "
                    "(other vocabulary or feature statistics) and cannot be blended with this one")
     return fits, problem
-
-
-def _same_base(base, model) -> bool:
-    try:
-        return (tuple(base.tokenizer.words) == tuple(model.tokenizer.words)
-                and np.allclose(base.normalizer.mean, model.normalizer.mean, atol=1e-5)
-                and np.allclose(base.normalizer.std, model.normalizer.std, atol=1e-5))
-    except Exception:
-        return False
 
 
 def _load(folder: str | Path) -> tuple[dict, str]:

@@ -132,7 +132,7 @@ def run_control(args: argparse.Namespace) -> int:
     from engine.checkpoint import load_model
     from engine.generate import SampleConfig
     from engine.io import save_motion
-    from engine.methods.control import controlled, load_controls
+    from engine.methods.control import controlled, load_controls, same_base
     from engine.methods.paths import path_error, to_world
 
     controls, frame = build_controls(args)
@@ -145,6 +145,10 @@ def run_control(args: argparse.Namespace) -> int:
         if missing:
             raise FileNotFoundError(f"no fine-tuned control model for {', '.join(missing)} in {args.controls} "
                                     "(train one with `moattn train --control NAME --init-from assets/model`, or use --inpaint)")
+        other = [c.name for c in controls if not same_base(loaded, models[c.name])]
+        if other:
+            raise ValueError(f"the control models for {', '.join(other)} in {args.controls} were fine-tuned from another "
+                             f"base model than {args.model}: use the base they came from, or --inpaint")
     sample = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed)
     gen = controlled(loaded, args.prompt, controls, seconds=args.seconds, models=models, weights=args.weights,
                      sample=sample)

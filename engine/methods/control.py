@@ -194,3 +194,14 @@ def load_controls(folder) -> dict[str, LoadedModel]:
                 raise ValueError(f"{root / name} holds a model fine-tuned for {control_name(m)!r}, not {name!r}")
             out[name] = m
     return out
+
+
+def same_base(base: LoadedModel, model: LoadedModel) -> bool:
+    """Whether a control model was fine-tuned from ``base`` (same vocabulary and feature statistics):
+    only such models can be blended, and only they read the base's normalised features."""
+    try:
+        return (tuple(base.tokenizer.words) == tuple(model.tokenizer.words)
+                and np.allclose(base.normalizer.mean, model.normalizer.mean, atol=1e-5)
+                and np.allclose(base.normalizer.std, model.normalizer.std, atol=1e-5))
+    except (AttributeError, ValueError):
+        return False
