@@ -172,18 +172,13 @@ def run_job(loaded, job: ComposeJob, *, on_step: Callable[[int, int], None], can
 
 def start_compose(state, settings: ComposeSettings) -> bool:
     """Check, then compose on the session's worker with progress and cancel; False (and a notification) if refused."""
-    loaded = state._idle_model()
-    if loaded is None:
-        return False
-    try:
-        job = prepare(state, settings)
-    except ValueError as exc:
-        state.error(f"cannot compose: {exc}")
-        return False
-    return state.start_job(
-        lambda worker: run_job(loaded, job, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting),
-        on_done=lambda result: finish(state, settings, job, result), total=job.total_steps, what="composition",
-        status=f"{job.description}: step 0 / {job.total_steps}", verb=job.description)
+    return state.launch(
+        prepare=lambda: prepare(state, settings),
+        run=lambda loaded, job, worker: run_job(loaded, job, on_step=worker.step, cancel=worker.cancel,
+                                                on_wait=worker.waiting),
+        finish=lambda job, result: finish(state, settings, job, result), refused="cannot compose", what="composition",
+        total=lambda job: job.total_steps, status=lambda job: f"{job.description}: step 0 / {job.total_steps}",
+        verb=lambda job: job.description)
 
 
 def finish(state, settings: ComposeSettings, job: ComposeJob, result) -> None:

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import param
 
-from app.generation import Cancelled, prompt_analysis, sampling_slot
+from app.generation import Cancelled, checked_frames, prompt_analysis, sampling_slot
 from engine.methods.control import same_base
 from engine.paths import CONTROL_DIR
 
@@ -187,7 +187,7 @@ class ControlSummary:
 
 def prepare(state, settings: ControlSettings) -> ControlJob:
     """Every check before any work starts; raises ValueError with a message for the user."""
-    from engine.generate import SampleConfig, frames_for
+    from engine.generate import SampleConfig
     from engine.methods.control import Control
     from engine.methods.paths import RootPath, WristPath, root_controls
 
@@ -195,13 +195,8 @@ def prepare(state, settings: ControlSettings) -> ControlJob:
     if not settings.prompt.strip():
         raise ValueError("type what the person does (e.g. 'a person walks')")
     loaded.tokenizer.encode(settings.prompt)
-    try:
-        seconds = float(settings.seconds)
-    except (TypeError, ValueError):
-        raise ValueError("the duration must be a number of seconds") from None
-    frames = frames_for(seconds)
-    if frames > loaded.model.config.max_frames:
-        raise ValueError(f"this model handles at most {loaded.model.config.max_frames / 20:.1f} s")
+    frames = checked_frames(loaded, settings.seconds)
+    seconds = frames / 20
     names = settings.active
     if not names:
         raise ValueError("turn on at least one control: the root path or a wrist")
@@ -302,19 +297,13 @@ def measure(job: ControlJob, joints: np.ndarray, *, features: np.ndarray) -> Con
 
 def start_control(state, settings: ControlSettings) -> bool:
     """Check, then generate on the session's worker with progress and cancel; False (and a notification) if refused."""
-    loaded = state._idle_model()
-    if loaded is None:
-        return False
-    try:
-        job = prepare(state, settings)
-    except ValueError as exc:
-        state.error(f"cannot generate with control: {exc}")
-        return False
-    return state.start_job(
-        lambda worker: run_job(loaded, job, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting),
-        on_done=lambda summary: finish(state, settings, job, summary), total=job.sample.steps,
-        what="controlled generation", status=f"{job.description}: step 0 / {job.sample.steps}",
-        verb=job.description)
+    return state.launch(
+        prepare=lambda: prepare(state, settings),
+        run=lambda loaded, job, worker: run_job(loaded, job, on_step=worker.step, cancel=worker.cancel,
+                                                on_wait=worker.waiting),
+        finish=lambda job, summary: finish(state, settings, job, summary), refused="cannot generate with control",
+        what="controlled generation", total=lambda job: job.sample.steps,
+        status=lambda job: f"{job.description}: step 0 / {job.sample.steps}", verb=lambda job: job.description)
 
 
 def finish(state, settings: ControlSettings, job: ControlJob, summary: ControlSummary) -> None:

@@ -83,17 +83,23 @@ def prompt_analysis(tokenizer, text: str) -> tuple[list[str], list[str], dict[st
     return words, unknown, suggestions
 
 
-def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:
-    """Validate everything before any work starts; raises ValueError (PromptError) with a user-facing message."""
-    tokens = loaded.tokenizer.encode(settings.prompt)
+def checked_frames(loaded: LoadedModel, seconds) -> int:
+    """Frames for a duration typed in the UI; a ValueError with a user-facing message otherwise."""
     try:
-        seconds = float(settings.seconds)
+        seconds = float(seconds)
     except (TypeError, ValueError):
         raise ValueError("the duration must be a number of seconds") from None
     frames = frames_for(seconds)
     if frames > loaded.model.config.max_frames:
         raise ValueError(f"this model handles at most {loaded.model.config.max_frames} frames "
                          f"({loaded.model.config.max_frames / 20:.1f} s)")
+    return frames
+
+
+def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:
+    """Validate everything before any work starts; raises ValueError (PromptError) with a user-facing message."""
+    tokens = loaded.tokenizer.encode(settings.prompt)
+    frames = checked_frames(loaded, settings.seconds)
     if int(settings.seed) < 0:
         raise ValueError("the seed must be >= 0")
     config = SampleConfig(steps=int(settings.steps), guidance=float(settings.guidance), seed=int(settings.seed))

@@ -237,6 +237,26 @@ class StudioState(param.Parameterized):
             on_done=lambda result: self._finish(result, "", ""), total=checked.config.steps, what="generation",
             status=f"generating {checked.frames / 20:.1f} s: step 0 / {checked.config.steps}", verb="generating")
 
+    def launch(self, *, prepare: Callable[[], object], run: Callable[[object, object, "Job"], object],
+               finish: Callable[[object, object], None], refused: str, what: str,
+               total: Callable[[object], int], status: Callable[[object], str], verb: Callable[[object], str]) -> bool:
+        """Check, then run on the worker: the one start of every tab's job.
+
+        ``prepare()`` builds the job (a ValueError becomes the notification "<refused>: <why>");
+        ``run(loaded, job, worker)`` does the work; ``finish(job, result)`` takes its result on the
+        session's thread. False when refused (no model, busy, bad input).
+        """
+        loaded = self._idle_model()
+        if loaded is None:
+            return False
+        try:
+            job = prepare()
+        except ValueError as exc:
+            self.error(f"{refused}: {exc}")
+            return False
+        return self.start_job(lambda worker: run(loaded, job, worker), on_done=lambda result: finish(job, result),
+                              total=total(job), what=what, status=status(job), verb=verb(job))
+
     def start_job(self, work: Callable[["Job"], object], *, on_done: Callable[[object], None], total: int,
                   what: str, status: str, verb: str) -> bool:
         """Run ``work(job)`` on a worker thread with progress and cancel (generation and edits share this).
@@ -346,19 +366,13 @@ class StudioState(param.Parameterized):
         """Check the Edit tab's settings and run the edit on the worker; False (and a notification) if refused."""
         if self.edit.engine_kind == "count":
             return self.count_current()
-        loaded = self._idle_model()
-        if loaded is None:
-            return False
-        try:
-            job = prepare(self)
-        except ValueError as exc:
-            self.error(f"cannot {self.edit.kind}: {exc}")
-            return False
-        return self.start_job(
-            lambda worker: run_edit_job(loaded, job, on_step=worker.step, cancel=worker.cancel,
-                                        on_wait=worker.waiting),
-            on_done=self._finish_edit, total=job.sample.steps, what="edit",
-            status=f"{job.description}: step 0 / {job.sample.steps}", verb=job.description)
+        return self.launch(
+            prepare=lambda: prepare(self),
+            run=lambda loaded, job, worker: run_edit_job(loaded, job, on_step=worker.step, cancel=worker.cancel,
+                                                         on_wait=worker.waiting),
+            finish=lambda job, result: self._finish_edit(result), refused=f"cannot {self.edit.kind}", what="edit",
+            total=lambda job: job.sample.steps, status=lambda job: f"{job.description}: step 0 / {job.sample.steps}",
+            verb=lambda job: job.description)
 
     def _finish_edit(self, result: EditResult) -> None:
         from app.editing import EditSummary

@@ -221,19 +221,13 @@ def run_job(loaded, job: TransferJob, *, on_step=None, cancel=None, on_wait=None
 
 def start_transfer(state) -> bool:
     """Check, then run on the session's worker with progress and cancel; False (and a notification) if refused."""
-    loaded = state._idle_model()
-    if loaded is None:
-        return False
-    try:
-        job = prepare(state)
-    except ValueError as exc:
-        state.error(f"cannot transfer: {exc}")
-        return False
-    return state.start_job(
-        lambda worker: run_job(loaded, job, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting,
-                               note=worker.note),
-        on_done=lambda view: finish(state, job, view), total=job.sample.steps, what="transfer",
-        status=f"transfer {job.description}: starting", verb="transfer")
+    return state.launch(
+        prepare=lambda: prepare(state),
+        run=lambda loaded, job, worker: run_job(loaded, job, on_step=worker.step, cancel=worker.cancel,
+                                                on_wait=worker.waiting, note=worker.note),
+        finish=lambda job, view: finish(state, job, view), refused="cannot transfer", what="transfer",
+        total=lambda job: job.sample.steps, status=lambda job: f"transfer {job.description}: starting",
+        verb=lambda job: "transfer")
 
 
 def finish(state, job: TransferJob, view: TransferView) -> None:
