@@ -178,7 +178,7 @@ def clusters_for(loaded, sample, *, note: Callable[[str], None] = lambda text: N
 def record_for(loaded, steps: int):
     """Record Q and K only where the analysis reads them (three sites), not at every layer and step."""
     from engine.analysis.qk import analysis_sites
-    from engine.methods.momo import qk_record
+    from engine.analysis.qk import qk_record
 
     sites = analysis_sites(loaded.model.config.layers, steps)
     return qk_record(steps=sorted({s.step for s in sites}), layers=sorted({s.layer for s in sites}))

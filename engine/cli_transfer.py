@@ -84,7 +84,8 @@ def config_from_args(args: argparse.Namespace):
 def _run(args: argparse.Namespace, *, record: bool):
     from engine.checkpoint import load_model
     from engine.generate import SampleConfig
-    from engine.methods.momo import qk_record, transfer
+    from engine.analysis.qk import qk_record
+    from engine.methods.momo import transfer
 
     leader, followers = sources(args)
     loaded = load_model(args.model)

@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from engine.analysis.qk import (
-    ClusterConfig, Site, attention_map, cluster_site, fit, fit_clusters, nearest_keys, paper_site, qk_at,
+    ClusterConfig, Site, attention_map, cluster_site, fit, fit_clusters, nearest_keys, paper_site, qk_at, qk_record,
 )
 from engine.attention import AttentionStore, BatchRoles, stack
 from engine.attention.context import AttnCtx
@@ -17,7 +17,7 @@ from tests.conftest import random_corpus_model
 from engine.generate import Request, SampleConfig, generate
 from engine.methods.mixing import MixConfig, MixedAttention
 from engine.methods.momo import (
-    FOLLOWER, LEADER, OUT, Source, TransferConfig, analyze, canonical, prepare, qk_record, transfer, transfer_streams,
+    FOLLOWER, LEADER, OUT, Source, TransferConfig, analyze, canonical, prepare, transfer, transfer_streams,
 )
 from engine.methods.momo_baselines import inpaint_upper_body, lower_body_dims, motion_space_nn
 from engine.methods.windows import Window

@@ -19,9 +19,13 @@ class JobBar(pn.viewable.Viewer):
     jobs = param.List(default=[], item_type=str, doc="the job names this bar reports on")
     label = param.String(default="Generate")
     prefix = param.String(default="job", doc="css class prefix: <prefix>-run, -cancel, -progress, -status")
+    busy_label = param.String(default="", doc="Run's label while this bar's job runs ('' = unchanged)")
 
-    def __init__(self, *, on_run: Callable[[], object], **params):
+    def __init__(self, *, on_run: Callable[[], object], blocked: Callable[[], bool] | None = None, **params):
+        """``blocked()``: True while the tab's input cannot run (e.g. unknown words); call :meth:`refresh`
+        when what it reads changes."""
         super().__init__(**params)
+        self._blocked = blocked
         p = self.prefix
         self.run = pn.widgets.Button(label=self.label, color="primary", css_classes=[f"{p}-run"],
                                      sizing_mode="stretch_width")
@@ -32,17 +36,19 @@ class JobBar(pn.viewable.Viewer):
         self.status = pn.pane.Markdown("", css_classes=[f"{p}-status"], margin=(0, 10))
         self.run.on_click(lambda _: on_run())
         self.cancel.on_click(lambda _: self.state.cancel())
-        self.state.param.watch(self._update, ["running", "progress", "progress_total", "status", "job"])
-        self._update()
+        self.state.param.watch(self.refresh, ["running", "progress", "progress_total", "status", "job"])
+        self.refresh()
 
-    def _update(self, *_):
+    def refresh(self, *_):
         s = self.state
         mine = s.job in self.jobs
         self.progress.max = max(1, s.progress_total)
         self.progress.value = min(s.progress, self.progress.max) if mine else 0
         self.status.object = html.escape(s.status) if mine else ""
         self.cancel.disabled = not s.running
-        self.run.disabled = s.running
+        self.run.disabled = s.running or (self._blocked is not None and bool(self._blocked()))
+        if self.busy_label:
+            self.run.label = self.busy_label if s.running and mine else self.label
 
     def __panel__(self):
         return pn.Column(pn.Row(self.run, self.cancel, sizing_mode="stretch_width"), self.progress, self.status,

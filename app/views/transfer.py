@@ -15,6 +15,7 @@ import param
 from app.state import StudioState
 from app.transfer import COLOR_BY, ROLES, ROOT_LABELS, SourceSettings, describe_inversion, show_roles
 from app.views.controls import WORD_CSS, word_chips
+from app.views.jobs import JobBar
 from app.views.transfer_plots import TransferPlots
 
 KIND_LABELS = {"prompt": "prompt", "imported motion": "motion"}
@@ -132,13 +133,9 @@ class TransferTab(pn.viewable.Viewer):
                                             sizing_mode="stretch_width")
         self.root = pn.widgets.RadioButtonGroup(label="Root of the out", options=ROOT_LABELS, value=t.root,
                                                 color="primary", variant="outline", css_classes=["transfer-root"])
-        self.run = pn.widgets.Button(label="Run transfer", color="primary", css_classes=["transfer-run"],
-                                     sizing_mode="stretch_width")
-        self.cancel = pn.widgets.Button(label="Cancel", color="warning", disabled=True, width=90,
-                                        css_classes=["transfer-cancel"])
-        self.progress = pn.indicators.Progress(value=0, max=1, bar_color="primary", height=12,
-                                               sizing_mode="stretch_width", css_classes=["transfer-progress"])
-        self.status = pn.pane.Markdown("", css_classes=["transfer-status"], margin=(0, 10))
+        self.bar = JobBar(state=s, jobs=["transfer"], label="Run transfer", busy_label="Running…", prefix="transfer",
+                          on_run=lambda: self.state.run_transfer(), blocked=self._unknown_words)
+        self.run, self.cancel, self.progress, self.status = self.bar.run, self.bar.cancel, self.bar.progress, self.bar.status
         self.result = pn.pane.HTML("", css_classes=["transfer-result"], margin=(0, 10))
         self.show = pn.widgets.Button(label="Show leader / follower / out", css_classes=["transfer-show"],
                                       width=230, disabled=True)
@@ -150,14 +147,10 @@ class TransferTab(pn.viewable.Viewer):
         self.steps.param.watch(lambda e: self._set("steps", tuple(round(v, 4) for v in e.new)), "value")
         self.root.param.watch(lambda e: self._set("root", e.new), "value")
         self.color.param.watch(lambda e: self._set("color_by", e.new), "value")
-        self.run.on_click(lambda _: self.state.run_transfer())
-        self.cancel.on_click(lambda _: self.state.cancel())
         self.show.on_click(lambda _: show_roles(self.state))
-        s.param.watch(self._on_progress, ["running", "progress", "progress_total", "status", "job"])
         for src in (t.leader, t.follower):
-            src.param.watch(self._on_progress, ["unknown_words", "kind"])
+            src.param.watch(self.bar.refresh, ["unknown_words", "kind"])
         t.param.watch(self._on_result, "result")
-        self._on_progress()
         self._on_result()
 
     def _n_layers(self) -> int:
@@ -172,16 +165,9 @@ class TransferTab(pn.viewable.Viewer):
         except ValueError as exc:
             self.state.error(f"{name}: {exc}")
 
-    def _on_progress(self, *_):
-        s, t = self.state, self.state.transfer
-        mine = s.job == "transfer"
-        self.progress.max = max(1, s.progress_total)
-        self.progress.value = min(s.progress, self.progress.max) if mine else 0
-        self.status.object = html.escape(s.status) if mine else ""
-        unknown = any(src.kind == "prompt" and src.unknown_words for src in (t.leader, t.follower))
-        self.run.disabled = s.running or unknown
-        self.run.label = "Running…" if s.running and mine else "Run transfer"
-        self.cancel.disabled = not s.running
+    def _unknown_words(self) -> bool:
+        t = self.state.transfer
+        return any(src.kind == "prompt" and src.unknown_words for src in (t.leader, t.follower))
 
     def _on_result(self, *_):
         view = self.state.transfer.result
@@ -201,6 +187,5 @@ class TransferTab(pn.viewable.Viewer):
         settings = pn.Column(self.layers, self.steps, pn.pane.Markdown("Root of the out", margin=(0, 10)),
                              self.root, sizing_mode="stretch_width")
         colours = pn.Row(pn.pane.Markdown("Skeleton colours", margin=(8, 10)), self.color)
-        return pn.Column(sources, settings, pn.Row(self.run, self.cancel, sizing_mode="stretch_width"),
-                         self.progress, self.status, self.result, pn.Row(self.show), colours,
+        return pn.Column(sources, settings, self.bar, self.result, pn.Row(self.show), colours,
                          pn.layout.Divider(), self.plots, css_classes=["transfer-tab"], sizing_mode="stretch_width")

@@ -15,12 +15,18 @@ from einops import rearrange
 from sklearn.cluster import KMeans
 from sklearn.decomposition import PCA
 
-from engine.attention import AttentionStore
+from engine.attention import AttentionStore, StoreConfig
 from engine.checkpoint import LoadedModel
 from engine.generate import Request, SampleConfig, frames_for, sample_states
-from engine.methods.momo import qk_record
 
 PAPER_LAYERS, PAPER_STEPS = 12, 100
+
+
+def qk_record(*, steps: Sequence[int] | None = None, layers: Sequence[int] | None = None) -> StoreConfig:
+    """What the analysis views need: self-attention Q and K (and V) of the conditional slots."""
+    return StoreConfig(kinds=("self",), record_probs=False, record_qkv=True,
+                       steps=None if steps is None else frozenset(steps),
+                       layers=None if layers is None else frozenset(layers), budget_bytes=768 * 1024 * 1024)
 
 
 @dataclass(frozen=True)

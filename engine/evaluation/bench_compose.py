@@ -43,13 +43,13 @@ class ComposeBenchConfig:
 
 
 @dataclass
-class Sequence_:
+class ComposeCase:
     intervals: list[Interval]
     truth: np.ndarray  # joints of the true long motion
     boundaries: list[int]  # true transition centres
 
 
-def build_sequences(config: ComposeBenchConfig) -> list[Sequence_]:
+def build_sequences(config: ComposeBenchConfig) -> list[ComposeCase]:
     from engine.synth import Corpus, make_sample
     from engine.synth.transforms import interval_sequence
 
@@ -75,7 +75,7 @@ def build_sequences(config: ComposeBenchConfig) -> list[Sequence_]:
             captions = [make_sample(p, split="test").captions[0] for p in parts]
         except ValueError:  # repetitions that do not fit the new length
             continue
-        out.append(Sequence_(intervals=[Interval(c, n / FPS) for c, n in zip(captions, frames)], truth=truth,
+        out.append(ComposeCase(intervals=[Interval(c, n / FPS) for c, n in zip(captions, frames)], truth=truth,
                              boundaries=[t["boundary"] for t in trans]))
     return out
 
@@ -94,7 +94,7 @@ def jerk(window: np.ndarray) -> float:
     return float(np.linalg.norm(d3, axis=-1).mean())
 
 
-def _run(loaded, seq: Sequence_, method: str, sample: SampleConfig) -> tuple[np.ndarray, list[int]]:
+def _run(loaded, seq: ComposeCase, method: str, sample: SampleConfig) -> tuple[np.ndarray, list[int]]:
     if method == "naive":
         result = compose(loaded, seq.intervals, DoubleTakeConfig(handshake=0, second_take=None), sample=sample)
         return result.joints, result.starts[1:]

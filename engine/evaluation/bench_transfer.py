@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -65,6 +66,15 @@ class Pair:
     follower: object
     truth: object
     ood: bool
+
+    @cached_property
+    def reference(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """role -> (canonical joints, their features) of leader, follower and truth: computed once per pair."""
+        out = {}
+        for role in ("leader", "follower", "truth"):
+            joints = canonical(getattr(self, role).joints)
+            out[role] = (joints, joints_to_features(joints))
+        return out
 
 
 def _single(program) -> bool:
@@ -121,15 +131,13 @@ def _nearest_is_follower(out: np.ndarray, leader: np.ndarray, follower: np.ndarr
 
 def measure(out: np.ndarray, pair: Pair) -> dict:
     """Ground-truth and similarity figures of one output (joints (T, 22, 3) of the leader's length)."""
-    truth = canonical(pair.truth.joints)
-    lead_j, foll_j = canonical(pair.leader.joints), canonical(pair.follower.joints)
+    (truth, ft), (lead_j, fl), (_, ff) = (pair.reference[r] for r in ("truth", "leader", "follower"))
     n = min(len(out), len(truth))
     mpjpe = float(np.linalg.norm(out[:n] - truth[:n], axis=-1).mean())
     m = min(len(out), len(lead_j))
     contact = float((foot_contacts(out[:m]) == foot_contacts(lead_j[:m])).mean())
-    fo, fl, ff = joints_to_features(out), joints_to_features(lead_j), joints_to_features(foll_j)
+    fo = joints_to_features(out)
     rot, ric = SLICES["rot6d"], SLICES["ric"]
-    ft = joints_to_features(truth)
     k = min(len(fo), len(ft))
     local = np.linalg.norm((fo[:k, ric] - ft[:k, ric]).reshape(k, -1, 3), axis=-1).mean()
     return {"gt_mpjpe": mpjpe, "gt_mpjpe_local": float(local), "foot_contact": contact,
@@ -189,7 +197,7 @@ def bench_transfer(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Tran
         log(f"  pair {i + 1}/{len(pairs)}{' (ood)' if pair.ood else ''}: {pair.leader.captions[0]!r} <- "
             f"{pair.follower.captions[0]!r}: momo {rows['momo'][-1]['gt_mpjpe']:.3f} m, "
             f"nn {rows['nn_motion'][-1]['gt_mpjpe']:.3f} m ({time.time() - t0:.0f} s)")
-    truth_feats = [joints_to_features(canonical(p.truth.joints)) for p in pairs]
+    truth_feats = [p.reference["truth"][1] for p in pairs]
     truth_emb = evaluator.motion_embeddings(truth_feats)
     corpus = Corpus(split="test", seed=config.seed + 1)
     distractors = evaluator.motion_embeddings([corpus.sample(10000 + j).features for j in range(config.distractors)])

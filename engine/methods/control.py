@@ -7,11 +7,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 import torch
 
-from engine.checkpoint import LoadedModel
+from engine.checkpoint import LoadedModel, load_model
 from engine.diffusion import CLEAN, CosineSchedule, StepState
 from engine.generate import Generation, Request, SampleConfig, denoiser_for, frames_for, generate
 from engine.representation import SLICES
@@ -181,10 +182,6 @@ def control_name(loaded: LoadedModel) -> str:
 
 def load_controls(folder) -> dict[str, LoadedModel]:
     """Every control model under ``folder`` (one sub-folder per control)."""
-    from pathlib import Path
-
-    from engine.checkpoint import load_model
-
     out = {}
     root = Path(folder)
     for name in CONTROLS:

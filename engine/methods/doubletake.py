@@ -135,7 +135,7 @@ def allowance(length: int, handshake: slice, take: SecondTake) -> torch.Tensor:
 @dataclass
 class Composed:
     features: np.ndarray  # (total, 263) de-normalised, unfolded
-    joints: np.ndarray  # (total + 1? , 22, 3) -> (total, 22, 3)
+    joints: np.ndarray  # (total, 22, 3)
     intervals: list[Interval]
     starts: list[int]  # first frame of each interval on the timeline
     transitions: list[tuple[int, int]]  # [start, end) frames of each handshake on the timeline

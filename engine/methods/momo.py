@@ -12,12 +12,13 @@ trajectory (see ``TransferConfig.root``; the paper copies only the root rotation
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 import torch
 
+from engine.analysis.qk import analysis_sites, analyze_transfer
 from engine.attention import AttentionStore, StoreConfig, stack
 from engine.checkpoint import LoadedModel
 from engine.generate import Request, SampleConfig, frames_for, generate
@@ -144,7 +145,6 @@ class Transfer:
     leader: Stream
     followers: list[Stream]
     config: TransferConfig
-    extra: dict = field(default_factory=dict)
 
     def out(self, index: int = 0) -> np.ndarray:
         return self.output.joints(OUT, index)
@@ -212,13 +212,6 @@ def transfer(loaded: LoadedModel, leader: Source, followers: Sequence[Source], c
     return transfer_streams(loaded, lead, follow, config, sample=sample, record=record, on_step=on_step)
 
 
-def qk_record(*, steps: Sequence[int] | None = None, layers: Sequence[int] | None = None) -> StoreConfig:
-    """What the analysis views need: self-attention Q and K (and V) of the conditional slots."""
-    return StoreConfig(kinds=("self",), record_probs=False, record_qkv=True,
-                       steps=None if steps is None else frozenset(steps),
-                       layers=None if layers is None else frozenset(layers), budget_bytes=768 * 1024 * 1024)
-
-
 def canonical(joints: np.ndarray) -> np.ndarray:
     """A motion as the model sees it: decoded from its own features (start at the origin, facing +Z)."""
     return features_to_joints(joints_to_features(joints))
@@ -227,10 +220,9 @@ def canonical(joints: np.ndarray) -> np.ndarray:
 def analyze(loaded: LoadedModel, result: Transfer, *, clusters, follower: int = 0, sample: SampleConfig = SampleConfig()):
     """Q/K clusters, correspondences and maps of a transfer recorded with :func:`qk_record`.
 
-    ``clusters``: a fitted :class:`engine.analysis.qk.QKClusters` (see ``fit_clusters``).
+    ``clusters``: a fitted :class:`engine.analysis.qk.QKClusters` (see ``fit_clusters``); record with
+    :func:`engine.analysis.qk.qk_record`.
     """
-    from engine.analysis.qk import analysis_sites, analyze_transfer
-
     if result.output.store is None:
         raise ValueError("the transfer was run without recording Q and K: pass record=qk_record()")
     _, corr, maps = analysis_sites(loaded.model.config.layers, sample.steps)
