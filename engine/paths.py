@@ -9,3 +9,4 @@ ASSETS = Path(os.environ.get("MOATTN_ASSETS", PROJECT_ROOT / "assets"))
 MODEL_DIR = ASSETS / "model"
 EVALUATOR_DIR = ASSETS / "evaluator"
 CONTROL_DIR = ASSETS / "control"  # one fine-tuned model folder per control: root, left_wrist, right_wrist
+DUET_DIR = ASSETS / "duet"  # the ComMDM block (and new word rows) trained on MODEL_DIR

@@ -72,6 +72,17 @@ class Condition:
         )
 
 
+@dataclass
+class LayerPass:
+    """One denoiser call's shared inputs to its layers."""
+
+    cond: Condition
+    temb: torch.Tensor  # (B, width)
+    text: torch.Tensor  # (B, L, width)
+    info: StepInfo | None
+    controller: AttentionController | None
+
+
 class Denoiser(nn.Module):
     """x_t (B, T, 263), t (B,), Condition -> x0_hat (B, T, 263)."""
 
@@ -106,16 +117,35 @@ class Denoiser(nn.Module):
         step: int = 0,
         controller: AttentionController | None = None,
     ) -> torch.Tensor:
-        b, frames, _ = x.shape
-        if frames > self.config.max_frames:
-            raise ValueError(f"{frames} frames exceed the model's maximum of {self.config.max_frames}")
+        run = self.begin(t, cond, step=step, controller=controller)
+        h = self.layers(self.embed_frames(x), run, range(self.num_layers))
+        return self.head(h)
+
+    # The forward pass in three parts, for methods that act between layers (ComMDM).
+    def begin(self, t: torch.Tensor, cond: Condition, *, step: int = 0, controller: AttentionController | None = None,
+              text: torch.Tensor | None = None) -> "LayerPass":
+        """What every layer of one call shares; ``text`` (B, L, width) replaces the model's own word encoding."""
         controller = controller if controller is not None else attached_controller(self)
         info = StepInfo(step=step, t=int(t.reshape(-1)[0]), roles=cond.roles, words=cond.words) if controller is not None else None
         temb = self.time_mlp(sinusoidal(t, self.config.width))
-        text = self.encode_text(cond)
-        h = self.in_proj(x) + self.frame_pos[:frames][None]
-        for block in self.blocks:
-            h = block(h, temb, cond.frame_mask, text, cond.text_mask, cond.use_text, info=info, controller=controller)
+        return LayerPass(cond=cond, temb=temb, text=self.encode_text(cond) if text is None else text, info=info,
+                         controller=controller)
+
+    def embed_frames(self, x: torch.Tensor) -> torch.Tensor:
+        """(B, T, 263) -> (B, T, width)."""
+        frames = x.shape[1]
+        if frames > self.config.max_frames:
+            raise ValueError(f"{frames} frames exceed the model's maximum of {self.config.max_frames}")
+        return self.in_proj(x) + self.frame_pos[:frames][None]
+
+    def layers(self, h: torch.Tensor, run: "LayerPass", which: range) -> torch.Tensor:
+        for i in which:
+            h = self.blocks[i](h, run.temb, run.cond.frame_mask, run.text, run.cond.text_mask, run.cond.use_text,
+                               info=run.info, controller=run.controller)
+        return h
+
+    def head(self, h: torch.Tensor) -> torch.Tensor:
+        """(B, T, width) -> x0_hat (B, T, 263)."""
         return self.out_proj(self.out_norm(h))
 
     # -- persistence -------------------------------------------------------------

@@ -18,11 +18,9 @@ def canonical_transform(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ``engine.representation.canonicalize`` (floor y = 0, root at the XZ origin, facing +Z)."""
     shift = np.array([-joints[0, 0, 0], -joints[..., 1].min(), -joints[0, 0, 2]])
     fx, _, fz = facing_direction(joints[0]).tolist()  # horizontal
-    # qbetween(face, +Z) is a pure yaw quaternion (w, 0, y, 0); its matrix written out on scalars
-    w, y = math.sqrt(fx * fx + fz * fz) + fz, -fx
-    norm = max(math.sqrt(w * w + y * y), 1e-9)
-    w, y = w / norm, y / norm
-    c, s = 1 - 2 * (y * y), 2 * (w * y)
+    # the yaw taking the facing onto +Z, written out on scalars (a facing of exactly -Z is a half turn)
+    norm = max(math.hypot(fx, fz), 1e-9)
+    c, s = fz / norm, -fx / norm
     rot = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
     return rot, shift
 

@@ -1,0 +1,203 @@
+"""`moattn train --commdm`: train the ComMDM block on a few dozen two-person samples, the prior frozen.
+
+Only the block and the embedding rows of words the prior never saw are trained (L_simple on
+both persons' clean motion and placement; the two persons share the timestep and draw their
+own noise). Checkpoints (train_state.pt for --resume, fp16 weights.pt), log.jsonl and the
+config go to --out.
+"""
+from __future__ import annotations
+
+import copy
+import json
+import math
+import signal
+import time
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from engine.checkpoint import load_model
+from engine.diffusion.schedule import CosineSchedule
+from engine.methods.commdm import PLACE_DIMS, ComConfig, duet_roles
+from engine.methods.duet import WEIGHTS, DuetModel, load_duet, new_duet, write_config
+from engine.methods.duet_data import PairItem, duet_words, few_shot, mean_placement, stack_pairs, training_items
+from engine.model.denoiser import Condition
+from engine.attention.context import WordIndex
+from engine.paths import MODEL_DIR
+from engine.train import _Stop, masked_losses
+
+
+@dataclass
+class ComTrainConfig:
+    out: str = "runs/duet"
+    prior: str = str(MODEL_DIR)  # the frozen base model folder
+    steps: int = 3000
+    batch_size: int = 16  # pairs per step
+    lr: float = 5e-4
+    weight_decay: float = 0.0
+    warmup: int = 100
+    ema_decay: float = 0.995
+    text_dropout: float = 0.2  # pairs trained without text (prefix completion masks the text)
+    velocity_weight: float = 0.5
+    place_weight: float = 1.0
+    shots: int = 6  # samples per interaction (8 interactions: 48 samples)
+    crop_every: int = 10
+    seed: int = 0
+    log_every: int = 20
+    ckpt_every: int = 200
+    threads: int = 0
+    com: ComConfig = field(default_factory=ComConfig)
+
+    def to_json(self) -> dict:
+        data = asdict(self)
+        data["com"] = self.com.to_json()
+        return data
+
+    @classmethod
+    def from_json(cls, data: dict) -> "ComTrainConfig":
+        data = dict(data)
+        com = ComConfig.from_json(data.pop("com", {}))
+        names = {f.name for f in fields(cls)}
+        return cls(com=com, **{k: v for k, v in data.items() if k in names})
+
+
+_RUNTIME = ("steps", "log_every", "ckpt_every", "threads")
+
+
+def lr_at(step: int, config: ComTrainConfig) -> float:
+    if step < config.warmup:
+        return config.lr * (step + 1) / config.warmup
+    progress = min(1.0, (step - config.warmup) / max(1, config.steps - config.warmup))
+    return config.lr * (0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * progress)))
+
+
+def _batch(model: DuetModel, items: list[PairItem], rng: np.random.Generator, text_dropout: float):
+    x0, frame_mask = stack_pairs(items)
+    p = len(items)
+    tokens = [model.tokenizer.encode(it.captions[int(rng.integers(len(it.captions)))]) for it in items]
+    tokens = tokens + tokens  # both persons read the pair's caption
+    ids, mask = model.tokenizer.batch(tokens)
+    use = torch.from_numpy(rng.random(p) >= text_dropout)
+    cond = Condition(text_ids=ids, text_mask=mask, frame_mask=frame_mask, use_text=torch.cat([use, use]),
+                     roles=duet_roles(p), words=WordIndex(words=tuple(t.words for t in tokens)))
+    return x0, cond
+
+
+def duet_losses(x0_hat: torch.Tensor, x0: torch.Tensor, frame_mask: torch.Tensor) -> tuple[torch.Tensor, ...]:
+    """(motion mse, motion velocity mse, placement mse) on packed duet states."""
+    mse, vel = masked_losses(x0_hat[:, :-1], x0[:, :-1], frame_mask[:, :-1])
+    place = ((x0_hat[:, -1, :PLACE_DIMS] - x0[:, -1, :PLACE_DIMS]) ** 2).mean()
+    return mse, vel, place
+
+
+def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool = True) -> dict:
+    if config.threads:
+        torch.set_num_threads(config.threads)
+    out = Path(config.out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    state = None
+    if resume and (out / "train_state.pt").exists():
+        saved = json.loads((out / "config.json").read_text())
+        runtime = {k: getattr(config, k) for k in _RUNTIME}
+        config = ComTrainConfig.from_json({**saved["train"], **runtime, "out": str(out)})
+        state = torch.load(out / "train_state.pt", map_location="cpu", weights_only=True)
+    elif resume:
+        print(f"no checkpoint in {out}; starting from scratch")
+    prior = load_model(config.prior)
+    samples = few_shot("train", per_interaction=config.shots, seed=config.seed)
+    items = training_items(samples, prior.normalizer, crop_every=config.crop_every)
+    words = [w for w in duet_words() if w not in prior.tokenizer]
+    model = new_duet(prior, words, config=config.com, mean_place=mean_placement(items), seed=config.seed)
+    net = model.denoiser
+    params = [p for n, p in net.named_parameters() if p.requires_grad]
+    ema = copy.deepcopy(net).eval()
+    optimizer = torch.optim.AdamW(params, lr=config.lr, weight_decay=config.weight_decay)
+    step = 0
+    if state is not None:
+        net.load_state_dict(state["model"], strict=False)
+        ema.load_state_dict(state["ema"], strict=False)
+        optimizer.load_state_dict(state["optimizer"])
+        step = int(state["step"])
+    rng = np.random.default_rng([config.seed, step])
+    gen = torch.Generator().manual_seed(config.seed * 7919 + step)
+    schedule = CosineSchedule()
+    info = {**model.config, "kind": "commdm", "train": config.to_json(), "prior_step": prior.config.get("step"),
+            "samples": len(samples), "items": len(items),
+            "interactions": sorted({s.interaction for s in samples})}
+
+    def checkpoint() -> None:
+        trainable = set(net.trainable())
+        if not all(torch.isfinite(v).all() for k, v in net.state_dict().items() if k in trainable):
+            print(f"step {step}: weights are not finite; checkpoint NOT written", flush=True)
+            return
+        write_config(out, {**info, "step": step})
+        keep = lambda sd: {k: v for k, v in sd.items() if k in trainable}  # noqa: E731
+        tmp = out / "train_state.pt.tmp"
+        torch.save({"model": keep(net.state_dict()), "ema": keep(ema.state_dict()),
+                    "optimizer": optimizer.state_dict(), "step": step}, tmp)
+        tmp.replace(out / "train_state.pt")
+        tmp = out / (WEIGHTS + ".tmp")
+        torch.save({k: v.half() for k, v in keep(ema.state_dict()).items()}, tmp)
+        tmp.replace(out / WEIGHTS)
+
+    print(f"ComMDM: {len(samples)} two-person samples ({config.shots} per interaction), {len(items)} crops, "
+          f"{sum(p.numel() for p in params)} trained parameters, {len(words)} new words", flush=True)
+    stop = _Stop()
+    previous = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
+    bar = tqdm(total=config.steps, initial=step, disable=not progress, desc="train commdm", unit="step")
+    window, t0, last = [], time.perf_counter(), {}
+    try:
+        net.train()
+        while step < config.steps and not stop.requested:
+            picks = rng.choice(len(items), size=min(config.batch_size, len(items)), replace=False)
+            x0, cond = _batch(model, [items[i] for i in picks], rng, config.text_dropout)
+            p = len(picks)
+            t = torch.randint(0, schedule.steps, (p,), generator=gen).repeat(2)  # one t per pair
+            x_t = schedule.q_sample(x0, t, torch.randn(x0.shape, generator=gen))
+            for group in optimizer.param_groups:
+                group["lr"] = lr_at(step, config)
+            x0_hat = net(x_t, t, cond)
+            mse, vel, place = duet_losses(x0_hat, x0, cond.frame_mask)
+            loss = mse + config.velocity_weight * vel + config.place_weight * place
+            optimizer.zero_grad(set_to_none=True)
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(params, 1.0)
+            if not torch.isfinite(loss):
+                print(f"step {step}: non-finite loss; update skipped", flush=True)
+                continue
+            optimizer.step()
+            with torch.no_grad():
+                decay = min(config.ema_decay, (1 + step) / (10 + step))
+                for (name, pe), pm in zip(ema.named_parameters(), net.parameters()):
+                    if pm.requires_grad:
+                        pe.lerp_(pm, 1 - decay)
+            step += 1
+            window.append((mse.item(), vel.item(), place.item()))
+            bar.update(1)
+            if step % config.log_every == 0 or step == config.steps:
+                w = np.asarray(window)
+                last = {"step": step, "mse": float(w[:, 0].mean()), "vel": float(w[:, 1].mean()),
+                        "place": float(w[:, 2].mean()), "lr": lr_at(step, config),
+                        "s_per_step": (time.perf_counter() - t0) / len(window), "time": time.time()}
+                bar.set_postfix(mse=f"{last['mse']:.4f}", place=f"{last['place']:.4f}")
+                with (out / "log.jsonl").open("a") as fh:
+                    fh.write(json.dumps(last) + "\n")
+                window, t0 = [], time.perf_counter()
+            if step % config.ckpt_every == 0:
+                checkpoint()
+    finally:
+        bar.close()
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        checkpoint()
+    return {"step": step, "stopped": stop.requested, **last}
+
+
+def load_trained(folder: str | Path, prior_folder: str | Path | None = None) -> DuetModel:
+    """A duet model folder with its prior (the one named in its training config unless given)."""
+    config = json.loads((Path(folder) / "config.json").read_text())
+    prior = load_model(prior_folder or config["train"]["prior"])
+    return load_duet(folder, prior)
