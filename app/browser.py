@@ -97,11 +97,11 @@ def free_port() -> int:
 
 @contextlib.contextmanager
 def studio_server(model_dir: str | os.PathLike, *, port: int | None = None, log_path: Path | None = None,
-                  timeout: float = 90.0) -> Iterator[str]:
+                  timeout: float = 90.0, duet_dir: str | os.PathLike | None = None) -> Iterator[str]:
     """Run ``moattn serve --model model_dir`` on a free port; yields its URL, stops it afterwards."""
     port = port or free_port()
     cmd = [sys.executable, "-m", "engine.cli", "serve", "--port", str(port), "--address", "localhost",
-           "--model", str(model_dir)]
+           "--model", str(model_dir)] + ([] if duet_dir is None else ["--duet-model", str(duet_dir)])
     log = open(log_path, "w") if log_path else subprocess.DEVNULL
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env,

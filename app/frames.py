@@ -43,6 +43,7 @@ class SceneSpec:
     camera_serial: int = 0
     title: str = ""
     guides: tuple[tuple[str, str, np.ndarray], ...] = ()  # (role, colour, (N, 3) points): target paths drawn in 3-D
+    together: bool = False  # every role in one shared space (a duet), not side by side
 
     @property
     def roles(self) -> tuple[str, ...]:
@@ -57,7 +58,7 @@ class SceneSpec:
         return SINGLE_SIZE if len(self.motions) == 1 else COMPARE_SIZE
 
     def same_motions(self, other: "SceneSpec | None") -> bool:
-        return other is not None and len(other.motions) == len(self.motions) and all(
+        return other is not None and other.together == self.together and len(other.motions) == len(self.motions) and all(
             ra == rb and ja is jb for (ra, ja), (rb, jb) in zip(self.motions, other.motions))
 
 
@@ -248,7 +249,8 @@ class FrameRenderer:
             if self._scene is not None:
                 self._scene.close()
             self._scene = SkeletonScene(dict(spec.motions), size=spec.size, follow=spec.follow,
-                                        anti_aliasing="msaa", frame_label=True, title=spec.title or None)
+                                        anti_aliasing="msaa", frame_label=True, title=spec.title or None,
+                                        offsets=_offsets(spec))
             self._base_azimuth = self._scene.azimuth
             old = None
         scene = self._scene
@@ -291,7 +293,7 @@ def _draw_guides(scene, spec: SceneSpec) -> None:
     scene._guide_names = []
     if not spec.show_path:  # the "root path" checkbox shows or hides the target paths too
         return
-    shifts = side_by_side_offsets(dict(spec.motions), spacing=0.6)
+    shifts = _offsets(spec) or side_by_side_offsets(dict(spec.motions), spacing=0.6)
     for k, (role, color, points) in enumerate(spec.guides):
         pts = np.asarray(points, dtype=np.float64)
         pts = pts[np.concatenate([[True], np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-5])]
@@ -301,6 +303,11 @@ def _draw_guides(scene, spec: SceneSpec) -> None:
         scene.plotter.add_mesh(polyline(pts + shifts[role]).tube(radius=0.012, n_sides=8), name=name, color=color,
                                ambient=0.5, diffuse=0.6, opacity=0.85)
         scene._guide_names.append(name)
+
+
+def _offsets(spec: SceneSpec) -> dict[str, tuple[float, float, float]] | None:
+    """Zero offsets for a shared space; None for the scene's default (side by side)."""
+    return {r: (0.0, 0.0, 0.0) for r in spec.roles} if spec.together else None
 
 
 def _colors_changed(old: SceneSpec | None, spec: SceneSpec) -> bool:

@@ -11,6 +11,7 @@ from app.theme import Fast as OfflineFast
 from app.views.attention import AttentionExplorer
 from app.views.compose import ComposeTab
 from app.views.control import ControlTab
+from app.views.duet import DuetTab
 from app.views.controls import GenerateControls
 from app.views.edit import EditTab
 from app.views.files import ExportPanel, ImportPanel
@@ -25,7 +26,8 @@ log = logging.getLogger("moattn.app")
 class Studio:
     """One session: its state and views (no Panel server needed to build or drive it)."""
 
-    def __init__(self, *, model_dir: Path | None = MODEL_DIR, initial: Path | None = None, doc=None):
+    def __init__(self, *, model_dir: Path | None = MODEL_DIR, initial: Path | None = None, doc=None,
+                 controls_dir: Path | None = None, duet_dir: Path | None = None):
         self.state = StudioState(model_dir=model_dir)
         if doc is not None:
             self.state.attach_document(doc)
@@ -35,7 +37,8 @@ class Studio:
         self.edit = EditTab(state=self.state)
         self.transfer = TransferTab(state=self.state)
         self.compose = ComposeTab(state=self.state)
-        self.control = ControlTab(state=self.state)
+        self.control = ControlTab(state=self.state, controls_dir=controls_dir)
+        self.duet = DuetTab(state=self.state, duet_dir=duet_dir)
         self.imports = ImportPanel(state=self.state)
         self.exports = ExportPanel(state=self.state)
         path = initial
@@ -60,7 +63,7 @@ class Studio:
         main = pn.Row(
             pn.Column("### Viewer", self.viewer, sizing_mode="stretch_width", min_width=500, max_width=760),
             pn.Tabs(("Attention", self.attention), ("Edit", self.edit), ("Transfer", self.transfer),
-                    ("Compose", self.compose), ("Control", self.control), width=600, css_classes=["right-tabs"]),
+                    ("Compose", self.compose), ("Control", self.control), ("Duet", self.duet), width=600, css_classes=["right-tabs"]),
             sizing_mode="stretch_width",
         )
         return pn.template.FastListTemplate(
@@ -72,10 +75,11 @@ class Studio:
         )
 
 
-def create_app(*, model_dir: Path | None = MODEL_DIR, initial: Path | None = None) -> pn.template.BaseTemplate:
+def create_app(*, model_dir: Path | None = MODEL_DIR, initial: Path | None = None, controls_dir: Path | None = None,
+               duet_dir: Path | None = None) -> pn.template.BaseTemplate:
     """A fresh page for one browser session."""
     doc = pn.state.curdoc
-    studio = Studio(model_dir=model_dir, initial=initial, doc=doc)
+    studio = Studio(model_dir=model_dir, initial=initial, doc=doc, controls_dir=controls_dir, duet_dir=duet_dir)
     notifications = pn.state.notifications
 
     def notify(event):
@@ -105,7 +109,7 @@ def create_app(*, model_dir: Path | None = MODEL_DIR, initial: Path | None = Non
 
 
 def serve(*, port: int = 5006, show: bool = False, address: str = "localhost", initial: Path | None = None,
-          model_dir: Path | None = MODEL_DIR) -> None:
+          model_dir: Path | None = MODEL_DIR, controls_dir: Path | None = None, duet_dir: Path | None = None) -> None:
     """Start the Panel server (blocks). The model is loaded once, before the first page.
 
     Each page opens ``initial`` (default: the shipped example walk) so a new user sees a motion.
@@ -122,7 +126,8 @@ def serve(*, port: int = 5006, show: bool = False, address: str = "localhost", i
         except Exception as exc:
             print(f"warning: {exc} (the studio starts without generation)")
     origins = [f"{address}:{port}", f"localhost:{port}", f"127.0.0.1:{port}"]
-    pn.serve(lambda: create_app(model_dir=model_dir, initial=initial), port=port, address=address, show=show,
+    pn.serve(lambda: create_app(model_dir=model_dir, initial=initial, controls_dir=controls_dir, duet_dir=duet_dir),
+             port=port, address=address, show=show,
              title="Motion Attention Studio", websocket_origin=origins, threaded=False,
              websocket_max_message_size=200 * 1024 * 1024, liveness=True)
 

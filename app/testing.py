@@ -22,3 +22,18 @@ def tiny_model(folder: Path) -> Path:
         raise RuntimeError(f"training the tiny test model failed ({done.returncode}):\n{done.stdout[-2000:]}\n"
                            f"{done.stderr[-4000:]}")
     return folder
+
+
+def tiny_duet(folder: Path, prior: Path) -> Path:
+    """Train (once) a few steps of the ComMDM block on the tiny ``prior`` into ``folder``."""
+    folder = Path(folder)
+    if (folder / "weights.pt").exists() and (folder / "config.json").exists():
+        return folder
+    cmd = [sys.executable, "-m", "engine.cli", "train", "--commdm", "--prior", str(prior), "--out", str(folder),
+           "--steps", "6", "--shots", "1", "--batch-size", "4", "--crop-every", "40", "--threads", "1",
+           "--no-progress"]
+    done = subprocess.run(cmd, capture_output=True, text=True, cwd=Path(__file__).resolve().parents[1], timeout=600)
+    if done.returncode != 0 or not (folder / "weights.pt").exists():
+        raise RuntimeError(f"training the tiny duet model failed ({done.returncode}):\n{done.stdout[-2000:]}\n"
+                           f"{done.stderr[-4000:]}")
+    return folder

@@ -26,6 +26,7 @@ SUBCOMMANDS: dict[str, str] = {
     "analyze-qk": "engine.cli_transfer",
     "compose": "engine.cli_compose",
     "control": "engine.cli_compose",
+    "duet": "engine.cli_duet",
     "serve": "app.cli_serve",
     "bench": "engine.cli_bench",
 }

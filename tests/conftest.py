@@ -35,6 +35,14 @@ def tiny_model_dir(tmp_path_factory):
     return tiny_model(tmp_path_factory.getbasetemp() / "tiny-model")
 
 
+@pytest.fixture(scope="session")
+def tiny_duet_dir(tiny_model_dir, tmp_path_factory):
+    """A ComMDM block trained a few steps on the tiny model (for app and CLI tests)."""
+    from app.testing import tiny_duet
+
+    return tiny_duet(tmp_path_factory.getbasetemp() / "tiny-duet", tiny_model_dir)
+
+
 def random_corpus_model(*, layers: int, width: int = 32, heads: int = 2):
     """An untrained seeded model with the corpus vocabulary and statistics (for method tests)."""
     import torch

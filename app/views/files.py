@@ -52,7 +52,54 @@ def slug(text: str, limit: int = 40) -> str:
 
 
 def export_filename(item: MotionItem, fmt: str) -> str:
-    return f"{slug(item.name)}.{fmt}"
+    name = slug(item.name.removesuffix(" · a").removesuffix(" · b")) if _duet(item) is not None else slug(item.name)
+    return f"{name}.{fmt}" + (".zip" if fmt == "bvh" and _duet(item) is not None else "")
+
+
+def _duet(item: MotionItem):
+    """The two people of a duet ``item`` belongs to (exports hold both), else None."""
+    from app.dueting import DuetPair
+
+    pair = item.info.get("duet")
+    return pair if isinstance(pair, DuetPair) else None
+
+
+def export_duet_bytes(pair, fmt: str, *, title: str) -> bytes:
+    """A duet's export: both people in one frame (.npy (2, T, ...), a zip of two BVH files, one scene on video)."""
+    import zipfile
+
+    from engine.io import format_bvh
+    from engine.representation import joints_to_features
+
+    joints = pair.joints  # (2, T, 22, 3)
+    if fmt == "bvh":
+        buf = io.BytesIO()
+        with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
+            for person, j in zip("ab", joints):
+                zf.writestr(f"{slug(title)}_{person}.bvh", format_bvh(j, fps=20.0))
+        return buf.getvalue()
+    if fmt in ("joints.npy", "vecs.npy"):
+        import numpy as np
+
+        data = joints if fmt == "joints.npy" else np.stack([joints_to_features(j) for j in joints])
+        buf = io.BytesIO()
+        np.save(buf, np.asarray(data, dtype=np.float32), allow_pickle=False)
+        return buf.getvalue()
+    if fmt in ("gif", "mp4"):
+        from viz.render import render_gif, render_mp4
+
+        motions = {"person a": joints[0], "person b": joints[1]}
+        offsets = {r: (0.0, 0.0, 0.0) for r in motions}
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / f"export.{fmt}"
+            with VTK_LOCK:
+                if fmt == "gif":
+                    render_gif(motions, path, size=(320, 240), follow=True, offsets=offsets, title=title[:40])
+                else:
+                    render_mp4(motions, path, size=(640, 480), follow=True, offsets=offsets, title=title[:50],
+                               frame_label=True)
+            return path.read_bytes()
+    raise ValueError(f"a duet has no {EXPORTS.get(fmt, fmt)} export")
 
 
 def export_bytes(item: MotionItem, fmt: str, *, selection: dict | None = None) -> bytes:
@@ -63,6 +110,9 @@ def export_bytes(item: MotionItem, fmt: str, *, selection: dict | None = None) -
     if fmt not in EXPORTS:
         raise ValueError(f"unknown export format {fmt!r}; one of {', '.join(EXPORTS)}")
     joints = item.joints
+    pair = _duet(item)
+    if pair is not None and not fmt.startswith("attention."):
+        return export_duet_bytes(pair, fmt, title=item.name.removesuffix(" · a").removesuffix(" · b"))
     if fmt == "bvh":
         return format_bvh(joints, fps=20.0).encode()
     if fmt.startswith("attention."):

@@ -5,6 +5,7 @@ import panel as pn
 import param
 
 from app.components.player import FramePlayer
+from app.dueting import is_duet
 from app.frames import FrameBatch, FrameRenderer, SceneSpec
 from app.state import StudioState
 
@@ -89,7 +90,7 @@ class SkeletonViewer(pn.viewable.Viewer):
             title = f"colour: {s.transfer.color_by} (legend in the Transfer tab)"
         return SceneSpec(motions=tuple(motions), follow=s.follow, show_path=s.show_path, frame_values=values,
                          role_colors=tuple(colors), azimuth_offset=self._azimuth, camera_serial=self._camera_serial,
-                         title=title[:70], guides=self._same_guides(tuple(guides)))
+                         title=title[:70], guides=self._same_guides(tuple(guides)), together=is_duet(shown))
 
     def _same_guides(self, guides: tuple) -> tuple:
         """The previous tuple when the guides did not change (the renderer redraws them on a new object only)."""

@@ -73,6 +73,24 @@ def load_npy(path: str | os.PathLike[str], *, max_bytes: int = DEFAULT_MAX_BYTES
     arrays, other shapes and dtypes, empty arrays and NaN/inf, each with a clear message.
     """
     path = Path(path)
+    return classify_motion_array(read_array(path, max_bytes=max_bytes), name=path.name)
+
+
+def load_duet_npy(path: str | os.PathLike[str], *, max_bytes: int = DEFAULT_MAX_BYTES) -> np.ndarray:
+    """Load two people's joints (2, T, 22, 3) float32 (as ``moattn duet`` writes them), with load_npy's checks."""
+    path = Path(path)
+    array = read_array(path, max_bytes=max_bytes)
+    if array.ndim != 4 or array.shape[0] != 2 or array.shape[2:] != (22, 3) or array.shape[1] < 1:
+        raise MotionIOError(f"{path.name} is not a duet: expected joints of shape (2, T, 22, 3), got {array.shape}")
+    if not np.issubdtype(array.dtype, np.floating):
+        raise MotionIOError(f"{path.name} holds {array.dtype} values; joints must be floats")
+    if not np.isfinite(array).all():
+        raise MotionIOError(f"{path.name} contains NaN or infinite values")
+    return array.astype(np.float32)
+
+
+def read_array(path: Path, *, max_bytes: int = DEFAULT_MAX_BYTES) -> np.ndarray:
+    """A plain array from a .npy file, never unpickled (size, magic, header and dtype checked first)."""
     check_file_size(path, max_bytes=max_bytes, kind="NPY")
     with path.open("rb") as handle:
         head = handle.read(len(_NPY_MAGIC))
@@ -102,7 +120,7 @@ def load_npy(path: str | os.PathLike[str], *, max_bytes: int = DEFAULT_MAX_BYTES
         array = np.load(path, allow_pickle=False)
     except ValueError as exc:
         raise MotionIOError(f"{path.name} could not be read as a .npy array (truncated or corrupt?): {exc}") from None
-    return classify_motion_array(array, name=path.name)
+    return array
 
 
 def save_npy(

@@ -221,9 +221,11 @@ def complete(model: DuetModel, prefix_a: np.ndarray, prefix_b: np.ndarray, *, pr
     cond = _condition(model, prompt, frames)
     x0 = _sample(model, cond, frames, sample, communicate=communicate, known=KnownCells(values, mask), on_step=on_step)
     duet = _finish(model, x0, prompt=prompt, communicate=communicate, place=b_from_a)
-    # person a's frame: the prefix's own (a's canonical frame); bring it back to the caller's frame
+    # back from person a's canonical frame to the caller's, each person at its own floor height again
     pose_a = Pose.of_joints(a)
+    floors = np.array([a[..., 1].min(), b[..., 1].min()], dtype=np.float32)
     duet.joints = np.stack([pose_a.place(j) for j in duet.joints]).astype(np.float32)
+    duet.joints[..., 1] += floors[:, None, None]
     return duet
 
 

@@ -24,9 +24,9 @@ def screens(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="session")
-def server_url(tiny_model_dir, tmp_path_factory):
+def server_url(tiny_model_dir, tiny_duet_dir, tmp_path_factory):
     log = tmp_path_factory.getbasetemp() / "serve.log"
-    with br.studio_server(tiny_model_dir, log_path=log) as url:
+    with br.studio_server(tiny_model_dir, log_path=log, duet_dir=tiny_duet_dir) as url:
         yield url
 
 

@@ -1,0 +1,109 @@
+"""`moattn duet`: two people from one prompt, or the completion of a two-person prefix (ComMDM)."""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from engine.paths import DUET_DIR, MODEL_DIR
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("duet", help="ComMDM: two people from one prompt, or complete a two-person prefix",
+                       description="Generate two people who interact, from one prompt both read (e.g. 'two people "
+                       "shake hands'), or with --prefix complete the next seconds of a two-person motion (text "
+                       "optional). --out FILE.npy holds joints (2, T, 22, 3) in one frame; FILE.bvh writes "
+                       "FILE_a.bvh and FILE_b.bvh (one skeleton each, same frame).")
+    p.add_argument("prompt", nargs="?", default=None, help="what the two people do (optional with --prefix)")
+    p.add_argument("--out", type=Path, required=True, help="the duet (.npy, or .bvh for one file per person)")
+    p.add_argument("--seconds", type=float, default=None,
+                   help="length (default 5 s; with --prefix: seconds completed after the prefix, default 3)")
+    p.add_argument("--prefix", type=Path, nargs="+", default=None, metavar="FILE",
+                   help="a duet .npy (2, T, 22, 3), or two motions (.bvh/.npy), person a then person b")
+    p.add_argument("--prefix-seconds", type=float, default=1.0, help="seconds of the prefix kept (default 1)")
+    p.add_argument("--no-communication", action="store_true",
+                   help="the baseline: the prior run twice without the block (fixed placement)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--steps", type=int, default=50)
+    p.add_argument("--guidance", type=float, default=None, help="default 2.5 (1.0 with --prefix and no prompt)")
+    p.add_argument("--model", type=Path, default=MODEL_DIR, help="the base model (the prior)")
+    p.add_argument("--duet-model", type=Path, default=DUET_DIR, help="the ComMDM block trained on that prior")
+    p.add_argument("--render", type=Path, default=None, help="a render of both people (.gif, .mp4 or .png)")
+    p.set_defaults(run=run)
+
+
+def read_prefix(paths: list[Path]) -> tuple[np.ndarray, np.ndarray]:
+    """Two people's joints from one duet .npy or two motion files."""
+    from engine.io import load_motion
+    from engine.io.npy import load_duet_npy
+
+    if len(paths) == 1:
+        path = paths[0]
+        if path.suffix.lower() != ".npy":
+            raise ValueError("a single --prefix file must be a duet .npy of shape (2, T, 22, 3)")
+        data = load_duet_npy(path)
+        return data[0], data[1]
+    if len(paths) == 2:
+        return load_motion(paths[0]), load_motion(paths[1])
+    raise ValueError("--prefix takes one duet .npy or two motion files")
+
+
+def write_duet(joints: np.ndarray, path: Path) -> list[Path]:
+    """(2, T, 22, 3) -> FILE.npy, or FILE_a.bvh and FILE_b.bvh."""
+    from engine.io import save_motion
+
+    suffix = path.suffix.lower()
+    if suffix == ".npy":
+        path.parent.mkdir(parents=True, exist_ok=True)
+        np.save(path, np.asarray(joints, dtype=np.float32), allow_pickle=False)
+        return [path]
+    if suffix == ".bvh":
+        out = [path.with_name(f"{path.stem}_{p}.bvh") for p in ("a", "b")]
+        for j, target in zip(joints, out):
+            save_motion(j, target)
+        return out
+    raise ValueError(f"--out must end in .npy or .bvh, got {path.name!r}")
+
+
+def render_duet(joints: np.ndarray, path: Path, *, title: str | None = None) -> Path:
+    from viz.render import render_file
+
+    motions = {"person a": joints[0], "person b": joints[1]}
+    return render_file(motions, path, offsets={r: (0.0, 0.0, 0.0) for r in motions}, title=title)
+
+
+def run(args: argparse.Namespace) -> int:
+    from engine.generate import SampleConfig
+    from engine.train_commdm import load_trained
+    from engine.methods.duet import COMPLETE_SECONDS, complete, text_to_duet
+
+    if args.out.suffix.lower() not in (".npy", ".bvh"):
+        raise ValueError(f"--out must end in .npy or .bvh, got {args.out.name!r}")
+    if args.prompt is not None and not args.prompt.strip():
+        raise ValueError("the prompt is empty: describe what the two people do, e.g. 'two people shake hands'")
+    if args.prompt is None and args.prefix is None:
+        raise ValueError("give a prompt (e.g. 'two people shake hands') or --prefix FILE")
+    model = load_trained(args.duet_model, args.model)
+    if args.prompt is not None:
+        model.tokenizer.encode(args.prompt)  # unknown words fail before any sampling
+    guidance = args.guidance if args.guidance is not None else (1.0 if args.prompt is None else 2.5)
+    sample = SampleConfig(steps=args.steps, guidance=guidance, seed=args.seed)
+    communicate = not args.no_communication
+    if args.prefix is not None:
+        a, b = read_prefix(args.prefix)
+        duet = complete(model, a, b, prefix_seconds=args.prefix_seconds, prompt=args.prompt,
+                        seconds=args.seconds or COMPLETE_SECONDS, sample=sample, communicate=communicate)
+    else:
+        duet = text_to_duet(model, args.prompt, seconds=args.seconds or 5.0, sample=sample, communicate=communicate)
+    written = write_duet(duet.joints, args.out)
+    p = duet.placement
+    report = {"out": [str(w) for w in written], "frames": duet.frames, "seconds": duet.frames / 20,
+              "communication": communicate,
+              "placement_of_b_from_a": {"x_m": round(p.x, 3), "z_m": round(p.z, 3),
+                                        "facing_deg": round(float(np.degrees(p.yaw)), 1)}}
+    if args.render is not None:
+        report["render"] = str(render_duet(duet.joints, args.render, title=args.prompt))
+    print(json.dumps(report, indent=2))
+    return 0

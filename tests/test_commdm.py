@@ -1,0 +1,309 @@
+"""ComMDM (PriorMDM): placement geometry on the corpus's duets, the duet state and pairing, the block (zero at
+initialisation, the prior frozen, the other person's motion reaching this one), training on a tiny prior,
+text-to-duet and prefix completion (the prefix kept exactly), the duet bench's measures on ground truth, and
+`moattn duet` / `moattn train --commdm` with their errors."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from engine.attention.context import BatchRoles
+from engine.methods.commdm import (ComConfig, DuetDenoiser, Pose, PriorTwice, duet_roles, pack, partners, placements,
+                                   unpack)
+from engine.synth.duet import DuetCorpus, make_duet
+from tests.conftest import PROJECT_ROOT, random_corpus_model
+
+pytestmark = pytest.mark.timeout(600)
+
+
+# ----------------------------------------------------------------------------- geometry
+@pytest.mark.parametrize("interaction", ["handshake", "side_by_side", "following", "push"])
+def test_placements_match_the_corpus_labels(interaction):
+    from engine.representation import canonicalize
+
+    s = make_duet(interaction, np.random.default_rng(3))
+    b_from_a, a_from_b = placements(s.joints_a, s.joints_b)
+    off, facing = s.labels["placement"]["offset_xz"], s.labels["placement"]["facing"]
+    assert b_from_a.x == pytest.approx(off[0], abs=2e-3) and b_from_a.z == pytest.approx(off[1], abs=2e-3)
+    assert np.cos(b_from_a.yaw - facing) == pytest.approx(1.0, abs=1e-5)
+    # each person's canonical joints placed by its pose land where they were
+    for joints in s.joints:
+        pose = Pose.of_joints(joints)
+        back = pose.place(canonicalize(joints))
+        np.testing.assert_allclose(back[..., [0, 2]], joints[..., [0, 2]], atol=1e-4)
+    # a seen from b is the inverse of b seen from a
+    inv = b_from_a.inverse()
+    assert (inv.x, inv.z) == pytest.approx((a_from_b.x, a_from_b.z), abs=1e-6)
+    assert np.cos(inv.yaw - a_from_b.yaw) == pytest.approx(1.0, abs=1e-9)
+
+
+def test_canonical_transform_turns_a_person_facing_minus_z():
+    from engine.representation import facing_direction
+    from engine.synth.corpus import to_canonical
+
+    s = make_duet("hug", np.random.default_rng(0))
+    assert facing_direction(s.joints_b[0])[2] < -0.99  # person b faces -Z exactly
+    canon, rot, _ = to_canonical(s.joints_b)
+    assert facing_direction(canon[0])[2] > 0.99
+    assert Pose.of_joints(s.joints_b).yaw == pytest.approx(np.pi, abs=1e-3) or \
+        Pose.of_joints(s.joints_b).yaw == pytest.approx(-np.pi, abs=1e-3)
+
+
+def test_pose_vector_round_trip_and_bad_values():
+    p = Pose(0.3, -1.2, 2.5)
+    q = Pose.of_vector(p.vector())
+    assert (q.x, q.z, q.yaw) == pytest.approx((p.x, p.z, p.yaw), abs=1e-6)
+    with pytest.raises(ValueError, match="4 finite numbers"):
+        Pose.of_vector([0.0, np.nan, 1.0, 0.0])
+
+
+# ----------------------------------------------------------------------------- the duet state
+def test_pack_unpack_and_partners():
+    motion, place = torch.randn(4, 7, 263), torch.randn(4, 4)
+    x = pack(motion, place)
+    assert x.shape == (4, 8, 263) and torch.equal(x[:, -1, 4:], torch.zeros(4, 259))
+    m, p = unpack(x)
+    assert torch.equal(m, motion) and torch.equal(p, place)
+    roles = duet_roles(2)
+    assert partners(roles).tolist() == [2, 3, 0, 1]
+    # classifier-free guidance doubles the batch: unconditional slots pair among themselves
+    assert partners(roles.with_uncond()).tolist() == [2, 3, 0, 1, 6, 7, 4, 5]
+    with pytest.raises(ValueError, match="pairs person_a and person_b"):
+        partners(BatchRoles.of("person_a", "person_a", "person_b"))
+    with pytest.raises(ValueError, match="must be person_a or person_b"):
+        partners(BatchRoles.of("person_a", "person_b", "out"))
+
+
+def _duet_batch(loaded, frames=12, pairs=2, prompt="a person walks"):
+    from engine.model.denoiser import Condition
+    from engine.attention.context import WordIndex
+
+    tok = loaded.tokenizer.encode(prompt)
+    ids, mask = loaded.tokenizer.batch([tok] * (2 * pairs))
+    frame_mask = torch.zeros(2 * pairs, frames + 1, dtype=torch.bool)
+    frame_mask[:, :frames] = True
+    cond = Condition(text_ids=ids, text_mask=mask, frame_mask=frame_mask, use_text=torch.ones(2 * pairs, dtype=torch.bool),
+                     roles=duet_roles(pairs), words=WordIndex(words=(tok.words,) * (2 * pairs)))
+    g = torch.Generator().manual_seed(1)
+    return torch.randn(2 * pairs, frames + 1, 263, generator=g), cond
+
+
+def test_untrained_block_leaves_the_prior_unchanged_and_the_prior_stays_frozen():
+    loaded = random_corpus_model(layers=3)
+    prior = loaded.model
+    before = {k: v.clone() for k, v in prior.state_dict().items()}
+    duet = DuetDenoiser(prior, known_words=len(loaded.tokenizer) - 1, new_words=3, config=ComConfig(after=2))
+    x, cond = _duet_batch(loaded)
+    t = torch.full((4,), 300)
+    with torch.no_grad():
+        out = duet(x, t, cond)
+        motion, _ = unpack(x)
+        from dataclasses import replace
+
+        alone = prior(motion, t, replace(cond, frame_mask=cond.frame_mask[:, :-1]))
+    # ΔO starts at zero: the motion is the prior's own prediction
+    torch.testing.assert_close(unpack(out)[0], alone, atol=1e-5, rtol=1e-5)
+    assert all(not p.requires_grad for p in prior.parameters())
+    trainable = {n for n, p in duet.named_parameters() if p.requires_grad}
+    assert trainable and all(n.startswith("com.") or n == "text_encoder.embed.new" for n in trainable)
+    # a training step moves the block and the new word rows only
+    opt = torch.optim.SGD([p for p in duet.parameters() if p.requires_grad], lr=0.1)
+    loss = duet(x, t, cond).pow(2).mean()
+    loss.backward()
+    opt.step()
+    for k, v in prior.state_dict().items():
+        assert torch.equal(v, before[k]), k
+
+
+def test_the_other_person_reaches_this_one_through_the_block_only():
+    loaded = random_corpus_model(layers=2)
+    duet = DuetDenoiser(loaded.model, known_words=len(loaded.tokenizer) - 1, new_words=0, config=ComConfig())
+    torch.nn.init.normal_(duet.com.delta.weight, std=0.5)  # a block that has learned something
+    x, cond = _duet_batch(loaded, pairs=1)
+    t = torch.full((2,), 500)
+    changed = x.clone()
+    changed[1, :-1] += 1.0  # person b moves differently
+    with torch.no_grad():
+        a_with = duet(x, t, cond)[0]
+        a_other = duet(changed, t, cond)[0]
+        solo = PriorTwice(duet, torch.tensor([0.0, 1.0, -1.0, 0.0]))
+        s_with, s_other = solo(x, t, cond), solo(changed, t, cond)
+    assert (a_with - a_other)[:-1].abs().max() > 1e-3  # person a answers person b
+    torch.testing.assert_close(s_with[0], s_other[0])  # the baseline does not
+    np.testing.assert_allclose(unpack(s_with)[1].numpy(), [[0.0, 1.0, -1.0, 0.0]] * 2)
+
+
+# ----------------------------------------------------------------------------- training and sampling (tiny prior)
+@pytest.fixture(scope="module")
+def duet_model(tiny_model_dir, tiny_duet_dir):
+    from engine.train_commdm import load_trained
+
+    return load_trained(tiny_duet_dir, tiny_model_dir)
+
+
+def test_trained_folder_holds_the_block_only(tiny_duet_dir, tiny_model_dir):
+    from engine.checkpoint import load_model
+    from engine.methods.commdm import fingerprint
+
+    config = json.loads((tiny_duet_dir / "config.json").read_text())
+    assert config["kind"] == "commdm" and config["step"] == 6 and config["samples"] == 8
+    assert config["prior"] == fingerprint(load_model(tiny_model_dir))
+    assert {"hug", "shake", "people"} <= set(config["words"])
+    weights = torch.load(tiny_duet_dir / "weights.pt", weights_only=True)
+    assert weights and all(k.startswith("com.") or k == "text_encoder.embed.new" for k in weights)
+    assert all(v.dtype == torch.float16 for v in weights.values())
+    log = [json.loads(line) for line in (tiny_duet_dir / "log.jsonl").read_text().splitlines()]
+    assert log and all(np.isfinite(r["mse"]) and np.isfinite(r["place"]) for r in log)
+
+
+def test_a_duet_model_refuses_another_prior(tiny_duet_dir):
+    from engine.methods.duet import load_duet
+
+    other = random_corpus_model(layers=2)
+    with pytest.raises(ValueError, match="trained on another base model"):
+        load_duet(tiny_duet_dir, other)
+
+
+def test_text_to_duet(duet_model):
+    from engine.generate import SampleConfig
+    from engine.methods.duet import text_to_duet
+    from engine.text import PromptError
+
+    d = text_to_duet(duet_model, "two people shake hands", seconds=2.0, sample=SampleConfig(steps=4))
+    assert d.joints.shape == (2, 40, 22, 3) and np.isfinite(d.joints).all()
+    # person a stands in its own canonical frame; person b where the placement says
+    np.testing.assert_allclose(d.joints[0, 0, 0, [0, 2]], 0.0, atol=1e-5)
+    np.testing.assert_allclose(d.joints[1, 0, 0, [0, 2]], [d.placement.x, d.placement.z], atol=1e-4)
+    base = text_to_duet(duet_model, "two people shake hands", seconds=2.0, sample=SampleConfig(steps=4),
+                        communicate=False)
+    mean = duet_model.mean_place
+    assert (base.placement.x, base.placement.z) == pytest.approx((mean.x, mean.z), abs=1e-4)
+    with pytest.raises(PromptError, match="zzzz"):
+        text_to_duet(duet_model, "two people zzzz", seconds=2.0)
+    with pytest.raises(ValueError, match="between"):
+        text_to_duet(duet_model, "two people hug", seconds=30.0)
+
+
+def test_prefix_completion_keeps_the_prefix(duet_model):
+    from engine.generate import SampleConfig
+    from engine.methods.duet import complete
+
+    s = DuetCorpus("test").sample(2)
+    turn = Pose(0.7, -0.4, 0.9)  # the caller's frame need not be person a's
+    ja, jb = turn.place(s.joints_a), turn.place(s.joints_b)
+    d = complete(duet_model, ja, jb, sample=SampleConfig(steps=4, guidance=1.0))
+    assert d.joints.shape == (2, 80, 22, 3)
+    for person, truth in enumerate((ja, jb)):
+        np.testing.assert_allclose(d.joints[person, :20], truth[:20], atol=2e-3)
+    with pytest.raises(ValueError, match="needs 21 frames"):
+        complete(duet_model, ja[:10], jb[:10])
+    bad = ja.copy()
+    bad[3, 4, 1] = np.nan
+    with pytest.raises(ValueError, match="non-finite"):
+        complete(duet_model, bad, jb)
+    with pytest.raises(ValueError, match=r"joints \(T, 22, 3\)"):
+        complete(duet_model, ja[:, :20], jb)
+    with pytest.raises(ValueError, match="longer than"):
+        complete(duet_model, ja, jb, seconds=9.8, prefix_seconds=2.0)
+
+
+# ----------------------------------------------------------------------------- the bench's measures
+def test_contact_and_placement_measures_on_ground_truth():
+    from engine.evaluation.bench_duet import FACE_TO_FACE, contact_timing, face_each_other, placement_error
+    from engine.methods.duet_data import few_shot
+
+    for s in few_shot("test", per_interaction=2):
+        both = np.stack([s.joints_a, s.joints_b])
+        assert placement_error(both, s.joints_a, s.joints_b) == pytest.approx((0.0, 0.0), abs=1e-6)
+        swapped = np.stack([s.joints_b, s.joints_a])  # the better person order is taken
+        assert placement_error(swapped, s.joints_a, s.joints_b)[0] == pytest.approx(0.0, abs=1e-6)
+        for c in s.labels["contacts"]:
+            err, hit = contact_timing(c["kind"], c["start"], c["end"], s.joints_a, s.joints_b)
+            assert hit and err <= 0.2, (s.interaction, err)
+            # people 3 m apart never touch
+            far = s.joints_b + np.array([3.0, 0.0, 0.0])
+            err, hit = contact_timing(c["kind"], c["start"], c["end"], s.joints_a, far)
+            assert not hit and err == pytest.approx(len(s.joints_a) / 20)
+        if s.interaction in FACE_TO_FACE:
+            assert face_each_other(both)
+            assert not face_each_other(np.stack([s.joints_a, s.joints_b[:, :, ::1] * [-1, 1, 1]]))
+
+
+def test_bench_duet_runs_on_the_tiny_model(duet_model):
+    from engine.evaluation.bench_duet import DuetBenchConfig, bench_duet, format_table
+
+    result = bench_duet(duet_model, DuetBenchConfig(per_interaction=1, steps=2), log=lambda _: None)
+    assert result["samples"] == 8
+    for method in ("commdm", "prior_twice"):
+        p, t = result["prefix"][method], result["text"][method]
+        assert p["n"] >= 1 and all(np.isfinite(p[k]) and p[k] >= 0 for k in p)
+        assert t["n"] == 8 and 0 <= t["contact_rate"] <= 1 and 0 <= t["face_each_other"] <= 1
+        assert p["root_1s"] <= p["root_3s"] + 1.0
+    assert set(result["beats_baseline"]) >= {"prefix.root_1s", "text.placement_m", "text.contact_timing_s"}
+    table = format_table(result)
+    assert "prefix completion" in table and "prior_twice" in table
+
+
+# ----------------------------------------------------------------------------- CLI
+def _moattn(*args, timeout=600):
+    return subprocess.run([sys.executable, "-m", "engine.cli", *map(str, args)], capture_output=True, text=True,
+                          cwd=PROJECT_ROOT, timeout=timeout)
+
+
+def test_moattn_duet_writes_both_people(tmp_path, tiny_model_dir, tiny_duet_dir):
+    out = tmp_path / "duet.npy"
+    done = _moattn("duet", "two people hug", "--out", out, "--seconds", "2", "--steps", "3",
+                   "--model", tiny_model_dir, "--duet-model", tiny_duet_dir)
+    assert done.returncode == 0, done.stderr
+    joints = np.load(out)
+    assert joints.shape == (2, 40, 22, 3) and json.loads(done.stdout)["frames"] == 40
+    done = _moattn("duet", "--prefix", out, "--prefix-seconds", "0.5", "--seconds", "1", "--out",
+                   tmp_path / "more.npy", "--steps", "3", "--model", tiny_model_dir, "--duet-model", tiny_duet_dir)
+    assert done.returncode == 0, done.stderr
+    more = np.load(tmp_path / "more.npy")
+    assert more.shape == (2, 30, 22, 3)
+    np.testing.assert_allclose(more[:, :10], joints[:, :10], atol=2e-3)  # the given half second, both people
+    from engine.cli_duet import write_duet
+    from engine.io import load_motion
+
+    a_path, b_path = write_duet(joints, tmp_path / "pair.bvh")
+    assert (a_path.name, b_path.name) == ("pair_a.bvh", "pair_b.bvh")
+    assert len(load_motion(a_path)) == len(load_motion(b_path)) == 40
+
+
+@pytest.mark.parametrize("args, message", [
+    (["two people zzzq", "--out", "x.npy"], "unknown word"),
+    (["   ", "--out", "x.npy"], "prompt is empty"),
+    (["two people hug", "--out", "x.txt"], "must end in .npy or .bvh"),
+    (["--out", "x.npy"], "give a prompt"),
+])
+def test_moattn_duet_errors(tmp_path, tiny_model_dir, tiny_duet_dir, args, message):
+    args = [str(tmp_path / a) if a.startswith("x.") else a for a in args]
+    done = _moattn("duet", *args, "--model", tiny_model_dir, "--duet-model", tiny_duet_dir)
+    assert done.returncode == 2 and message in done.stderr, done.stderr
+
+
+def test_duet_prefix_file_is_checked(tmp_path, tiny_model_dir, tiny_duet_dir):
+    bad = tmp_path / "bad.npy"
+    np.save(bad, np.zeros((3, 30, 22, 3), dtype=np.float32))
+    done = _moattn("duet", "--prefix", bad, "--out", tmp_path / "o.npy", "--model", tiny_model_dir,
+                   "--duet-model", tiny_duet_dir)
+    assert done.returncode == 2 and "expected joints of shape (2, T, 22, 3)" in done.stderr
+    pickled = tmp_path / "p.npy"
+    np.save(pickled, np.array([{"a": 1}], dtype=object), allow_pickle=True)
+    done = _moattn("duet", "--prefix", pickled, "--out", tmp_path / "o.npy", "--model", tiny_model_dir,
+                   "--duet-model", tiny_duet_dir)
+    assert done.returncode == 2 and "pickle" in done.stderr
+
+
+def test_train_flags_belong_to_their_kind():
+    done = _moattn("train", "--shots", "3", "--steps", "1")
+    assert done.returncode != 0 and "--shots applies to --commdm only" in done.stderr
+    done = _moattn("train", "--commdm", "--data", "somewhere")
+    assert done.returncode != 0 and "--data does not apply to --commdm" in done.stderr
