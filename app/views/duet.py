@@ -47,7 +47,7 @@ class DuetTab(pn.viewable.Viewer):
                                     pn.pane.Markdown("or upload a duet .npy (2, T, 22, 3), as `moattn duet` writes:",
                                                      margin=(0, 10), styles={"font-size": "12px"}),
                                     self.upload, sizing_mode="stretch_width")
-        self.communicate = pn.widgets.Checkbox(name="communication block (ComMDM); off: the base model twice",
+        self.communicate = pn.widgets.Checkbox(label="communication block (ComMDM); off: the base model twice",
                                                value=d.communicate, css_classes=["duet-communicate"])
         self.model_note = pn.pane.HTML("", margin=(0, 10), css_classes=["duet-model-note"], stylesheets=[_CSS])
         self.bar = JobBar(state=self.state, jobs=["duet"], label="Make the duet", prefix="duet",
@@ -83,9 +83,11 @@ class DuetTab(pn.viewable.Viewer):
     def _on_mode(self, *_):
         prefix = self.settings.mode == "prefix"
         self.prefix_box.visible = prefix
-        self.seconds.name = "Completed (s)" if prefix else "Seconds"
-        if prefix and self.settings.seconds > 5.0:
-            self.seconds.value = 3.0
+        self.seconds.label = "Completed (s)" if prefix else "Seconds"
+        # each mode's default length (the paper completes 3 s); a length the user typed is kept
+        defaults = {True: 3.0, False: 5.0}
+        if self.settings.seconds == defaults[not prefix]:
+            self.seconds.value = defaults[prefix]
         self.prompt.placeholder = "optional: leave empty for an unconditional completion" if prefix else ""
 
     def _on_prefixes(self, *_):

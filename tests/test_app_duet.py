@@ -1,0 +1,163 @@
+"""The Duet tab (ComMDM) without a server, on the tiny model and a tiny trained block: a duet from a prompt (two
+session motions shown together in one scene, in two colours), a completion of an example prefix (the prefix
+kept, its frames greyed), the block off, checks with clear messages (unknown words, lengths, bad uploads, no
+duet model), and the duet's exports holding both people."""
+from __future__ import annotations
+
+import io
+import zipfile
+
+import numpy as np
+import pytest
+
+from app.dueting import EXAMPLE, PREFIX_COLOR, is_duet
+from app.main import Studio
+from app.views.files import export_bytes, export_filename
+from viz.colors import default_joint_colors
+
+pytestmark = pytest.mark.timeout(600)
+
+
+@pytest.fixture()
+def studio(tiny_model_dir, tiny_duet_dir):
+    st = Studio(model_dir=tiny_model_dir, initial=None, duet_dir=tiny_duet_dir)
+    st.state.param.update(steps=4, seed=1)
+    yield st
+    st.close()
+
+
+def _run(studio) -> bool:
+    s = studio.state
+    studio.duet.bar.run.clicks += 1
+    return s.wait(300)
+
+
+def test_duet_from_a_prompt_is_shown_in_one_scene(studio):
+    s, tab = studio.state, studio.duet
+    d = tab.settings
+    assert "ComMDM block after layer 2 of 2" in tab.model_note.object
+    tab.prompt.value = "two people give each other a high five"
+    tab.seconds.value = 2.0
+    assert _run(studio) and not [n for n in s.notices if n[0] == "error"], s.notices
+    r = d.result
+    assert r is not None and r.mode == "text" and r.communicate and r.n_frames == 40
+    a, b = (s.items[n] for n in r.names)
+    assert s.current == a.name and s.also == [b.name]
+    assert is_duet(s.shown_items) and a.info["duet"] is b.info["duet"]
+    np.testing.assert_array_equal(a.info["duet"].joints[1], b.joints)
+    spec = studio.viewer.spec()
+    assert spec.together and len(spec.motions) == 2  # one shared space, not side by side
+    assert f"{r.distance_m:.2f} m" in tab.readout.object and "person b orange" in tab.readout.object
+    # showing one other motion ends the shared scene
+    s.show_motion(np.zeros((10, 22, 3), dtype=np.float32) + np.arange(22)[None, :, None] * 0.05, title="x")
+    assert not studio.viewer.spec().together
+
+
+def test_completion_of_an_example_keeps_and_greys_the_prefix(studio):
+    from app.dueting import example
+
+    s, tab = studio.state, studio.duet
+    tab.mode.value = "prefix"
+    assert tab.prefix_box.visible and tab.seconds.value == 3.0
+    assert tab.prefix.value == EXAMPLE + "handshake" and EXAMPLE + "hug" in tab.prefix.options
+    tab.prompt.value = ""  # unconditional, as in the paper
+    tab.prefix.value = EXAMPLE + "push"
+    tab.seconds.value = 2.0
+    tab.communicate.value = False
+    assert _run(studio), s.notices
+    r = tab.settings.result
+    assert r.mode == "prefix" and r.prefix_frames == 20 and r.n_frames == 60 and not r.communicate
+    ex = example(EXAMPLE + "push")
+    a, b = (s.items[n] for n in r.names)
+    np.testing.assert_allclose(a.joints[:20], ex.joints_a[:20], atol=2e-3)
+    np.testing.assert_allclose(b.joints[:20], ex.joints_b[:20], atol=2e-3)
+    colors = s.frame_colors[a.name]
+    np.testing.assert_array_equal(colors[5], default_joint_colors(PREFIX_COLOR))
+    assert not np.array_equal(colors[30], colors[5])
+    assert "no block" in a.name and "first 20 given" in tab.readout.object
+    # the duet just made is offered as a prefix too
+    assert a.name in tab.prefix.options
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"prompt": "two people flibber"}, "flibber"),
+    ({"prompt": "  "}, "type what the two people do"),
+    ({"seconds": 30.0}, "between 1 and 9.8 s"),
+    ({"mode": "prefix", "seconds": 9.5}, "must fit in"),
+    ({"mode": "prefix", "prefix_seconds": float("nan")}, "number of seconds"),
+])
+def test_bad_input_gets_a_clear_message(studio, change, message):
+    s, d = studio.state, studio.duet.settings
+    d.param.update(**change)
+    assert not studio.duet.settings.mode == "text" or not d.unknown_words or "flibber" in message
+    from app.dueting import start_duet
+
+    assert not start_duet(s, d)
+    level, text = s.notices[-1]
+    assert level == "error" and text.startswith("cannot make a duet:") and message in text, text
+    assert not s.running
+
+
+def test_unknown_words_are_flagged_and_block_the_button(studio):
+    tab = studio.duet
+    tab.prompt.value_input = "two people smooch"
+    assert "smooch" in tab.flag.object and tab.bar.run.disabled
+    tab.prompt.value_input = "two people hug"
+    assert tab.flag.object == "" and not tab.bar.run.disabled
+
+
+def test_uploads_are_parsed_as_data(studio, tmp_path):
+    s, tab = studio.state, studio.duet
+    good = np.stack([_walker(0.0), _walker(1.0)])
+    buf = io.BytesIO()
+    np.save(buf, good)
+    tab.upload.filename = "pair.npy"
+    tab.upload.value = buf.getvalue()
+    assert tab.settings.prefix == "upload: pair.npy" and tab.prefix.value == "upload: pair.npy"
+    bad = io.BytesIO()
+    np.save(bad, np.zeros((30, 22, 3), dtype=np.float32))
+    tab.upload.filename = "single.npy"
+    tab.upload.value = bad.getvalue()
+    assert s.notices[-1][0] == "error" and "(2, T, 22, 3)" in s.notices[-1][1]
+    tab.upload.filename = "evil.npy"
+    tab.upload.value = b"\x80\x04pickled"
+    assert s.notices[-1][0] == "error" and "evil.npy" in s.notices[-1][1]
+    assert tab.settings.prefix == "upload: pair.npy"  # nothing lost
+
+
+def _walker(x: float) -> np.ndarray:
+    from engine.synth import Corpus
+
+    j = Corpus("test").sample(3).joints[:40].copy()
+    j[..., 0] += x
+    return j
+
+
+def test_no_duet_model_is_said_once_and_refused(tiny_model_dir, tmp_path):
+    st = Studio(model_dir=tiny_model_dir, initial=None, duet_dir=tmp_path / "none")
+    try:
+        assert "no duet model" in st.duet.model_note.object
+        from app.dueting import start_duet
+
+        assert not start_duet(st.state, st.duet.settings)
+        assert "no duet model" in st.state.notices[-1][1]
+    finally:
+        st.close()
+
+
+def test_duet_exports_hold_both_people(studio):
+    s, tab = studio.state, studio.duet
+    tab.seconds.value = 1.5
+    assert _run(studio)
+    a = s.item
+    data = np.load(io.BytesIO(export_bytes(a, "joints.npy")))
+    assert data.shape == (2, 30, 22, 3)
+    vecs = np.load(io.BytesIO(export_bytes(a, "vecs.npy")))
+    assert vecs.shape == (2, 29, 263)
+    assert export_filename(a, "bvh").endswith(".bvh.zip") and " · a" not in export_filename(a, "bvh")
+    with zipfile.ZipFile(io.BytesIO(export_bytes(a, "bvh"))) as zf:
+        names = zf.namelist()
+        assert len(names) == 2 and names[0].endswith("_a.bvh") and names[1].endswith("_b.bvh")
+        assert zf.read(names[1]).startswith(b"HIERARCHY")
+    gif = export_bytes(a, "gif")
+    assert gif[:6] in (b"GIF89a", b"GIF87a")
