@@ -6,6 +6,7 @@
 --transfer   MoMo leader -> follower transfer against corpus ground truth, with baselines
 --compose    DoubleTake transitions vs first take only vs naive concatenation, and a 60-s motion's time
 --control    control models and DiffusionBlending vs inpainting on true paths (with --compose: one run)
+--duet       ComMDM vs the prior run twice on held-out duets: prefix completion and text-to-duet
 """
 from __future__ import annotations
 
@@ -15,11 +16,12 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from engine.paths import EVALUATOR_DIR, MODEL_DIR
+from engine.paths import DUET_DIR, EVALUATOR_DIR, MODEL_DIR
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("bench", help="benchmarks: --app (studio in Chromium), --edits (MotionCLR), --inversion, --transfer (MoMo)",
+    p = sub.add_parser("bench", help="benchmarks: --app (studio in Chromium), --edits (MotionCLR), --inversion, --transfer (MoMo), "
+                       "--compose / --control (PriorMDM), --duet (ComMDM)",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     mode = p.add_mutually_exclusive_group()
     mode.add_argument("--app", action="store_true", help="click -> first frame, playback fps, layer switch in Chromium")
@@ -27,8 +29,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     mode.add_argument("--inversion", action="store_true", help="inversion round-trip error (m)")
     mode.add_argument("--transfer", action="store_true", help="MoMo transfer vs ground truth and baselines")
     mode.add_argument("--compose", action="store_true", help="DoubleTake vs first take vs naive concatenation")
+    mode.add_argument("--duet", action="store_true", help="ComMDM vs the prior twice on held-out two-person duets")
     p.add_argument("--control", action="store_true", help="control models and blending vs inpainting (PriorMDM)")
     p.add_argument("--model", type=Path, default=MODEL_DIR, help=f"model folder (default {MODEL_DIR})")
+    p.add_argument("--duet-model", type=Path, default=DUET_DIR, help=f"--duet: the ComMDM block (default {DUET_DIR})")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     app = p.add_argument_group("--app")
     app.add_argument("--prompt", default="a person jumps twice")
@@ -40,7 +44,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     edits.add_argument("--quick", action="store_true", help="fewer samples and steps")
     edits.add_argument("--evaluator", type=Path, default=EVALUATOR_DIR)
     edits.add_argument("--samples", type=int, default=None,
-                       help="--inversion: corpus test motions (default 16, quick 6); --transfer: in-distribution pairs")
+                       help="--inversion: corpus test motions (default 16, quick 6); --transfer: in-distribution pairs; "
+                            "--duet: held-out duets per interaction (default 3, quick 1)")
     edits.add_argument("--ood-pairs", type=int, default=None, help="--transfer: held-out pairs")
     edits.add_argument("--steps", type=int, default=50, help="--inversion: DDIM steps")
     edits.add_argument("files", nargs="*", type=Path, help="--inversion: real motions (.bvh/.npy) to invert as well")
@@ -49,11 +54,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if args.compose or args.control:
-        if args.app or args.edits or args.inversion or args.transfer:
+        if args.app or args.edits or args.inversion or args.transfer or args.duet:
             raise ValueError("--control goes alone or with --compose")
         return run_priormdm(args)
+    if args.duet:
+        return run_duet(args)
     if not (args.app or args.edits or args.inversion or args.transfer):
-        raise ValueError("choose a benchmark: --app, --edits, --inversion, --transfer, --compose and/or --control")
+        raise ValueError("choose a benchmark: --app, --edits, --inversion, --transfer, --compose and/or --control, "
+                         "--duet")
     if args.app:
         from app.bench import run_app_bench
 
@@ -133,6 +141,20 @@ def run_priormdm(args: argparse.Namespace) -> int:
         result["control"] = bench_control(loaded, evaluator, config, log=_log)
         tables.append(format_table(result["control"]))
     print(json.dumps(result, indent=2, default=float) if args.json else "\n\n".join(tables))
+    return 0
+
+
+def run_duet(args: argparse.Namespace) -> int:
+    from engine.evaluation.bench_duet import DuetBenchConfig, bench_duet, format_table
+    from engine.train_commdm import load_trained
+
+    config = DuetBenchConfig.quick() if args.quick else DuetBenchConfig()
+    if args.samples is not None:
+        config = replace(config, per_interaction=args.samples)
+    if args.steps != 50:
+        config = replace(config, steps=args.steps)
+    result = bench_duet(load_trained(args.duet_model, args.model), config, log=_log)
+    print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0
 
 
