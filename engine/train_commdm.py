@@ -198,6 +198,9 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
 
 def load_trained(folder: str | Path, prior_folder: str | Path | None = None) -> DuetModel:
     """A duet model folder with its prior (the one named in its training config unless given)."""
+    from engine.paths import PROJECT_ROOT
+
     config = json.loads((Path(folder) / "config.json").read_text())
-    prior = load_model(prior_folder or config["train"]["prior"])
+    named = Path(config["train"]["prior"])  # a shipped config names its prior relative to the project
+    prior = load_model(prior_folder or (named if named.is_absolute() else PROJECT_ROOT / named))
     return load_duet(folder, prior)
