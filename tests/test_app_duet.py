@@ -104,6 +104,23 @@ def test_unknown_words_are_flagged_and_block_the_button(studio):
     assert "smooch" in tab.flag.object and tab.bar.run.disabled
     tab.prompt.value_input = "two people hug"
     assert tab.flag.object == "" and not tab.bar.run.disabled
+    # the browser may send the typed text and Enter in one message: both events reach one watcher at once
+    tab.prompt.param.update(value="two people snog", value_input="two people snog")
+    assert "snog" in tab.flag.object and tab.settings.prompt == "two people snog"
+
+
+@pytest.mark.parametrize("tab_name, widget", [("compose", "rows"), ("control", "prompt"), ("transfer", "leader"),
+                                              ("edit", "edited")])
+def test_every_text_input_takes_batched_events(studio, tab_name, widget):
+    tab = getattr(studio, tab_name)
+    if widget == "rows":
+        box = tab.rows[0].prompt
+    elif widget == "leader":
+        box = tab.leader.prompt
+    else:
+        box = getattr(tab, widget)
+    box.param.update(value="a person waves", value_input="a person waves")  # no error raised
+    assert box.value == "a person waves"
 
 
 def test_uploads_are_parsed_as_data(studio, tmp_path):

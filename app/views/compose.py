@@ -16,7 +16,7 @@ from bokeh.plotting import figure
 
 from app.composing import (FPS, INTERVAL_COLORS, TRANSITION_COLOR, ComposeSettings, start_compose, transition_at)
 from app.state import StudioState
-from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown
+from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown, on_text
 
 HELP = ("Each interval is generated as its own clip; consecutive clips share a **handshake** (the end of one is the "
         "start of the next), so the long motion lasts the sum of the intervals minus one handshake per transition. "
@@ -38,7 +38,7 @@ class IntervalRowView:
         self.down = pn.widgets.Button(label="↓", width=34, css_classes=["compose-down"])
         self.remove = pn.widgets.Button(label="✕", width=34, css_classes=["compose-remove"])
         self.flag = pn.pane.HTML("", margin=(0, 10), stylesheets=[UNKNOWN_CSS], css_classes=["compose-flag"])
-        self.prompt.param.watch(lambda e: tab.edit_row(self.index, prompt=e.new or ""), ["value", "value_input"])
+        on_text(self.prompt, lambda text: tab.edit_row(self.index, prompt=text))
         self.seconds.param.watch(lambda e: tab.edit_row(self.index, seconds=e.new), "value")
         self.up.on_click(lambda _: tab.settings.move(self.index, -1))
         self.down.on_click(lambda _: tab.settings.move(self.index, +1))

@@ -15,7 +15,7 @@ import param
 from app.controlling import LABELS, ControlSettings, describe, path_length, start_control
 from app.state import StudioState
 from app.views.control_canvas import FrontCanvas, TopDownCanvas
-from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown
+from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown, on_text
 from engine.methods.paths import MAX_ROOT_SPEED
 
 HELP = ("Draw the **root path** on the floor (top-down, metres; drag to draw, or pick the point tool to add and "
@@ -67,7 +67,7 @@ class ControlTab(pn.viewable.Viewer):
         self.wrist_box = pn.Column(self.front.view, pn.Row(self.clear_wrist, self.depth, sizing_mode="stretch_width"),
                                    sizing_mode="stretch_width")
 
-        self.prompt.param.watch(lambda e: setattr(k, "prompt", e.new or ""), ["value", "value_input"])
+        on_text(self.prompt, lambda text: setattr(k, "prompt", text))
         self.seconds.param.watch(lambda e: self._set_seconds(e.new), "value")
         self.use_root.param.watch(lambda e: setattr(k, "use_root", e.new), "value")
         self.clear_root.on_click(lambda _: setattr(k, "root_points", []))

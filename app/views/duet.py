@@ -14,7 +14,7 @@ import param
 
 from app.dueting import MODES, DuetSettings, describe, duet_model, start_duet
 from app.state import StudioState
-from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown
+from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown, on_text
 
 HELP = ("Two copies of the base model, one per person, exchange what they are doing through a small trained "
         "**communication block** (ComMDM), which also places the two people. Turn it off to see the base model run "
@@ -56,7 +56,7 @@ class DuetTab(pn.viewable.Viewer):
         self.readout = pn.pane.HTML("", css_classes=["duet-readout"], stylesheets=[_CSS], sizing_mode="stretch_width")
 
         self.mode.param.watch(lambda e: setattr(d, "mode", e.new), "value")
-        self.prompt.param.watch(lambda e: setattr(d, "prompt", e.new or ""), ["value", "value_input"])
+        on_text(self.prompt, lambda text: setattr(d, "prompt", text))
         self.seconds.param.watch(lambda e: setattr(d, "seconds", e.new if e.new is not None else d.seconds), "value")
         self.prefix.param.watch(lambda e: setattr(d, "prefix", e.new) if e.new else None, "value")
         self.prefix_seconds.param.watch(

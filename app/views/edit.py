@@ -17,6 +17,7 @@ from bokeh.plotting import figure
 
 from app.editing import KIND_HELP, KIND_LABELS, PROMPT_SOURCE, alignment
 from app.state import StudioState
+from app.views.jobs import on_text
 
 WORD_KINDS = ("emphasize", "erase", "ground")
 WEIGHT_KINDS = ("emphasize", "ground")
@@ -86,10 +87,10 @@ class EditTab(pn.viewable.Viewer):
         self.layers.param.watch(lambda ev: self._set("layers", sorted(int(v) for v in ev.new)), "value")
         self.fraction.param.watch(lambda ev: self._set("fraction", ev.new), "value")
         self.count.param.watch(lambda ev: self._set("count", ev.new), "value")
-        self.edited.param.watch(lambda ev: self._set("edited", ev.new or ""), ["value", "value_input"])
+        on_text(self.edited, lambda text: self._set("edited", text))
         self.source.param.watch(lambda ev: self._set("source", ev.new), "value")
         self.style_source.param.watch(lambda ev: self._set("style_source", ev.new), "value")
-        self.style_prompt.param.watch(lambda ev: self._set("style_prompt", ev.new or ""), ["value", "value_input"])
+        on_text(self.style_prompt, lambda text: self._set("style_prompt", text))
         self.run.on_click(lambda _: self.state.run_edit())
         self.cancel.on_click(lambda _: self.state.cancel())
         self.count_button.on_click(lambda _: self.state.count_current())

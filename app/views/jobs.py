@@ -55,6 +55,13 @@ class JobBar(pn.viewable.Viewer):
                          sizing_mode="stretch_width")
 
 
+def on_text(widget, fn: Callable[[str], object]) -> None:
+    """Call ``fn(text)`` as a text input changes, key by key and on Enter. Param hands a watcher of two
+    parameters every event of a batch at once (the browser may send ``value_input`` and ``value`` together):
+    the newest text wins."""
+    widget.param.watch(lambda *events: fn(events[-1].new or ""), ["value", "value_input"])
+
+
 def flag_unknown(words: list[str], suggestions: dict[str, list[str]] | None = None) -> str:
     """HTML for a prompt's unknown words ('' when every word is known)."""
     if not words:

@@ -15,7 +15,7 @@ import param
 from app.state import StudioState
 from app.transfer import COLOR_BY, ROLES, ROOT_LABELS, SourceSettings, describe_inversion, show_roles
 from app.views.controls import WORD_CSS, word_chips
-from app.views.jobs import JobBar
+from app.views.jobs import JobBar, on_text
 from app.views.transfer_plots import TransferPlots
 
 KIND_LABELS = {"prompt": "prompt", "imported motion": "motion"}
@@ -46,7 +46,7 @@ class SourcePicker(pn.viewable.Viewer):
         self.info = pn.pane.Markdown("", css_classes=["source-info"], margin=(0, 10),
                                      styles={"font-size": "12px", "color": "#444"})
         self.kind.param.watch(lambda e: setattr(src, "kind", e.new), "value")
-        self.prompt.param.watch(lambda e: setattr(src, "prompt", e.new or ""), ["value", "value_input"])
+        on_text(self.prompt, lambda text: setattr(src, "prompt", text))
         self.seconds.param.watch(self._on_seconds, "value")
         self.motion.param.watch(lambda e: setattr(src, "motion", "" if e.new == NO_MOTION else e.new), "value")
         self.upload.param.watch(self._on_upload, "value")

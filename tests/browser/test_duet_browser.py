@@ -32,7 +32,10 @@ def test_duet_tab_makes_and_plays_two_people(browser, server_url, screens):
         # an unknown word is flagged and blocks the button
         prompt.fill("two people smooch")
         prompt.press("Enter")
-        page.locator(".duet-flag .unknown-words", has_text="smooch").wait_for(timeout=10000)
+        try:
+            page.locator(".duet-flag .unknown-words", has_text="smooch").wait_for(timeout=30000)
+        finally:
+            (screens / "duet_unknown_word.png").write_bytes(page.screenshot(full_page=True))
         br_expect_disabled(page, ".duet-run button")
         prompt.fill("two people shake hands")
         prompt.press("Enter")
