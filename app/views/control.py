@@ -15,7 +15,7 @@ import param
 from app.controlling import LABELS, ControlSettings, describe, path_length, start_control
 from app.state import StudioState
 from app.views.control_canvas import FrontCanvas, TopDownCanvas
-from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown, on_text
+from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown, on_text, table_rows
 from engine.methods.paths import MAX_ROOT_SPEED
 
 HELP = ("Draw the **root path** on the floor (top-down, metres; drag to draw, or pick the point tool to add and "
@@ -159,8 +159,7 @@ class ControlTab(pn.viewable.Viewer):
         if r is None:
             self.readout.object = '<div class="note">No controlled motion yet.</div>'
             return
-        rows = "".join(f'<tr><td>{html.escape(a)}</td><td class="value">{html.escape(b)}</td></tr>'
-                       for a, b in describe(r))
+        rows = table_rows(describe(r))
         guides = "; ".join(filter(None, [
             "red tube: the root path" if r.root_error is not None else "",
             "purple tube: the wrist target" if r.wrist_error is not None else ""]))

@@ -14,7 +14,7 @@ import param
 
 from app.dueting import MODES, DuetSettings, describe, duet_model, start_duet
 from app.state import StudioState
-from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown, on_text
+from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown, on_text, table_rows
 
 HELP = ("Two copies of the base model, one per person, exchange what they are doing through a small trained "
         "**communication block** (ComMDM), which also places the two people. Turn it off to see the base model run "
@@ -130,8 +130,7 @@ class DuetTab(pn.viewable.Viewer):
         if r is None:
             self.readout.object = '<div class="note">No duet yet.</div>'
             return
-        rows = "".join(f'<tr><td>{html.escape(a)}</td><td class="value">{html.escape(b)}</td></tr>'
-                       for a, b in describe(r))
+        rows = table_rows(describe(r))
         given = " Grey frames: the given prefix." if r.prefix_frames else ""
         self.readout.object = (f'<div class="duet-box"><b>{html.escape(r.prompt or "completion")}</b>'
                                f'<table class="duet-table">{rows}</table><div class="note">In the viewer: person a '

@@ -62,6 +62,11 @@ def on_text(widget, fn: Callable[[str], object]) -> None:
     widget.param.watch(lambda *events: fn(events[-1].new or ""), ["value", "value_input"])
 
 
+def table_rows(rows) -> str:
+    """HTML rows of (label, value) pairs for a tab's readout table (values in the ``value`` class)."""
+    return "".join(f'<tr><td>{html.escape(a)}</td><td class="value">{html.escape(b)}</td></tr>' for a, b in rows)
+
+
 def flag_unknown(words: list[str], suggestions: dict[str, list[str]] | None = None) -> str:
     """HTML for a prompt's unknown words ('' when every word is known)."""
     if not words:
