@@ -126,7 +126,12 @@ class DuetSettings(param.Parameterized):
         self._analyse()
 
     def tokenizer(self):
-        return duet_vocabulary(self.duet_dir, self._prior_tokenizer())
+        """The duet's vocabulary (read from its config once per duet folder and prior, not per keystroke)."""
+        prior = self._prior_tokenizer()
+        key = (str(self.duet_dir), id(prior))
+        if getattr(self, "_vocab_key", None) != key:
+            self._vocab, self._vocab_key = duet_vocabulary(self.duet_dir, prior), key
+        return self._vocab
 
     def _analyse(self, *_) -> None:
         _, unknown, suggestions = prompt_analysis(self.tokenizer(), self.prompt)

@@ -31,8 +31,12 @@ class LoadedModel:
 
 
 def write_config(folder: Path, *, model_config: ModelConfig, vocabulary: tuple[str, ...], extra: dict) -> None:
-    data = {"model": model_config.to_json(), "vocabulary": list(vocabulary), **extra}
-    _atomic_write_text(folder / CONFIG_NAME, json.dumps(data, indent=2))
+    write_config_json(folder, {"model": model_config.to_json(), "vocabulary": list(vocabulary), **extra})
+
+
+def write_config_json(folder: Path, data: dict) -> None:
+    """A folder's config.json, written atomically."""
+    _atomic_write_text(Path(folder) / CONFIG_NAME, json.dumps(data, indent=2))
 
 
 def read_config(folder: Path) -> dict:

@@ -68,10 +68,10 @@ def write_duet(joints: np.ndarray, path: Path) -> list[Path]:
 
 
 def render_duet(joints: np.ndarray, path: Path, *, title: str | None = None) -> Path:
-    from viz.render import render_file
+    from engine.methods.duet import by_person
+    from viz.render import render_together
 
-    motions = {"person a": joints[0], "person b": joints[1]}
-    return render_file(motions, path, offsets={r: (0.0, 0.0, 0.0) for r in motions}, title=title)
+    return render_together(by_person(joints), path, title=title)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -86,11 +86,12 @@ def masked_losses(x0_hat: torch.Tensor, x0: torch.Tensor, mask: torch.Tensor) ->
     return mse, vel
 
 
-def lr_at(step: int, config: TrainConfig) -> float:
+def lr_at(step: int, config, *, floor: float = 0.1) -> float:
+    """Linear warm-up over ``config.warmup`` steps, then cosine from ``config.lr`` down to ``floor`` × lr."""
     if step < config.warmup:
         return config.lr * (step + 1) / config.warmup
     progress = min(1.0, (step - config.warmup) / max(1, config.steps - config.warmup))
-    return config.lr * (0.1 + 0.9 * 0.5 * (1 + math.cos(math.pi * progress)))
+    return config.lr * (floor + (1 - floor) * 0.5 * (1 + math.cos(math.pi * progress)))
 
 
 class _Stop:

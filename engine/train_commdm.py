@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import copy
 import json
-import math
 import signal
 import time
 from dataclasses import asdict, dataclass, field, fields
@@ -19,15 +18,16 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from engine.checkpoint import load_model
+from engine.checkpoint import (export_weights, load_model, load_train_state, read_config, save_train_state,
+                               write_config_json)
 from engine.diffusion.schedule import CosineSchedule
 from engine.methods.commdm import PLACE_DIMS, ComConfig, duet_roles
-from engine.methods.duet import WEIGHTS, DuetModel, load_duet, new_duet, write_config
+from engine.methods.duet import DuetModel, load_duet, new_duet
 from engine.methods.duet_data import PairItem, duet_words, few_shot, mean_placement, stack_pairs, training_items
 from engine.model.denoiser import Condition
 from engine.attention.context import WordIndex
 from engine.paths import MODEL_DIR
-from engine.train import _Stop, masked_losses
+from engine.train import _Stop, lr_at, masked_losses
 
 
 @dataclass
@@ -67,11 +67,7 @@ class ComTrainConfig:
 _RUNTIME = ("steps", "log_every", "ckpt_every", "threads")
 
 
-def lr_at(step: int, config: ComTrainConfig) -> float:
-    if step < config.warmup:
-        return config.lr * (step + 1) / config.warmup
-    progress = min(1.0, (step - config.warmup) / max(1, config.steps - config.warmup))
-    return config.lr * (0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * progress)))
+LR_FLOOR = 0.05  # the cosine ends at 5 % of lr
 
 
 def _batch(model: DuetModel, items: list[PairItem], rng: np.random.Generator, text_dropout: float):
@@ -100,10 +96,10 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
     out.mkdir(parents=True, exist_ok=True)
     state = None
     if resume and (out / "train_state.pt").exists():
-        saved = json.loads((out / "config.json").read_text())
+        saved = read_config(out)
         runtime = {k: getattr(config, k) for k in _RUNTIME}
         config = ComTrainConfig.from_json({**saved["train"], **runtime, "out": str(out)})
-        state = torch.load(out / "train_state.pt", map_location="cpu", weights_only=True)
+        state = load_train_state(out)
     elif resume:
         print(f"no checkpoint in {out}; starting from scratch")
     prior = load_model(config.prior)
@@ -133,15 +129,11 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
         if not all(torch.isfinite(v).all() for k, v in net.state_dict().items() if k in trainable):
             print(f"step {step}: weights are not finite; checkpoint NOT written", flush=True)
             return
-        write_config(out, {**info, "step": step})
+        write_config_json(out, {**info, "step": step})
         keep = lambda sd: {k: v for k, v in sd.items() if k in trainable}  # noqa: E731
-        tmp = out / "train_state.pt.tmp"
-        torch.save({"model": keep(net.state_dict()), "ema": keep(ema.state_dict()),
-                    "optimizer": optimizer.state_dict(), "step": step}, tmp)
-        tmp.replace(out / "train_state.pt")
-        tmp = out / (WEIGHTS + ".tmp")
-        torch.save({k: v.half() for k, v in keep(ema.state_dict()).items()}, tmp)
-        tmp.replace(out / WEIGHTS)
+        save_train_state(out, {"model": keep(net.state_dict()), "ema": keep(ema.state_dict()),
+                               "optimizer": optimizer.state_dict(), "step": step})
+        export_weights(out, keep(ema.state_dict()))
 
     print(f"ComMDM: {len(samples)} two-person samples ({config.shots} per interaction), {len(items)} crops, "
           f"{sum(p.numel() for p in params)} trained parameters, {len(words)} new words", flush=True)
@@ -158,7 +150,7 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
             t = torch.randint(0, schedule.steps, (p,), generator=gen).repeat(2)  # one t per pair
             x_t = schedule.q_sample(x0, t, torch.randn(x0.shape, generator=gen))
             for group in optimizer.param_groups:
-                group["lr"] = lr_at(step, config)
+                group["lr"] = lr_at(step, config, floor=LR_FLOOR)
             x0_hat = net(x_t, t, cond)
             mse, vel, place = duet_losses(x0_hat, x0, cond.frame_mask)
             loss = mse + config.velocity_weight * vel + config.place_weight * place
@@ -180,7 +172,7 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
             if step % config.log_every == 0 or step == config.steps:
                 w = np.asarray(window)
                 last = {"step": step, "mse": float(w[:, 0].mean()), "vel": float(w[:, 1].mean()),
-                        "place": float(w[:, 2].mean()), "lr": lr_at(step, config),
+                        "place": float(w[:, 2].mean()), "lr": lr_at(step, config, floor=LR_FLOOR),
                         "s_per_step": (time.perf_counter() - t0) / len(window), "time": time.time()}
                 bar.set_postfix(mse=f"{last['mse']:.4f}", place=f"{last['place']:.4f}")
                 with (out / "log.jsonl").open("a") as fh:
@@ -200,7 +192,7 @@ def load_trained(folder: str | Path, prior_folder: str | Path | None = None) -> 
     """A duet model folder with its prior (the one named in its training config unless given)."""
     from engine.paths import PROJECT_ROOT
 
-    config = json.loads((Path(folder) / "config.json").read_text())
+    config = read_config(Path(folder))
     named = Path(config["train"]["prior"])  # a shipped config names its prior relative to the project
     prior = load_model(prior_folder or (named if named.is_absolute() else PROJECT_ROOT / named))
     return load_duet(folder, prior)

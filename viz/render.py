@@ -177,3 +177,8 @@ def render_file(joints: Motion, path: str | Path, *, frame: int | None = None, *
     if suffix == ".gif":
         return render_gif(joints, path, **options)
     return render_mp4(joints, path, **options)
+
+
+def render_together(motions: Mapping[str, np.ndarray], path: str | Path, **options: Any) -> Path:
+    """:func:`render_file` of several motions in one shared space (e.g. two people), not side by side."""
+    return render_file(dict(motions), path, offsets={role: (0.0, 0.0, 0.0) for role in motions}, **options)

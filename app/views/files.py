@@ -86,18 +86,15 @@ def export_duet_bytes(pair, fmt: str, *, title: str) -> bytes:
         np.save(buf, np.asarray(data, dtype=np.float32), allow_pickle=False)
         return buf.getvalue()
     if fmt in ("gif", "mp4"):
-        from viz.render import render_gif, render_mp4
+        from engine.methods.duet import by_person
+        from viz.render import render_together
 
-        motions = {"person a": joints[0], "person b": joints[1]}
-        offsets = {r: (0.0, 0.0, 0.0) for r in motions}
+        options = ({"size": (320, 240), "title": title[:40]} if fmt == "gif"
+                   else {"size": (640, 480), "title": title[:50], "frame_label": True})
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / f"export.{fmt}"
             with VTK_LOCK:
-                if fmt == "gif":
-                    render_gif(motions, path, size=(320, 240), follow=True, offsets=offsets, title=title[:40])
-                else:
-                    render_mp4(motions, path, size=(640, 480), follow=True, offsets=offsets, title=title[:50],
-                               frame_label=True)
+                render_together(by_person(joints), path, follow=True, **options)
             return path.read_bytes()
     raise ValueError(f"a duet has no {EXPORTS.get(fmt, fmt)} export")
 

@@ -31,7 +31,6 @@ from torch import nn
 from engine.attention.context import BatchRoles
 from engine.checkpoint import LoadedModel
 from engine.model.denoiser import Condition, Denoiser
-from engine.text import Tokenizer
 
 ROLES = ("person_a", "person_b")
 PLACE_DIMS = 4  # (x, z, cos yaw, sin yaw) of the other person in this person's canonical frame
@@ -215,16 +214,21 @@ class DuetDenoiser(nn.Module):
         """What training changes (and a shipped duet model stores): the block and the new word rows."""
         return {k: v for k, v in self.state_dict().items() if k.startswith("com.") or k == "text_encoder.embed.new"}
 
-    def forward(self, x, t, cond: Condition, *, step: int = 0, controller=None):
+    def start(self, x, t, cond: Condition, *, step: int = 0, controller=None):
+        """The prior's pass over the persons' motions, set up with the duet's word rows:
+        (motion embedded (B, T, w), noisy placements (B, 4), the layers' shared inputs)."""
         motion, place = unpack(x)  # (B, T, D), (B, 4)
-        frames = cond.frame_mask[:, :-1]
-        mcond = replace(cond, frame_mask=frames)
+        mcond = replace(cond, frame_mask=cond.frame_mask[:, :-1])
+        run = self.prior.begin(t, mcond, step=step, controller=controller,
+                               text=self.text_encoder(cond.text_ids, cond.text_mask))
+        return self.prior.embed_frames(motion), place, run
+
+    def forward(self, x, t, cond: Condition, *, step: int = 0, controller=None):
+        h, place, run = self.start(x, t, cond, step=step, controller=controller)
         prior = self.prior
-        run = prior.begin(t, mcond, step=step, controller=controller,
-                          text=self.text_encoder(cond.text_ids, cond.text_mask))
-        h = prior.layers(prior.embed_frames(motion), run, range(self.after))
+        h = prior.layers(h, run, range(self.after))
         other = partners(cond.roles)
-        delta, place0 = self.com(h, h[other], place, place[other], run.temb, frames)
+        delta, place0 = self.com(h, h[other], place, place[other], run.temb, run.cond.frame_mask)
         h = prior.layers(h + delta, run, range(self.after, prior.num_layers))
         return pack(prior.head(h), place0)
 
@@ -238,13 +242,10 @@ class PriorTwice:
     place: torch.Tensor  # (4,)
 
     def __call__(self, x, t, cond: Condition, *, step: int = 0, controller=None):
-        motion, _ = unpack(x)
-        d = self.duet
-        mcond = replace(cond, frame_mask=cond.frame_mask[:, :-1])
-        run = d.prior.begin(t, mcond, step=step, controller=controller,
-                            text=d.text_encoder(cond.text_ids, cond.text_mask))
-        h = d.prior.layers(d.prior.embed_frames(motion), run, range(d.prior.num_layers))
-        return pack(d.prior.head(h), self.place.to(x.dtype).expand(x.shape[0], -1))
+        h, _, run = self.duet.start(x, t, cond, step=step, controller=controller)
+        prior = self.duet.prior
+        h = prior.layers(h, run, range(prior.num_layers))
+        return pack(prior.head(h), self.place.to(x.dtype).expand(x.shape[0], -1))
 
 
 def fingerprint(loaded: LoadedModel) -> str:
@@ -257,8 +258,3 @@ def fingerprint(loaded: LoadedModel) -> str:
     h.update(np.asarray(loaded.normalizer.mean, dtype=np.float32).tobytes())
     h.update(np.asarray(loaded.normalizer.std, dtype=np.float32).tobytes())
     return h.hexdigest()[:16]
-
-
-def duet_tokenizer(prior: Tokenizer, words) -> Tokenizer:
-    """The prior's vocabulary followed by the duet's new words (ids after the prior's)."""
-    return prior.extended(words)

@@ -6,7 +6,6 @@ and the new word rows only). It runs only on the prior it was trained on.
 """
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,17 +14,16 @@ import numpy as np
 import torch
 
 from engine.attention.context import WordIndex
-from engine.checkpoint import LoadedModel, read_config
+from engine.checkpoint import TRAIN_STATE, WEIGHTS, LoadedModel, load_train_state, read_config
 from engine.diffusion import ClassifierFreeGuidance, CosineSchedule, StepState, ddim
 from engine.generate import FPS, SampleConfig, frames_for
-from engine.methods.commdm import (PLACE_DIMS, ComConfig, DuetDenoiser, Pose, PriorTwice, duet_roles, duet_tokenizer,
+from engine.methods.commdm import (PLACE_DIMS, ComConfig, DuetDenoiser, Pose, PriorTwice, duet_roles,
                                    fingerprint, mean_pose, placements, unpack)
 from engine.methods.control import Inpaint, KnownLatents
 from engine.model.denoiser import Condition
 from engine.representation import features_to_joints, joints_to_features
 from engine.text import TokenizedPrompt, Tokenizer
 
-WEIGHTS = "weights.pt"
 PREFIX_SECONDS, COMPLETE_SECONDS = 1.0, 3.0
 
 
@@ -46,7 +44,7 @@ class DuetModel:
 def new_duet(prior: LoadedModel, words, *, config: ComConfig = ComConfig(), mean_place: Pose = Pose(0.0, 1.0, np.pi),
              seed: int = 0) -> DuetModel:
     """An untrained duet model on ``prior`` whose tokenizer also knows ``words``."""
-    tokenizer = duet_tokenizer(prior.tokenizer, words)
+    tokenizer = prior.tokenizer.extended(words)  # the duet's new words get ids after the prior's
     torch.manual_seed(seed)
     known = len(prior.tokenizer) - 1
     denoiser = DuetDenoiser(prior.model, known_words=known, new_words=len(tokenizer) - 1 - known, config=config)
@@ -66,8 +64,8 @@ def load_duet(folder: str | Path, prior: LoadedModel, *, prefer: str = "weights"
                          f"(step {config.get('prior_step', '?')}); retrain it with `moattn train --commdm`")
     model = new_duet(prior, config["words"], config=ComConfig.from_json(config["com"]),
                      mean_place=Pose.of_vector(config["mean_place"]))
-    if prefer == "ema" and (folder / "train_state.pt").exists():
-        state = torch.load(folder / "train_state.pt", map_location="cpu", weights_only=True)["ema"]
+    if prefer == "ema" and (folder / TRAIN_STATE).exists():
+        state = load_train_state(folder)["ema"]
     elif (folder / WEIGHTS).exists():
         state = torch.load(folder / WEIGHTS, map_location="cpu", weights_only=True)
     else:
@@ -97,6 +95,11 @@ class Duet:
     @property
     def frames(self) -> int:
         return self.joints.shape[1]
+
+
+def by_person(joints: np.ndarray) -> dict[str, np.ndarray]:
+    """(2, T, 22, 3) -> {"person a": ..., "person b": ...} (how renders and scenes name the two)."""
+    return {"person a": joints[0], "person b": joints[1]}
 
 
 @dataclass
@@ -227,15 +230,3 @@ def complete(model: DuetModel, prefix_a: np.ndarray, prefix_b: np.ndarray, *, pr
     duet.joints = np.stack([pose_a.place(j) for j in duet.joints]).astype(np.float32)
     duet.joints[..., 1] += floors[:, None, None]
     return duet
-
-
-def save_duet_json(duet: Duet) -> dict:
-    return {"prompt": duet.prompt, "communicate": duet.communicate, "frames": duet.frames, "fps": FPS,
-            "placement": {"x": duet.placement.x, "z": duet.placement.z, "yaw": duet.placement.yaw}}
-
-
-def write_config(folder: Path, config: dict) -> None:
-    from engine.checkpoint import _atomic_write_text
-
-    _atomic_write_text(Path(folder) / "config.json", json.dumps(config, indent=2))
-
