@@ -199,7 +199,7 @@ def prepare(state) -> EditJob:
         edited=cfg.edited, fraction=float(cfg.fraction), style=style, count=int(cfg.count),
         step_window=tuple(cfg.step_window) if cfg.step_window is not None else None,
         layers=tuple(cfg.layers) or None, seed=int(state.seed))
-    build_config(options, frames=frames)  # the config's own checks (weight ranges, windows) before any work
+    build_config(options, frames=frames, model_config=loaded.config)  # the config's own checks (weight ranges, windows) before any work
     description = describe(options, frames=frames)
     m = loaded.config["model"]
     slots = 2 + (int(cfg.count) - 1 if kind == "example" else 0) + (1 if kind == "style" else 0)

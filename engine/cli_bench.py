@@ -43,6 +43,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     edits = p.add_argument_group("--edits / --inversion / --transfer")
     edits.add_argument("--quick", action="store_true", help="fewer samples and steps")
     edits.add_argument("--evaluator", type=Path, default=EVALUATOR_DIR)
+    edits.add_argument("--calibrate", action="store_true",
+                       help="--edits: measure per layer whether emphasis grows the action (calibration prompts, not "
+                            "the benchmark's) instead of benchmarking")
+    edits.add_argument("--write", action="store_true", help="--calibrate: store the chosen layers in the model's config.json")
     edits.add_argument("--samples", type=int, default=None,
                        help="--inversion: corpus test motions (default 16, quick 6); --transfer: in-distribution pairs; "
                             "--duet: held-out duets per interaction (default 3, quick 1)")
@@ -53,6 +57,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if (args.calibrate or args.write) and not args.edits:
+        raise ValueError("--calibrate and --write go with --edits")
+    if args.write and not args.calibrate:
+        raise ValueError("--write stores a calibration: add --calibrate")
     if args.compose or args.control:
         if args.app or args.edits or args.inversion or args.transfer or args.duet:
             raise ValueError("--control goes alone or with --compose")
@@ -77,7 +85,30 @@ def _log(line: str) -> None:
     print(line, file=sys.stderr, flush=True)
 
 
+def run_calibration(args: argparse.Namespace) -> int:
+    from engine.checkpoint import load_model
+    from engine.evaluation.calibrate_edits import calibrate_emphasis, write_calibration
+
+    result = calibrate_emphasis(load_model(args.model), log=_log)
+    if args.write:
+        write_calibration(args.model, result)
+    if args.json:
+        print(json.dumps(result, indent=2))
+        return 0
+    print("emphasis response (mean Spearman of weight vs amplitude on calibration prompts):")
+    for layer, rho in result["per_layer"].items():
+        print(f"  layer {layer} alone: {rho:+.2f}")
+    for row in result["history"]:
+        print(f"  layers {', '.join(map(str, row['layers']))}: {row['spearman']:+.2f}")
+    chosen = ", ".join(map(str, result["layers"])) or "none (all layers stay the default)"
+    print(f"emphasis layers: {chosen}" + (f"  (written to {args.model}/config.json)" if args.write else
+                                          "  (not written: add --write)"))
+    return 0
+
+
 def run_edits(args: argparse.Namespace) -> int:
+    if args.calibrate:
+        return run_calibration(args)
     from engine.checkpoint import load_model
     from engine.evaluation.bench_edits import EditBenchConfig, bench_edits
     from engine.evaluation.evaluator import load_evaluator
@@ -90,7 +121,8 @@ def run_edits(args: argparse.Namespace) -> int:
     c = result["counting"]
     print(f"counting exact match: attention {c['attention']:.2f}  root-height baseline {c['baseline']:.2f}  "
           f"({c['samples']} motions)")
-    print(f"emphasis Spearman (weight vs amplitude): {result['emphasis_spearman']:.2f}")
+    print(f"emphasis Spearman (weight vs amplitude): {result['emphasis_spearman']:.2f} (layers "
+          f"{', '.join(map(str, result['emphasis']['layers']))})")
     r = result["replacement"]
     print(f"replacement timing IoU: {r['iou']:.2f} (same noise, no replacement: {r['iou_without_replacement']:.2f})")
     print(f"shift order accuracy: {result['shift_order_acc']:.2f}")

@@ -28,7 +28,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--step-window", type=float, nargs=2, default=None, metavar=("START", "END"),
                    help="fractions of the sampling steps the edit acts in (default: the method's)")
     p.add_argument("--layers", type=int, nargs="+", default=None, metavar="LAYER",
-                   help="layers the edit acts in (default: all)")
+                   help="layers the edit acts in (default: all; emphasize and ground: the layers calibrated for the model, "
+                        "see moattn bench --edits --calibrate)")
     p.add_argument("--seconds", type=float, default=4.0)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--steps", type=int, default=50)

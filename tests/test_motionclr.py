@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import torch
 
-from engine.analysis.counting import count_from_attention, count_from_root_height
+from engine.analysis.counting import CountingConfig, count_from_attention, count_from_root_height
 from engine.attention import AttentionStore, BatchRoles, stack
 from engine.attention.context import WordIndex
 from engine.methods.motionclr import (
@@ -158,9 +158,25 @@ def test_counting_on_a_synthetic_action_map():
         bump = np.exp(-0.5 * ((t[:, None] - centres[None]) / 3.0) ** 2).max(1)  # (T,) action strength
         attn = 0.05 + np.outer(bump, bump)
         attn /= attn.sum(1, keepdims=True)
-        res = count_from_attention(attn)
-        assert res.rounded == reps, (reps, res.count)
-        assert all(0 <= r < 120 and 0 <= c < 120 for r, c in res.peaks)
+        for method in ("lag", "rows"):
+            res = count_from_attention(attn, CountingConfig(method=method))
+            assert res.rounded == reps, (method, reps, res.count)
+            assert all(0 <= r < 120 and 0 <= c < 120 for r, c in res.peaks)
+        lag = count_from_attention(attn)
+        assert abs(lag.period - 120 / reps) <= 1  # the period is the spacing of the repetitions
+        assert {c - r for r, c in lag.peaks if c > r} == {k * lag.period for k in range(1, reps)}
         assert count_from_root_height(0.9 + 0.2 * bump) == reps
+    # one action, nothing repeated: no period, count 1
+    one = np.exp(-0.5 * ((t[:, None] - t[None]) / 3.0) ** 2)
+    res = count_from_attention(one / one.sum(1, keepdims=True))
+    assert res.rounded == 1 and res.period is None and res.peaks == []
+    # the diagonal dominates a real map: a weak repetition stripe is found by the lag profile, not by row peaks
+    weak = one + 0.1 * np.exp(-0.5 * ((np.abs(t[:, None] - t[None]) - 40) / 3.0) ** 2)
+    assert count_from_attention(weak).rounded == 3
+    assert count_from_attention(weak, CountingConfig(method="rows")).rounded == 1
+    with pytest.raises(ValueError, match="NaN"):
+        count_from_attention(np.full((40, 40), np.nan))
+    with pytest.raises(ValueError, match="'lag' or 'rows'"):
+        CountingConfig(method="fft")
     with pytest.raises(ValueError):
         count_from_attention(np.zeros((5, 6)))

@@ -48,7 +48,7 @@ class EditTab(pn.viewable.Viewer):
                                                 css_classes=["edit-frames"], sizing_mode="stretch_width")
         self.steps = pn.widgets.RangeSlider(label="Steps (fraction of the run)", start=0.0, end=1.0, step=0.05,
                                             value=(0.0, 1.0), css_classes=["edit-steps"], sizing_mode="stretch_width")
-        self.layers = pn.widgets.MultiChoice(label="Layers (empty = all)", options={}, value=[],
+        self.layers = pn.widgets.MultiChoice(label="Layers (empty = the edit's default)", options={}, value=[],
                                              css_classes=["edit-layers"], sizing_mode="stretch_width")
         self.fraction = pn.widgets.FloatSlider(label="Shift: part moved to the end", start=0.05, end=0.95, step=0.05,
                                                value=e.fraction, css_classes=["edit-fraction"],
@@ -153,6 +153,12 @@ class EditTab(pn.viewable.Viewer):
         except Exception:
             return 80
 
+    def _model_config(self) -> dict | None:
+        try:
+            return self.state.model.config
+        except Exception:
+            return None
+
     def _describe_model(self) -> None:
         try:
             layers = int(self.state.model.config["model"]["layers"])
@@ -217,11 +223,13 @@ class EditTab(pn.viewable.Viewer):
 
         e = self.state.edit
         kind = e.engine_kind
-        window = default_window(kind) if kind != "count" else None
+        window = default_window(kind, self._model_config()) if kind != "count" else None
         self._sync(lambda: setattr(self.kind, "value", e.kind))
         if window is not None:
             e.step_window = (window.start, window.end)
+            e.layers = sorted(window.layers or [])  # the calibrated emphasis layers, shown so they can be changed
             self._sync(lambda: setattr(self.steps, "value", (window.start, window.end)))
+            self._sync(lambda: setattr(self.layers, "value", list(e.layers)))
         self._reset_frames()
         is_edit = kind != "count"
         self.words_label.visible = self.words.visible = kind in WORD_KINDS

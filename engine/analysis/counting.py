@@ -10,28 +10,57 @@ from scipy.signal import find_peaks
 
 @dataclass(frozen=True)
 class CountingConfig:
+    """How a self-attention map becomes a count.
+
+    ``method`` "lag" (default): the map's lag profile (mean attention of every frame to the frame ``lag``
+    later, both directions) is smoothed by ``lag_sigma``; its first peak at ``min_lag`` frames or more with
+    at least ``prominence`` (relative to the zero-lag value) is the period P, and the count is T / P (no
+    peak: 1). A repeated action makes every frame attend to the same phase of the other repetitions, so
+    the map carries stripes parallel to the diagonal at multiples of P; the profile adds them up.
+    ``method`` "rows": MotionCLR's recipe as published — Gaussian ``sigma`` on the map, ``downsample``
+    average pooling, min-max normalisation, peaks per row above ``height_factor`` × the row mean, count =
+    peaks / rows with a peak. On this project's maps the diagonal dominates every row and the recipe
+    mostly returns 1 (see ``moattn bench --edits``), so it is kept for comparison.
+    Both return the same smoothed, pooled map (``processed``) for display.
+    """
+
+    method: str = "lag"
     sigma: float = 0.8  # Gaussian filter on the map
     downsample: int = 4  # average pooling factor
-    height_factor: float = 3.0  # a peak must exceed this times the row mean
+    height_factor: float = 3.0  # rows: a peak must exceed this times the row mean
     distance: int = 1
+    min_lag: int = 6  # lag: shortest period (frames), 0.3 s at 20 fps
+    prominence: float = 0.02  # lag: of the profile normalised by its zero-lag value
+    lag_sigma: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.method not in ("lag", "rows"):
+            raise ValueError(f"counting method must be 'lag' or 'rows', got {self.method!r}")
 
 
 @dataclass(frozen=True)
 class CountResult:
-    count: float  # total peaks / rows with at least one peak
+    count: float  # lag: T / period; rows: total peaks / rows with at least one peak
     peaks: list[tuple[int, int]]  # (row, column) in original frame units
     processed: np.ndarray  # the filtered, downsampled, normalised map
+    period: int | None = None  # lag: the detected period in frames (None: no repetition found)
 
     @property
     def rounded(self) -> int:
         return int(round(self.count))
 
 
-def count_from_attention(attn: np.ndarray, config: CountingConfig = CountingConfig()) -> CountResult:
-    """attn (T, T) self-attention (mean over heads) -> count of repeated actions."""
+def _check_map(attn: np.ndarray) -> np.ndarray:
     attn = np.asarray(attn, dtype=np.float64)
     if attn.ndim != 2 or attn.shape[0] != attn.shape[1]:
         raise ValueError(f"a self-attention map must be square (T, T), got {attn.shape}")
+    if not np.isfinite(attn).all():
+        raise ValueError("the self-attention map has NaN or infinite values")
+    return attn
+
+
+def _pooled(attn: np.ndarray, config: CountingConfig) -> np.ndarray:
+    """Gaussian-filtered, average-pooled (downsample x downsample) and min-max normalised map."""
     smooth = gaussian_filter(attn, config.sigma)
     f = config.downsample
     n = (len(smooth) // f) * f
@@ -39,7 +68,39 @@ def count_from_attention(attn: np.ndarray, config: CountingConfig = CountingConf
         raise ValueError("the motion is too short to count on")
     pooled = smooth[:n, :n].reshape(n // f, f, n // f, f).mean(axis=(1, 3))
     lo, hi = pooled.min(), pooled.max()
-    norm = (pooled - lo) / (hi - lo) if hi > lo else np.zeros_like(pooled)
+    return (pooled - lo) / (hi - lo) if hi > lo else np.zeros_like(pooled)
+
+
+def lag_profile(attn: np.ndarray) -> np.ndarray:
+    """(T,) mean attention between frames ``lag`` apart (the map symmetrised), normalised by lag 0."""
+    sym = (attn + attn.T) / 2
+    profile = np.array([np.diagonal(sym, k).mean() for k in range(len(sym))])
+    return profile / profile[0] if profile[0] > 0 else profile
+
+
+def count_from_attention(attn: np.ndarray, config: CountingConfig = CountingConfig()) -> CountResult:
+    """attn (T, T) self-attention (mean over heads) -> count of repeated actions."""
+    attn = _check_map(attn)
+    norm = _pooled(attn, config)
+    if config.method == "rows":
+        return _count_rows(norm, config)
+    n = len(attn)
+    profile = gaussian_filter1d(lag_profile(attn), config.lag_sigma)
+    # a period must fit at least once and a half (later lags average too few frames to trust)
+    found, _ = find_peaks(profile[: max(1, n - config.min_lag // 2)], prominence=config.prominence)
+    found = [int(k) for k in found if k >= config.min_lag]
+    if not found:
+        return CountResult(count=1.0, peaks=[], processed=norm, period=None)
+    period = found[0]
+    count = n / period
+    f = config.downsample
+    peaks = [(i, i + sign * k * period) for k in range(1, max(1, int(round(count))))
+             for i in range(f // 2, n, f) for sign in (1, -1) if 0 <= i + sign * k * period < n]
+    return CountResult(count=float(count), peaks=peaks, processed=norm, period=period)
+
+
+def _count_rows(norm: np.ndarray, config: CountingConfig) -> CountResult:
+    f = config.downsample
     peaks, rows_with_peaks = [], 0
     for r, row in enumerate(norm):
         found, _ = find_peaks(row, height=config.height_factor * row.mean(), distance=config.distance)

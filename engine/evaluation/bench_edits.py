@@ -3,9 +3,11 @@
 Figures (JSON keys):
 - counting.attention / counting.baseline: exact-match rate of repetition counts on held-out corpus
   motions with known counts (attention: the motion is DDIM-inverted and its self-attention recorded
-  while it is rebuilt; baseline: peaks of the smoothed root height);
+  while it is rebuilt, counted from its lag profile, see engine.analysis.counting; baseline: peaks of the
+  smoothed root height);
 - emphasis_spearman: rank correlation between the emphasis weight on the verb and the motion's
-  amplitude (jump height for jumps, the moving limb's reach otherwise), averaged over prompts and seeds;
+  amplitude as the corpus's intensity scales it (see :func:`amplitude`), averaged over prompts and seeds;
+  emphasis acts in the layers calibrated for the model (``moattn bench --edits --calibrate``, on other prompts);
 - replacement_iou: timing IoU of the first segment between reference and edited motion, with in-place
   replacement, beside the same edited prompt sampled from the same noise without it;
 - shift_order_acc: share of shifted motions whose activity matches the rolled reference better than
@@ -29,7 +31,8 @@ from engine.evaluation.evaluator import LoadedEvaluator
 from engine.evaluation.metrics import diversity, fid
 from engine.generate import Request, SampleConfig, generate
 from engine.methods import edits
-from engine.methods.motionclr import ExampleConfig, ReplaceConfig, ReweightConfig, ShiftConfig
+from engine.methods.edit_options import EditOptions, calibrated_layers, run_edit
+from engine.methods.motionclr import ExampleConfig, ReplaceConfig, ShiftConfig
 from engine.representation import joints_to_features
 from engine.skeleton import JOINT_INDEX
 
@@ -61,13 +64,31 @@ class EditBenchConfig:
 
 
 # ----------------------------------------------------------------------------- measurements on joints
+def body_frame(joints: np.ndarray) -> np.ndarray:
+    """Joint positions relative to the root with the heading removed, (T, 22, 3) (x lateral, z forward)."""
+    ric = joints_to_features(joints)[:, 4:67].reshape(-1, 21, 3)
+    return np.concatenate([np.zeros((len(ric), 1, 3)), ric], axis=1)
+
+
 def amplitude(joints: np.ndarray, verb: str) -> float:
-    """How big the action is: jump height of the pelvis, else the reach of the moving limb."""
+    """How big the action is, measured as the corpus's ``intensity`` scales it.
+
+    jumps / hops: the pelvis's peak above its median height; waves: the wrist's side-to-side swing
+    (twice the high-passed lateral position's std, in the body frame); punches: the wrist's forward
+    reach; kicks and anything else: the moving limb's height range.
+    """
     if verb.startswith("jump") or verb.startswith("hop"):
         pelvis = joints[:, 0, 1]
-        return float(pelvis.max() - np.median(pelvis[: max(5, len(pelvis) // 8)]))
-    limbs = {"kick": ("right_foot", "left_foot"), "wave": ("right_wrist", "left_wrist"),
-             "punch": ("right_wrist", "left_wrist"), "clap": ("right_wrist", "left_wrist")}
+        return float(pelvis.max() - np.median(pelvis))
+    wrists = [JOINT_INDEX["right_wrist"], JOINT_INDEX["left_wrist"]]
+    if verb.startswith("wave"):
+        lateral = body_frame(joints)[:, wrists, 0]
+        swing = lateral - gaussian_filter1d(lateral, 6.0, axis=0, mode="nearest")
+        return float(2.0 * np.sqrt(2.0) * swing.std(axis=0).max())
+    if verb.startswith("punch"):
+        forward = body_frame(joints)[:, wrists, 2]
+        return float((forward.max(0) - forward.min(0)).max())
+    limbs = {"kick": ("right_foot", "left_foot"), "clap": ("right_wrist", "left_wrist")}
     names = next((v for k, v in limbs.items() if verb.startswith(k)), ("right_wrist", "left_wrist"))
     heights = joints[:, [JOINT_INDEX[n] for n in names], 1]
     return float((heights.max(0) - heights.min(0)).max())
@@ -127,8 +148,8 @@ def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -
         for seed in range(config.emphasis_seeds):
             heights = []
             for w in config.emphasis_weights:
-                out = edits.reweight(loaded, prompt, ReweightConfig(word=verb, weight=w),
-                                     frames=frames, sample=SampleConfig(**{**sample_base.__dict__, "seed": seed}))
+                options = EditOptions(kind="emphasize", prompt=prompt, word=verb, weight=w, seed=seed)
+                out = run_edit(loaded, options, frames=frames, sample=SampleConfig(**{**sample_base.__dict__, "seed": seed}))
                 heights.append(amplitude(out.after, verb))
                 outputs.append(out.after)
             rho = spearmanr(config.emphasis_weights, heights).statistic
@@ -136,7 +157,8 @@ def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -
             per_prompt.setdefault(prompt, []).append({"seed": seed, "amplitudes": [round(h, 3) for h in heights],
                                                       "spearman": rhos[-1]})
             log(f"emphasis {prompt!r} seed {seed}: rho {rhos[-1]:.2f} amplitudes {np.round(heights, 3).tolist()}")
-    return {"spearman": float(np.mean(rhos)), "per_prompt": per_prompt}, outputs
+    return {"spearman": float(np.mean(rhos)), "per_prompt": per_prompt,
+            "layers": list(calibrated_layers(loaded.config) or range(loaded.model.num_layers))}, outputs
 
 
 def _pairs(loaded: LoadedModel, n: int) -> list[tuple[str, str]]:

@@ -59,13 +59,29 @@ def _need(value, what: str, kind: str):
     return value
 
 
-def default_window(kind: str) -> Window:
-    """The method's own step/layer window for an edit kind (what ``--step-window`` overrides)."""
+#: edit kinds whose default layers come from the model's calibration (``config.json`` "edits")
+CALIBRATED_KINDS = ("emphasize", "ground")
+
+
+def calibrated_layers(model_config: dict | None) -> tuple[int, ...] | None:
+    """The layers where emphasis measurably grows the action, as calibrated for this model (None = all)."""
+    layers = ((model_config or {}).get("edits") or {}).get("emphasize_layers")
+    return tuple(int(i) for i in layers) if layers else None
+
+
+def default_window(kind: str, model_config: dict | None = None) -> Window:
+    """The method's own step/layer window for an edit kind (what ``--step-window`` / ``--layers`` override).
+
+    ``model_config`` (a loaded model's config) supplies calibrated emphasis layers, see
+    :mod:`engine.evaluation.calibrate_edits`.
+    """
     from engine.methods.motionclr import ExampleConfig, ReplaceConfig, ShiftConfig, StyleTransferConfig
     from engine.methods.windows import Window
 
     defaults = {"replace": ReplaceConfig().window, "shift": ShiftConfig().window, "example": ExampleConfig().window,
                 "style": StyleTransferConfig().window}
+    if kind in CALIBRATED_KINDS:
+        return Window(layers=calibrated_layers(model_config))
     return defaults.get(kind, Window())
 
 
@@ -78,8 +94,8 @@ def window(options: EditOptions, default: Window) -> Window:
     return Window(float(start), float(end), layers)
 
 
-def build_config(options: EditOptions, *, frames: int):
-    """The typed method config for ``options`` (a motion of ``frames`` frames)."""
+def build_config(options: EditOptions, *, frames: int, model_config: dict | None = None):
+    """The typed method config for ``options`` (a motion of ``frames`` frames; ``model_config``: see default_window)."""
     from engine.methods.motionclr import (
         ExampleConfig, GroundingConfig, ReplaceConfig, ReweightConfig, ShiftConfig, StyleTransferConfig, erase_config,
     )
@@ -91,7 +107,7 @@ def build_config(options: EditOptions, *, frames: int):
         if not 0 <= lo < hi:
             raise ValueError(f"the frame window must satisfy 0 <= start < end, got ({lo}, {hi})")
         span = (lo, min(hi, frames))
-    steps = window(o, default_window(kind))
+    steps = window(o, default_window(kind, model_config))
     if kind == "emphasize":
         return ReweightConfig(word=_need(o.word, "a word", kind), weight=float(o.weight), mode=o.mode, frames=span,
                               window=steps, occurrence=int(o.occurrence))
@@ -119,7 +135,7 @@ def run_edit(loaded, options: EditOptions, *, frames: int, sample, record: bool 
     from engine.methods import edits
 
     o, kind = options, options.kind
-    cfg = build_config(o, frames=frames)
+    cfg = build_config(o, frames=frames, model_config=loaded.config)
     common = dict(frames=frames, sample=sample, record=record, on_step=on_step)
     if kind in ("emphasize", "erase"):
         return edits.reweight(loaded, _need(o.prompt, "a prompt", kind), cfg, **common)

@@ -1,0 +1,97 @@
+"""Which layers emphasis should act in, measured per model (``moattn bench --edits --calibrate [--write]``).
+
+MotionCLR adds the weight to a word's cross-attention column in every layer. In a small denoiser the
+layers do not all agree: in some, more attention to the verb makes the action bigger; in others it
+makes it smaller (the model's own division of labour between layers). This measures, one layer at a
+time, the rank correlation between the emphasis weight and the action's amplitude (the same measure
+as ``moattn bench --edits``) on calibration prompts that the benchmark does not use, and builds the
+layer set by forward selection (layers interact, so a set is measured as a whole). The result goes into the model's
+``config.json`` ("edits": {"emphasize_layers": [...], "calibration": {...}}), where the CLI, the app
+and the benchmark read it as the emphasis and grounding default.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.stats import spearmanr
+
+from engine.checkpoint import LoadedModel, read_config, write_config_json
+from engine.generate import SampleConfig
+from engine.methods import edits
+from engine.methods.motionclr import ReweightConfig
+from engine.methods.windows import Window
+
+
+@dataclass(frozen=True)
+class CalibrationConfig:
+    #: (prompt, verb) pairs; none of them is an emphasis prompt of ``moattn bench --edits``
+    prompts: tuple[tuple[str, str], ...] = (
+        ("a person jumps forward", "jumps"), ("a person kicks with the left leg", "kicks"),
+        ("a person waves the left hand", "waves"), ("a person hops on the left leg", "hops"),
+        ("a person punches with the left hand", "punches"))
+    weights: tuple[float, ...] = (-0.4, -0.2, 0.0, 0.2, 0.4)
+    seeds: int = 2
+    steps: int = 10
+    guidance: float = 2.5
+    seconds: float = 5.0
+    threshold: float = 0.3
+    min_gain: float = 0.02
+
+
+def response(loaded: LoadedModel, layers: tuple[int, ...], config: CalibrationConfig) -> float:
+    """Mean Spearman(weight, amplitude) over the calibration prompts and seeds, emphasis in ``layers`` only."""
+    from engine.evaluation.bench_edits import amplitude
+
+    frames = int(config.seconds * 20)
+    rhos = []
+    for prompt, verb in config.prompts:
+        loaded.tokenizer.encode(prompt).word_index(verb)  # a clear error if the model lacks a word
+        for seed in range(config.seeds):
+            sample = SampleConfig(steps=config.steps, guidance=config.guidance, seed=seed)
+            amps = [amplitude(edits.reweight(loaded, prompt, ReweightConfig(word=verb, weight=w, window=Window(
+                layers=layers)), frames=frames, sample=sample).after, verb) for w in config.weights]
+            rho = spearmanr(config.weights, amps).statistic
+            rhos.append(0.0 if np.isnan(rho) else float(rho))
+    return float(np.mean(rhos))
+
+
+def calibrate_emphasis(loaded: LoadedModel, config: CalibrationConfig = CalibrationConfig(), *, log=print) -> dict:
+    """Forward selection of emphasis layers -> {"layers": [...], "per_layer": {layer: rho}, "history": [...], ...}.
+
+    Every layer is measured alone; the best one starts the set, and the layer whose addition raises
+    the set's response most is added while it raises it by more than ``min_gain``. No layer is kept
+    when even the best single one responds below ``threshold`` (emphasis then acts in all layers).
+    """
+    t0 = time.perf_counter()
+    per_layer: dict[int, float] = {}
+    for layer in range(loaded.model.num_layers):
+        per_layer[layer] = response(loaded, (layer,), config)
+        log(f"layer {layer} alone: mean Spearman {per_layer[layer]:+.2f}")
+    best = max(per_layer, key=per_layer.get)
+    chosen, score = [best], per_layer[best]
+    history = [{"layers": list(chosen), "spearman": round(score, 3)}]
+    while score >= config.threshold and len(chosen) < len(per_layer):
+        trials = {layer: response(loaded, tuple(sorted(chosen + [layer])), config)
+                  for layer in per_layer if layer not in chosen}
+        for layer, rho in trials.items():
+            log(f"layers {sorted(chosen + [layer])}: mean Spearman {rho:+.2f}")
+        layer = max(trials, key=trials.get)
+        if trials[layer] <= score + config.min_gain:
+            break
+        chosen, score = sorted(chosen + [layer]), trials[layer]
+        history.append({"layers": list(chosen), "spearman": round(score, 3)})
+    kept = chosen if score >= config.threshold else []
+    return {"layers": kept, "spearman": round(score, 3), "per_layer": {str(k): round(v, 3) for k, v in per_layer.items()},
+            "history": history, "threshold": config.threshold, "prompts": [p for p, _ in config.prompts],
+            "seeds": config.seeds, "steps": config.steps, "seconds_taken": round(time.perf_counter() - t0, 1)}
+
+
+def write_calibration(folder: Path, result: dict) -> None:
+    """Store the chosen layers in the model folder's config.json (all layers when none qualified)."""
+    data = read_config(folder)
+    data["edits"] = {**data.get("edits", {}), "emphasize_layers": result["layers"] or None,
+                     "calibration": {k: v for k, v in result.items() if k != "layers"}}
+    write_config_json(folder, data)

@@ -1,0 +1,68 @@
+"""Emphasis layers calibrated per model: measured, stored in config.json, used as the default everywhere."""
+from __future__ import annotations
+
+import shutil
+
+import pytest
+
+from engine.checkpoint import load_model
+from engine.evaluation.calibrate_edits import CalibrationConfig, calibrate_emphasis, write_calibration
+from engine.methods.edit_options import EditOptions, build_config, calibrated_layers, default_window
+
+TINY = CalibrationConfig(prompts=(("a person jumps", "jumps"),), weights=(-0.4, 0.0, 0.4), seeds=1, steps=2,
+                         seconds=1.0)
+
+
+def test_default_window_reads_calibrated_layers():
+    config = {"edits": {"emphasize_layers": [1, 4, 5]}}
+    assert default_window("emphasize", config).layers == (1, 4, 5)
+    assert default_window("ground", config).layers == (1, 4, 5)
+    assert default_window("emphasize", None).layers is None and default_window("emphasize", {}).layers is None
+    assert default_window("shift", config).layers is None  # only emphasis-like edits are calibrated
+    assert default_window("shift", config).end == 0.4
+    assert calibrated_layers({"edits": {"emphasize_layers": None}}) is None
+    opts = EditOptions(kind="emphasize", word="jumps")
+    assert build_config(opts, frames=40, model_config=config).window.layers == (1, 4, 5)
+    # the user's layers win over the calibration
+    assert build_config(EditOptions(kind="emphasize", word="jumps", layers=(0,)), frames=40,
+                        model_config=config).window.layers == (0,)
+
+
+def test_calibration_measures_every_layer_and_is_stored(tiny_model_dir, tmp_path):
+    folder = tmp_path / "model"
+    shutil.copytree(tiny_model_dir, folder)
+    loaded = load_model(folder)
+    lines = []
+    result = calibrate_emphasis(loaded, CalibrationConfig(**{**TINY.__dict__, "threshold": -1.0}), log=lines.append)
+    layers = loaded.model.num_layers
+    assert sorted(result["per_layer"]) == [str(i) for i in range(layers)]
+    assert all(-1.0 <= v <= 1.0 for v in result["per_layer"].values())
+    best = max(range(layers), key=lambda i: result["per_layer"][str(i)])
+    assert result["history"][0]["layers"] == [best]  # forward selection starts from the best single layer
+    assert result["layers"] == result["history"][-1]["layers"] and best in result["layers"]
+    assert any("alone" in line for line in lines)
+    write_calibration(folder, result)
+    reloaded = load_model(folder)
+    assert calibrated_layers(reloaded.config) == tuple(result["layers"])
+    assert reloaded.config["vocabulary"] == loaded.config["vocabulary"]  # the rest of the config is kept
+    # an unreachable threshold keeps no layer: emphasis then acts in every layer
+    none = calibrate_emphasis(loaded, CalibrationConfig(**{**TINY.__dict__, "threshold": 2.0}), log=lines.append)
+    assert none["layers"] == []
+    write_calibration(folder, none)
+    assert calibrated_layers(load_model(folder).config) is None
+
+
+def test_calibration_refuses_a_word_the_model_lacks(tiny_model_dir):
+    loaded = load_model(tiny_model_dir)
+    bad = CalibrationConfig(**{**TINY.__dict__, "prompts": (("a person jumps", "flies"),)})
+    with pytest.raises(ValueError):
+        calibrate_emphasis(loaded, bad, log=lambda _: None)
+
+
+def test_bench_flags_calibrate_only_with_edits(capsys):
+    from engine.cli import main
+
+    assert main(["bench", "--calibrate"]) == 2
+    assert "--calibrate and --write go with --edits" in capsys.readouterr().err
+    assert main(["bench", "--edits", "--write"]) == 2
+    assert "add --calibrate" in capsys.readouterr().err
