@@ -16,6 +16,7 @@ from bokeh.models import ColumnDataSource, FreehandDrawTool, PointDrawTool, Rang
 from bokeh.plotting import figure
 
 from app.controlling import DEFAULT_ROOT, ROOT_COLOR, WRIST_COLOR, ControlSettings
+from app.views.guard import SyncGuard
 
 
 class PathCanvas:
@@ -27,7 +28,7 @@ class PathCanvas:
     def __init__(self, *, settings: ControlSettings, fig):
         self.settings = settings
         self.fig = fig
-        self._syncing = False
+        self._syncing = SyncGuard()
         self.stroke_src = ColumnDataSource(dict(xs=[], ys=[]))
         self.points_src = ColumnDataSource(dict(x=[], y=[]))
         self.start_src = ColumnDataSource(dict(x=[], y=[]))
@@ -69,11 +70,7 @@ class PathCanvas:
 
     # ------------------------------------------------------------------ settings -> browser
     def _sync(self, fn) -> None:
-        was, self._syncing = self._syncing, True
-        try:
-            fn()
-        finally:
-            self._syncing = was
+        self._syncing.run(fn)
 
     def _redraw(self, *_):
         pts = self.points

@@ -18,6 +18,7 @@ from bokeh.plotting import figure
 from app.editing import KIND_HELP, KIND_LABELS, PROMPT_SOURCE, alignment
 from app.state import StudioState
 from app.views.jobs import on_text
+from app.views.guard import SyncGuard
 
 WORD_KINDS = ("emphasize", "erase", "ground")
 WEIGHT_KINDS = ("emphasize", "ground")
@@ -30,7 +31,7 @@ class EditTab(pn.viewable.Viewer):
     def __init__(self, **params):
         super().__init__(**params)
         s, e = self.state, self.state.edit
-        self._syncing = False
+        self._syncing = SyncGuard()
         self.kind = pn.widgets.RadioButtonGroup(label="Edit", options=list(KIND_LABELS), value=e.kind,
                                                 color="primary", variant="outline",
                                                 css_classes=["edit-kind"], sizing_mode="stretch_width")
@@ -139,11 +140,7 @@ class EditTab(pn.viewable.Viewer):
 
     # ------------------------------------------------------------------ state -> widgets
     def _sync(self, fn) -> None:
-        was, self._syncing = self._syncing, True
-        try:
-            fn()
-        finally:
-            self._syncing = was
+        self._syncing.run(fn)
 
     def _frames_total(self) -> int:
         from engine.generate import frames_for
