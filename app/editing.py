@@ -120,6 +120,7 @@ class CountReadout:
     processed: np.ndarray  # the filtered, downsampled, normalised map
     downsample: int
     source: str  # how the self-attention map was obtained
+    period: int | None = None  # frames between repetitions (None: no repetition found)
 
 
 @dataclass
@@ -326,7 +327,8 @@ def count_record(record: AttentionRecord, joints: np.ndarray, *, item: str, run=
               f"{steps[0] + 1}–{steps[-1] + 1} of {record.num_steps}")
     return CountReadout(item=item, count=result.count, rounded=result.rounded,
                         baseline=count_from_root_height(np.asarray(joints)[:, 0, 1]), peaks=list(result.peaks),
-                        processed=result.processed, downsample=run.counting.downsample, source=source)
+                        processed=result.processed, downsample=run.counting.downsample, source=source,
+                        period=result.period)
 
 
 def count_imported(loaded, joints: np.ndarray, *, item: str, prompt: str = "", steps: int = 20) -> CountReadout:
@@ -337,5 +339,5 @@ def count_imported(loaded, joints: np.ndarray, *, item: str, prompt: str = "", s
     count = count_motion(loaded, np.asarray(joints), prompt=prompt, steps=steps, run=run)
     r = count.attention
     return CountReadout(item=item, count=r.count, rounded=r.rounded, baseline=count.baseline, peaks=list(r.peaks),
-                        processed=r.processed, downsample=run.counting.downsample,
+                        processed=r.processed, downsample=run.counting.downsample, period=r.period,
                         source=f"inverted ({steps} DDIM steps), self-attention recorded while it was rebuilt")

@@ -210,6 +210,7 @@ def test_counting_readout_shows_count_baseline_and_peaks(studio):
     assert readout.rounded == 4 and readout.baseline == 4 and len(readout.peaks) > 4
     assert 'class="count-attention">4.' in tab.readout.object and 'class="count-baseline">4<' in tab.readout.object
     assert 'class="count-rounded">4<' in tab.readout.object
+    assert readout.period == 32 and 'class="count-period">32 frames (1.60 s)<' in tab.readout.object
     # peaks drawn on the counting map and over the explorer's self-attention heatmap
     assert len(tab.peak_src.data["x"]) == len(readout.peaks)
     assert tab.count_src.data["image"][0].shape == (32, 32) and tab.count_src.data["dw"] == [128]

@@ -94,7 +94,7 @@ def count_from_attention(attn: np.ndarray, config: CountingConfig = CountingConf
     period = found[0]
     count = n / period
     f = config.downsample
-    peaks = [(i, i + sign * k * period) for k in range(1, max(1, int(round(count))))
+    peaks = [(i, i + sign * k * period) for k in range(1, n // period + 1)
              for i in range(f // 2, n, f) for sign in (1, -1) if 0 <= i + sign * k * period < n]
     return CountResult(count=float(count), peaks=peaks, processed=norm, period=period)
 
