@@ -64,4 +64,5 @@ def run(args: argparse.Namespace) -> int:
     out = export_model(args.source, args.out, command=args.command, reports=args.eval_json, note=args.note)
     size = sum(p.stat().st_size for p in out.iterdir()) / 1e6
     print(f"exported {args.source} -> {out} ({size:.1f} MB)")
+    print(f"emphasis layers are not calibrated for this model yet: moattn bench --edits --calibrate --write --model {out}")
     return 0
