@@ -30,7 +30,8 @@ class EditOptions:
     ``prompt``: the prompt (the reference prompt for replace; the example / content source for
     example / style, where it may also be joints). ``frames``: the frame span [start, end) the
     edit touches (None = the kind's default: all frames, erase the last half). ``step_window``:
-    fractions of the sampling run (None = the method's default window). ``layers``: None = all.
+    fractions of the sampling run (None = the method's default window). ``layers``: None = the kind's default
+    (all layers; emphasize and ground: the layers calibrated for the model, see :func:`default_window`).
     """
 
     kind: str
