@@ -157,10 +157,8 @@ class EditTab(pn.viewable.Viewer):
             return None
 
     def _describe_model(self) -> None:
-        try:
-            layers = int(self.state.model.config["model"]["layers"])
-        except Exception:
-            layers = 0
+        config = self._model_config()
+        layers = int(config["model"]["layers"]) if config else 0
         self.layers.options = {f"layer {i}": i for i in range(layers)}
 
     def _on_prompt(self, *_):

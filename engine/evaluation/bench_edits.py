@@ -33,7 +33,7 @@ from engine.generate import Request, SampleConfig, generate
 from engine.methods import edits
 from engine.methods.edit_options import EditOptions, calibrated_layers, run_edit
 from engine.methods.motionclr import ExampleConfig, ReplaceConfig, ShiftConfig
-from engine.representation import joints_to_features
+from engine.representation import SLICES, joints_to_features
 from engine.skeleton import JOINT_INDEX
 
 REPEATED_ACTIONS = ("jump", "hop", "squat", "clap", "kick", "punch", "wave", "bow", "jumping_jacks")
@@ -65,8 +65,9 @@ class EditBenchConfig:
 
 # ----------------------------------------------------------------------------- measurements on joints
 def body_frame(joints: np.ndarray) -> np.ndarray:
-    """Joint positions relative to the root with the heading removed, (T, 22, 3) (x lateral, z forward)."""
-    ric = joints_to_features(joints)[:, 4:67].reshape(-1, 21, 3)
+    """Joints in the body frame, (T-1, 22, 3): x lateral and z forward relative to the root with the heading
+    removed, y the height above the floor (HumanML3D's "ric"; the root's own row is zero)."""
+    ric = joints_to_features(joints)[:, SLICES["ric"]].reshape(-1, 21, 3)
     return np.concatenate([np.zeros((len(ric), 1, 3)), ric], axis=1)
 
 
@@ -74,7 +75,7 @@ def amplitude(joints: np.ndarray, verb: str) -> float:
     """How big the action is, measured as the corpus's ``intensity`` scales it.
 
     jumps / hops: the pelvis's peak above its median height; waves: the wrist's side-to-side swing
-    (twice the high-passed lateral position's std, in the body frame); punches: the wrist's forward
+    (peak to peak of a sine with the high-passed lateral position's std, in the body frame); punches: the wrist's forward
     reach; kicks and anything else: the moving limb's height range.
     """
     if verb.startswith("jump") or verb.startswith("hop"):
@@ -107,6 +108,12 @@ def walking_interval(joints: np.ndarray, threshold: float = 0.45) -> np.ndarray:
 def iou(a: np.ndarray, b: np.ndarray) -> float:
     union = (a | b).sum()
     return float((a & b).sum() / union) if union else 1.0
+
+
+def rank_correlation(weights, amplitudes) -> float:
+    """Spearman's rho; 0 when it is undefined (all amplitudes equal)."""
+    rho = spearmanr(weights, amplitudes).statistic
+    return 0.0 if np.isnan(rho) else float(rho)
 
 
 def _corr(a: np.ndarray, b: np.ndarray) -> float:
@@ -152,8 +159,7 @@ def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -
                 out = run_edit(loaded, options, frames=frames, sample=SampleConfig(**{**sample_base.__dict__, "seed": seed}))
                 heights.append(amplitude(out.after, verb))
                 outputs.append(out.after)
-            rho = spearmanr(config.emphasis_weights, heights).statistic
-            rhos.append(0.0 if np.isnan(rho) else float(rho))
+            rhos.append(rank_correlation(config.emphasis_weights, heights))
             per_prompt.setdefault(prompt, []).append({"seed": seed, "amplitudes": [round(h, 3) for h in heights],
                                                       "spearman": rhos[-1]})
             log(f"emphasis {prompt!r} seed {seed}: rho {rhos[-1]:.2f} amplitudes {np.round(heights, 3).tolist()}")

@@ -16,7 +16,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.stats import spearmanr
 
 from engine.checkpoint import LoadedModel, read_config, write_config_json
 from engine.generate import SampleConfig
@@ -43,7 +42,7 @@ class CalibrationConfig:
 
 def response(loaded: LoadedModel, layers: tuple[int, ...], config: CalibrationConfig) -> float:
     """Mean Spearman(weight, amplitude) over the calibration prompts and seeds, emphasis in ``layers`` only."""
-    from engine.evaluation.bench_edits import amplitude
+    from engine.evaluation.bench_edits import amplitude, rank_correlation
 
     frames = int(config.seconds * 20)
     rhos = []
@@ -53,8 +52,7 @@ def response(loaded: LoadedModel, layers: tuple[int, ...], config: CalibrationCo
             sample = SampleConfig(steps=config.steps, guidance=config.guidance, seed=seed)
             amps = [amplitude(edits.reweight(loaded, prompt, ReweightConfig(word=verb, weight=w, window=Window(
                 layers=layers)), frames=frames, sample=sample).after, verb) for w in config.weights]
-            rho = spearmanr(config.weights, amps).statistic
-            rhos.append(0.0 if np.isnan(rho) else float(rho))
+            rhos.append(rank_correlation(config.weights, amps))
     return float(np.mean(rhos))
 
 
