@@ -1,8 +1,10 @@
 """`moattn train --commdm`: train the ComMDM block on a few dozen two-person samples, the prior frozen.
 
 Only the block and the embedding rows of words the prior never saw are trained (L_simple on
-both persons' clean motion and placement; the two persons share the timestep and draw their
-own noise). Checkpoints (train_state.pt for --resume, fp16 weights.pt), log.jsonl and the
+both persons' clean motion and placement, plus a contact term on the hands; the two persons
+share the timestep and draw their own noise). A share of the pairs (``prefix_prob``) is trained
+for prefix completion: the first second of both people and their placement are given
+noise-free, as PriorMDM trains its completion task, and ``duet.complete`` samples them so. Checkpoints (train_state.pt for --resume, fp16 weights.pt), log.jsonl and the
 config go to --out.
 """
 from __future__ import annotations
@@ -21,13 +23,15 @@ from tqdm import tqdm
 from engine.checkpoint import (export_weights, load_model, load_train_state, read_config, save_train_state,
                                write_config_json)
 from engine.diffusion.schedule import CosineSchedule
-from engine.methods.commdm import PLACE_DIMS, ComConfig, duet_roles
-from engine.methods.duet import DuetModel, load_duet, new_duet
+from engine.methods.commdm import ComConfig, duet_roles
+from engine.methods.duet import PREFIX_SECONDS, DuetModel, load_duet, new_duet
+from engine.methods.duet_losses import contact_loss, duet_losses, prefix_cells
 from engine.methods.duet_data import PairItem, duet_words, few_shot, mean_placement, stack_pairs, training_items
 from engine.model.denoiser import Condition
 from engine.attention.context import WordIndex
+from engine.generate import FPS
 from engine.paths import MODEL_DIR
-from engine.train import _Stop, lr_at, masked_losses
+from engine.train import _Stop, lr_at
 
 
 @dataclass
@@ -43,6 +47,10 @@ class ComTrainConfig:
     text_dropout: float = 0.2  # pairs trained without text (prefix completion masks the text)
     velocity_weight: float = 0.5
     place_weight: float = 1.0
+    contact_weight: float = 0.5  # duet_losses.contact_loss (metres, L1)
+    contact_near: float = 0.5  # true hand distances under this count fully, the rest at 10 %
+    prefix_prob: float = 0.5  # pairs trained for completion (prefix and placement given noise-free)
+    prefix_text_dropout: float = 0.8  # completion usually runs without text (as in the paper)
     shots: int = 6  # samples per interaction (8 interactions: 48 samples)
     crop_every: int = 10
     seed: int = 0
@@ -58,35 +66,32 @@ class ComTrainConfig:
 
     @classmethod
     def from_json(cls, data: dict) -> "ComTrainConfig":
-        data = dict(data)
+        data = {**_BEFORE_NEW_TERMS, **data}  # a run saved before these terms existed trained without them
         com = ComConfig.from_json(data.pop("com", {}))
         names = {f.name for f in fields(cls)}
         return cls(com=com, **{k: v for k, v in data.items() if k in names})
 
 
+_BEFORE_NEW_TERMS = {"contact_weight": 0.0, "prefix_prob": 0.0}
 _RUNTIME = ("steps", "log_every", "ckpt_every", "threads")
 
 
 LR_FLOOR = 0.05  # the cosine ends at 5 % of lr
 
 
-def _batch(model: DuetModel, items: list[PairItem], rng: np.random.Generator, text_dropout: float):
+def _batch(model: DuetModel, items: list[PairItem], rng: np.random.Generator, config: "ComTrainConfig"):
+    """Duet states (2P, T + 1, D), their condition, and which pairs are trained for completion (P,)."""
     x0, frame_mask = stack_pairs(items)
     p = len(items)
     tokens = [model.tokenizer.encode(it.captions[int(rng.integers(len(it.captions)))]) for it in items]
     tokens = tokens + tokens  # both persons read the pair's caption
     ids, mask = model.tokenizer.batch(tokens)
-    use = torch.from_numpy(rng.random(p) >= text_dropout)
+    prefix = rng.random(p) < config.prefix_prob
+    use = rng.random(p) >= np.where(prefix, config.prefix_text_dropout, config.text_dropout)
+    use = torch.from_numpy(use)
     cond = Condition(text_ids=ids, text_mask=mask, frame_mask=frame_mask, use_text=torch.cat([use, use]),
                      roles=duet_roles(p), words=WordIndex(words=tuple(t.words for t in tokens)))
-    return x0, cond
-
-
-def duet_losses(x0_hat: torch.Tensor, x0: torch.Tensor, frame_mask: torch.Tensor) -> tuple[torch.Tensor, ...]:
-    """(motion mse, motion velocity mse, placement mse) on packed duet states."""
-    mse, vel = masked_losses(x0_hat[:, :-1], x0[:, :-1], frame_mask[:, :-1])
-    place = ((x0_hat[:, -1, :PLACE_DIMS] - x0[:, -1, :PLACE_DIMS]) ** 2).mean()
-    return mse, vel, place
+    return x0, cond, torch.from_numpy(prefix)
 
 
 def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool = True) -> dict:
@@ -120,7 +125,10 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
     rng = np.random.default_rng([config.seed, step])
     gen = torch.Generator().manual_seed(config.seed * 7919 + step)
     schedule = CosineSchedule()
-    info = {**model.config, "kind": "commdm", "train": config.to_json(), "prior_step": prior.config.get("step"),
+    mean = torch.from_numpy(prior.normalizer.mean)
+    std = torch.from_numpy(prior.normalizer.std)
+    given = int(round(PREFIX_SECONDS * FPS))
+    info = {**model.config, "kind": "commdm", "prefix_noise_free": config.prefix_prob > 0, "train": config.to_json(), "prior_step": prior.config.get("step"),
             "samples": len(samples), "items": len(items),
             "interactions": sorted({s.interaction for s in samples})}
 
@@ -145,15 +153,19 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
         net.train()
         while step < config.steps and not stop.requested:
             picks = rng.choice(len(items), size=min(config.batch_size, len(items)), replace=False)
-            x0, cond = _batch(model, [items[i] for i in picks], rng, config.text_dropout)
+            x0, cond, prefix = _batch(model, [items[i] for i in picks], rng, config)
             p = len(picks)
             t = torch.randint(0, schedule.steps, (p,), generator=gen).repeat(2)  # one t per pair
             x_t = schedule.q_sample(x0, t, torch.randn(x0.shape, generator=gen))
+            if prefix.any():  # the completion's known cells, noise-free: sqrt(alpha_bar) x0
+                ab = schedule.alpha_bar(t).reshape(-1, 1, 1)
+                x_t = torch.where(prefix_cells(x0, prefix, given), ab.sqrt() * x0, x_t)
             for group in optimizer.param_groups:
                 group["lr"] = lr_at(step, config, floor=LR_FLOOR)
             x0_hat = net(x_t, t, cond)
             mse, vel, place = duet_losses(x0_hat, x0, cond.frame_mask)
-            loss = mse + config.velocity_weight * vel + config.place_weight * place
+            touch = contact_loss(x0_hat, x0, cond.frame_mask, mean=mean, std=std, near=config.contact_near)
+            loss = mse + config.velocity_weight * vel + config.place_weight * place + config.contact_weight * touch
             optimizer.zero_grad(set_to_none=True)
             loss.backward()
             torch.nn.utils.clip_grad_norm_(params, 1.0)
@@ -167,14 +179,14 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
                     if pm.requires_grad:
                         pe.lerp_(pm, 1 - decay)
             step += 1
-            window.append((mse.item(), vel.item(), place.item()))
+            window.append((mse.item(), vel.item(), place.item(), touch.item()))
             bar.update(1)
             if step % config.log_every == 0 or step == config.steps:
                 w = np.asarray(window)
                 last = {"step": step, "mse": float(w[:, 0].mean()), "vel": float(w[:, 1].mean()),
-                        "place": float(w[:, 2].mean()), "lr": lr_at(step, config, floor=LR_FLOOR),
+                        "place": float(w[:, 2].mean()), "contact": float(w[:, 3].mean()), "lr": lr_at(step, config, floor=LR_FLOOR),
                         "s_per_step": (time.perf_counter() - t0) / len(window), "time": time.time()}
-                bar.set_postfix(mse=f"{last['mse']:.4f}", place=f"{last['place']:.4f}")
+                bar.set_postfix(mse=f"{last['mse']:.4f}", place=f"{last['place']:.4f}", contact=f"{last['contact']:.3f}")
                 with (out / "log.jsonl").open("a") as fh:
                     fh.write(json.dumps(last) + "\n")
                 window, t0 = [], time.perf_counter()

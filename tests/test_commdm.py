@@ -213,6 +213,66 @@ def test_prefix_completion_keeps_the_prefix(duet_model):
         complete(duet_model, ja, jb, seconds=9.8, prefix_seconds=2.0)
 
 
+def test_completion_samples_the_prefix_as_the_block_was_trained(duet_model):
+    """A block trained for completion (prefix_noise_free) sees the prefix as sqrt(alpha_bar)·x0 at every step
+    (PriorMDM Algorithm 2); the prior alone gets plain inpainting with fresh noise."""
+    from engine.diffusion import CosineSchedule
+    from engine.generate import SampleConfig
+    from engine.methods.duet import complete
+
+    assert duet_model.config["prefix_noise_free"] is True
+    s = DuetCorpus("test").sample(1)
+    schedule = CosineSchedule()
+    for communicate, noise_free in ((True, True), (False, False)):
+        states = []
+        complete(duet_model, s.joints_a, s.joints_b, sample=SampleConfig(steps=5, guidance=1.0),
+                 communicate=communicate, on_step=states.append)
+        scaled = [st.x_prev[:, :20] / schedule.alpha_bar(torch.tensor(st.t_next)).sqrt() for st in states[:-1]]
+        same = all(torch.allclose(x, states[-1].x_prev[:, :20], atol=1e-5) for x in scaled)
+        assert same == noise_free
+        # the frames after the prefix are never pinned
+        assert not torch.allclose(states[0].x_prev[:, 30:], states[-1].x_prev[:, 30:], atol=1e-2)
+
+
+def test_contact_loss_measures_the_people_put_together():
+    """The training's contact distances, from packed duet states through the placement, equal the distances
+    between the corpus's two people in their shared frame; the loss is 0 on the truth, grows when the
+    predicted placement moves person b away, and its gradient reaches the placement."""
+    from engine.methods.duet_data import few_shot, pair_item, stack_pairs
+    from engine.methods.duet_losses import CHEST, RW, _together, contact_loss
+    from engine.representation import FEATURE_DIM, Normalizer
+
+    identity = Normalizer(mean=np.zeros(FEATURE_DIM), std=np.ones(FEATURE_DIM))
+    mean, std = torch.zeros(FEATURE_DIM), torch.ones(FEATURE_DIM)
+    samples = few_shot("test", per_interaction=1)
+    x0, mask = stack_pairs([pair_item(s, identity) for s in samples])
+    d = _together(x0, mean, std).numpy()
+    for k, s in enumerate(samples):
+        n = len(s.joints_a) - 1  # features hold one frame fewer than the joints
+        hands = np.linalg.norm(s.joints_a[:n, RW] - s.joints_b[:n, RW], axis=-1)
+        chest = np.linalg.norm(s.joints_b[:n, RW] - s.joints_a[:n, CHEST], axis=-1)
+        np.testing.assert_allclose(d[k, :n, 0], hands, atol=1e-3)
+        np.testing.assert_allclose(d[k, :n, 4], chest, atol=1e-3)
+    assert contact_loss(x0, x0, mask, mean=mean, std=std).item() == pytest.approx(0.0, abs=1e-5)
+    moved = x0.clone().requires_grad_(True)
+    shift = torch.zeros_like(x0)
+    shift[: len(samples), -1, 1] = 0.3  # b stands 0.3 m further along a's z
+    loss = contact_loss(moved + shift, x0, mask, mean=mean, std=std)
+    assert loss.item() > 0.05
+    loss.backward()
+    assert moved.grad[: len(samples), -1, :2].abs().sum() > 0
+
+
+def test_training_gives_completion_pairs_their_prefix_noise_free():
+    from engine.methods.duet_losses import prefix_cells
+
+    x0 = torch.randn(6, 31, 263)  # 3 pairs
+    cells = prefix_cells(x0, torch.tensor([True, False, True]), 20)
+    for row, given in enumerate([True, False, True] * 2):
+        assert bool(cells[row, :20].all()) == given and bool(cells[row, -1, :4].all()) == given
+        assert not cells[row, 20:-1].any() and not cells[row, -1, 4:].any()
+
+
 # ----------------------------------------------------------------------------- the bench's measures
 def test_contact_and_placement_measures_on_ground_truth():
     from engine.evaluation.bench_duet import FACE_TO_FACE, contact_timing, face_each_other, placement_error

@@ -133,6 +133,8 @@ def _denoiser(model: DuetModel, sample: SampleConfig, communicate: bool):
 
 def _sample(model: DuetModel, cond: Condition, frames: int, sample: SampleConfig, *, communicate: bool,
             known: KnownCells | None, on_step: Callable[[StepState], None] | None) -> torch.Tensor:
+    """DDIM over duet states; known cells follow the truth noise-free when the block was trained so
+    (``prefix_noise_free``), otherwise with fresh noise (plain MDM inpainting, what the prior alone knows)."""
     if sample.sampler != "ddim":
         raise ValueError("duets are sampled with DDIM")
     g = torch.Generator().manual_seed(sample.seed)
@@ -141,7 +143,8 @@ def _sample(model: DuetModel, cond: Condition, frames: int, sample: SampleConfig
     denoiser = _denoiser(model, sample, communicate)
     hooks = []
     if known is not None:
-        hook = KnownLatents(known, schedule, noise_free=False, generator=g)
+        noise_free = communicate and bool(model.config.get("prefix_noise_free", False))
+        hook = KnownLatents(known, schedule, noise_free=noise_free, generator=g)
         noise = known.put(noise, hook.latent(schedule.timesteps(sample.steps)[0], known.values.shape))
         hooks.append(hook)
         denoiser = Inpaint(denoiser, known)
