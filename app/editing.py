@@ -121,6 +121,7 @@ class CountReadout:
     downsample: int
     source: str  # how the self-attention map was obtained
     period: int | None = None  # frames between repetitions (None: no repetition found)
+    span: tuple[int, int] | None = None  # first and last frame of the repetitions
 
 
 @dataclass
@@ -328,7 +329,7 @@ def count_record(record: AttentionRecord, joints: np.ndarray, *, item: str, run=
     return CountReadout(item=item, count=result.count, rounded=result.rounded,
                         baseline=count_from_root_height(np.asarray(joints)[:, 0, 1]), peaks=list(result.peaks),
                         processed=result.processed, downsample=run.counting.downsample, source=source,
-                        period=result.period)
+                        period=result.period, span=result.span)
 
 
 def count_imported(loaded, joints: np.ndarray, *, item: str, prompt: str = "", steps: int = 20) -> CountReadout:
@@ -340,4 +341,4 @@ def count_imported(loaded, joints: np.ndarray, *, item: str, prompt: str = "", s
     r = count.attention
     return CountReadout(item=item, count=r.count, rounded=r.rounded, baseline=count.baseline, peaks=list(r.peaks),
                         processed=r.processed, downsample=run.counting.downsample, period=r.period,
-                        source=f"inverted ({steps} DDIM steps), self-attention recorded while it was rebuilt")
+                        span=r.span, source=f"inverted ({steps} DDIM steps), self-attention recorded while it was rebuilt")

@@ -57,3 +57,15 @@ def random_corpus_model(*, layers: int, width: int = 32, heads: int = 2):
     model = Denoiser(ModelConfig(width=width, layers=layers, heads=heads, text_layers=1, vocab_size=len(words) + 8)).eval()
     return LoadedModel(model=model, tokenizer=Tokenizer(words), normalizer=Corpus(split="train").stats(n=32),
                        config={}, folder=Path("."))
+
+
+def cyclic_attention_map(reps: int, *, rest: int, period: int = 16) -> np.ndarray:
+    """A self-attention map like the model's for a repeated action between two still parts: frames attend
+    to their neighbours, action frames to the same phase of every repetition, still frames to each other."""
+    t = np.arange(2 * rest + reps * period)
+    active = (t >= rest) & (t < rest + reps * period)
+    phase = 2 * np.pi * (t - rest) / period
+    local = np.exp(-0.5 * ((t[:, None] - t[None]) / 2.0) ** 2)
+    cyclic = np.exp(2 * (np.cos(phase[:, None] - phase[None]) - 1)) * np.outer(active, active)
+    attn = 0.02 + local + 0.5 * cyclic + 0.3 * np.outer(~active, ~active)
+    return attn / attn.sum(1, keepdims=True)

@@ -14,6 +14,7 @@ from app.editing import alignment, word_choice
 from app.main import Studio
 from app.testing import tiny_model
 from engine.methods.edit_options import EditOptions, build_config
+from tests.conftest import cyclic_attention_map
 
 
 @pytest.fixture(scope="module")
@@ -185,11 +186,8 @@ def test_cancel_stops_an_edit(tiny_model_dir):
 
 # ---------------------------------------------------------------------------------------------- counting
 def _periodic_record(n: int = 128, period: int = 32, words=("a", "person", "jumps")) -> AttentionRecord:
-    """Self-attention of four jumps: frames near a take-off attend to the frames near every take-off."""
-    i = np.arange(n)
-    d = np.abs(i[:, None] - np.arange(period // 2, n, period)[None, :]).min(1)
-    sm = np.exp(-(d[:, None] ** 2 + d[None, :] ** 2) / 8.0) + 0.01
-    sm /= sm.sum(1, keepdims=True)
+    """Self-attention of four hops: every frame attends to its neighbours and to the same phase of every hop."""
+    sm = cyclic_attention_map(n // period, rest=0, period=period)
     self_maps = np.broadcast_to(sm, (2, 1, 1, n, n)).astype(np.float16)
     cross = np.full((2, 1, 1, n, len(words)), 1 / len(words), np.float16)
     return AttentionRecord(words=tuple(words), steps=(5, 9), num_steps=10, timesteps=(-1, -1),
@@ -211,6 +209,8 @@ def test_counting_readout_shows_count_baseline_and_peaks(studio):
     assert 'class="count-attention">4.' in tab.readout.object and 'class="count-baseline">4<' in tab.readout.object
     assert 'class="count-rounded">4<' in tab.readout.object
     assert readout.period == 32 and 'class="count-period">32 frames (1.60 s)<' in tab.readout.object
+    first, last = readout.span
+    assert first <= 4 and last >= 123 and f'class="count-span">{first}–{last}<' in tab.readout.object
     # peaks drawn on the counting map and over the explorer's self-attention heatmap
     assert len(tab.peak_src.data["x"]) == len(readout.peaks)
     assert tab.count_src.data["image"][0].shape == (32, 32) and tab.count_src.data["dw"] == [128]

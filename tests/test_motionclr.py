@@ -14,6 +14,7 @@ from engine.methods.motionclr import (
 )
 from engine.methods.windows import Window
 from engine.model import Condition, Denoiser, ModelConfig
+from tests.conftest import cyclic_attention_map
 
 FRAMES = 24
 
@@ -151,20 +152,26 @@ def test_grounding_raises_inside_and_lowers_outside():
 
 
 def test_counting_on_a_synthetic_action_map():
-    """Action frames attend to every repetition of the action; standing frames attend evenly."""
+    """The lag method finds the period and counts the repetitions inside the active span only (the still
+    frames around them are not repetitions); MotionCLR's row recipe and the root-height baseline count
+    isolated action bumps."""
+    for reps in (2, 3, 4):
+        for rest in (0, 12, 30):
+            res = count_from_attention(cyclic_attention_map(reps, rest=rest))
+            assert res.rounded == reps and abs(res.period - 16) <= 1, (reps, rest, res.count, res.period)
+            first, last = res.span
+            assert abs(first - rest) <= 4 and abs(last - (rest + reps * 16 - 1)) <= 4, (rest, res.span)
+            assert {c - r for r, c in res.peaks if c > r} == {k * res.period for k in range(1, reps)}
+            assert all(first <= r <= last and first <= c <= last for r, c in res.peaks)
     t = np.arange(120)
     for reps in (2, 3, 4):  # (with 5 narrow bumps in 6 s the row mean x3 threshold hides the peaks)
         centres = (np.arange(reps) + 0.5) * 120 / reps
         bump = np.exp(-0.5 * ((t[:, None] - centres[None]) / 3.0) ** 2).max(1)  # (T,) action strength
         attn = 0.05 + np.outer(bump, bump)
         attn /= attn.sum(1, keepdims=True)
-        for method in ("lag", "rows"):
-            res = count_from_attention(attn, CountingConfig(method=method))
-            assert res.rounded == reps, (method, reps, res.count)
-            assert all(0 <= r < 120 and 0 <= c < 120 for r, c in res.peaks)
-        lag = count_from_attention(attn)
-        assert abs(lag.period - 120 / reps) <= 1  # the period is the spacing of the repetitions
-        assert {c - r for r, c in lag.peaks if c > r} == {k * lag.period for k in range(1, reps)}
+        res = count_from_attention(attn, CountingConfig(method="rows"))
+        assert res.rounded == reps, (reps, res.count)
+        assert all(0 <= r < 120 and 0 <= c < 120 for r, c in res.peaks)
         assert count_from_root_height(0.9 + 0.2 * bump) == reps
     # one action, nothing repeated: no period, count 1
     one = np.exp(-0.5 * ((t[:, None] - t[None]) / 3.0) ** 2)

@@ -339,12 +339,14 @@ class EditTab(pn.viewable.Viewer):
         self.count_map.y_range.start, self.count_map.y_range.end = n, 0
         self.peak_src.data = dict(x=[c for _, c in readout.peaks], y=[r for r, _ in readout.peaks])
         period = f"{readout.period} frames ({readout.period / 20:.2f} s)" if readout.period else "none found"
+        span = f"{readout.span[0]}–{readout.span[1]}" if readout.span else "–"
         self.readout.object = (
             f'<div class="count-box"><div class="count-title">Counting: {html.escape(readout.item)}</div>'
             f'<table><tr><td>attention count</td><td class="count-attention">{readout.count:.2f}</td></tr>'
             f'<tr><td>rounded</td><td class="count-rounded">{readout.rounded}</td></tr>'
             f'<tr><td>root-height baseline</td><td class="count-baseline">{readout.baseline}</td></tr>'
             f'<tr><td>period</td><td class="count-period">{period}</td></tr>'
+            f'<tr><td>repeating frames</td><td class="count-span">{span}</td></tr>'
             f'<tr><td>peaks drawn</td><td class="count-peaks">{len(readout.peaks)}</td></tr></table>'
             f'<div class="count-source">{html.escape(readout.source)}</div></div>')
 

@@ -12,11 +12,15 @@ from scipy.signal import find_peaks
 class CountingConfig:
     """How a self-attention map becomes a count.
 
-    ``method`` "lag" (default): the map's lag profile (mean attention of every frame to the frame ``lag``
-    later, both directions) is smoothed by ``lag_sigma``; its first peak at ``min_lag`` frames or more with
-    at least ``prominence`` (relative to the zero-lag value) is the period P, and the count is T / P (no
-    peak: 1). A repeated action makes every frame attend to the same phase of the other repetitions, so
-    the map carries stripes parallel to the diagonal at multiples of P; the profile adds them up.
+    ``method`` "lag" (default): the map is symmetrised and scaled so that every frame's attention to
+    itself is 1 (a correlation). Its lag profile (mean attention of every frame to the frame ``lag``
+    later) is smoothed by ``lag_sigma``; its first peak at ``min_lag`` frames or more with at least
+    ``prominence`` is the period P (no peak: count 1). A repeated action makes every frame attend to the
+    same phase of the other repetitions, so the map carries stripes parallel to the diagonal at
+    multiples of P; the profile adds them up. The count is the *active span* / P: a frame is active when
+    it attends more to the frames a period away than to those half a period away (rest frames attend
+    alike to both), above ``active_fraction`` of the strongest frame's contrast. Dividing the whole
+    clip by P instead counts the standing still before and after as repetitions too.
     ``method`` "rows": MotionCLR's recipe as published — Gaussian ``sigma`` on the map, ``downsample``
     average pooling, min-max normalisation, peaks per row above ``height_factor`` × the row mean, count =
     peaks / rows with a peak. On this project's maps the diagonal dominates every row and the recipe
@@ -30,8 +34,9 @@ class CountingConfig:
     height_factor: float = 3.0  # rows: a peak must exceed this times the row mean
     distance: int = 1
     min_lag: int = 6  # lag: shortest period (frames), 0.3 s at 20 fps
-    prominence: float = 0.02  # lag: of the profile normalised by its zero-lag value
+    prominence: float = 0.01  # lag: of the profile normalised by its zero-lag value
     lag_sigma: float = 1.0
+    active_fraction: float = 0.35  # lag: a frame's period contrast, relative to the strongest, to be active
 
     def __post_init__(self) -> None:
         if self.method not in ("lag", "rows"):
@@ -40,10 +45,11 @@ class CountingConfig:
 
 @dataclass(frozen=True)
 class CountResult:
-    count: float  # lag: T / period; rows: total peaks / rows with at least one peak
+    count: float  # lag: active span / period; rows: total peaks / rows with at least one peak
     peaks: list[tuple[int, int]]  # (row, column) in original frame units
     processed: np.ndarray  # the filtered, downsampled, normalised map
     period: int | None = None  # lag: the detected period in frames (None: no repetition found)
+    span: tuple[int, int] | None = None  # lag: first and last active frame (the repetitions)
 
     @property
     def rounded(self) -> int:
@@ -71,11 +77,36 @@ def _pooled(attn: np.ndarray, config: CountingConfig) -> np.ndarray:
     return (pooled - lo) / (hi - lo) if hi > lo else np.zeros_like(pooled)
 
 
-def lag_profile(attn: np.ndarray) -> np.ndarray:
-    """(T,) mean attention between frames ``lag`` apart (the map symmetrised), normalised by lag 0."""
+def correlation(attn: np.ndarray) -> np.ndarray:
+    """The map symmetrised and scaled so that every frame's attention to itself is 1."""
     sym = (attn + attn.T) / 2
-    profile = np.array([np.diagonal(sym, k).mean() for k in range(len(sym))])
+    d = np.sqrt(np.clip(np.diag(sym), 1e-12, None))
+    return sym / d[:, None] / d[None, :]
+
+
+def lag_profile(corr: np.ndarray) -> np.ndarray:
+    """(T,) mean of ``corr`` between frames ``lag`` apart, normalised by lag 0."""
+    profile = np.array([np.diagonal(corr, k).mean() for k in range(len(corr))])
     return profile / profile[0] if profile[0] > 0 else profile
+
+
+def period_contrast(corr: np.ndarray, period: int) -> np.ndarray:
+    """(T,) per frame: mean of ``corr`` to the frames one period away minus to those half a period away."""
+    n, half = len(corr), max(1, period // 2)
+    out = np.zeros(n)
+    for i in range(n):
+        on = [corr[i, i + k] for k in (period, -period) if 0 <= i + k < n]
+        off = [corr[i, i + k] for k in (half, -half) if 0 <= i + k < n]
+        if on and off:
+            out[i] = np.mean(on) - np.mean(off)
+    return out
+
+
+def active_span(corr: np.ndarray, period: int, fraction: float) -> tuple[int, int]:
+    """First and last frame whose smoothed period contrast exceeds ``fraction`` of the strongest."""
+    contrast = gaussian_filter1d(period_contrast(corr, period), 1.0)
+    active = np.flatnonzero(contrast > fraction * contrast.max()) if contrast.max() > 0 else []
+    return (int(active[0]), int(active[-1])) if len(active) else (0, len(corr) - 1)
 
 
 def count_from_attention(attn: np.ndarray, config: CountingConfig = CountingConfig()) -> CountResult:
@@ -85,18 +116,21 @@ def count_from_attention(attn: np.ndarray, config: CountingConfig = CountingConf
     if config.method == "rows":
         return _count_rows(norm, config)
     n = len(attn)
-    profile = gaussian_filter1d(lag_profile(attn), config.lag_sigma)
+    corr = correlation(attn)
+    profile = gaussian_filter1d(lag_profile(corr), config.lag_sigma)
     # a period must fit at least once and a half (later lags average too few frames to trust)
     found, _ = find_peaks(profile[: max(1, n - config.min_lag // 2)], prominence=config.prominence)
     found = [int(k) for k in found if k >= config.min_lag]
     if not found:
         return CountResult(count=1.0, peaks=[], processed=norm, period=None)
     period = found[0]
-    count = n / period
+    first, last = active_span(corr, period, config.active_fraction)
+    count = max(1.0, (last - first + 1) / period)
     f = config.downsample
-    peaks = [(i, i + sign * k * period) for k in range(1, n // period + 1)
-             for i in range(f // 2, n, f) for sign in (1, -1) if 0 <= i + sign * k * period < n]
-    return CountResult(count=float(count), peaks=peaks, processed=norm, period=period)
+    inside = lambda i: first <= i <= last  # noqa: E731
+    peaks = [(i, i + sign * k * period) for k in range(1, n // period + 1) for i in range(first + f // 2, last + 1, f)
+             for sign in (1, -1) if inside(i + sign * k * period)]
+    return CountResult(count=float(count), peaks=peaks, processed=norm, period=period, span=(first, last))
 
 
 def _count_rows(norm: np.ndarray, config: CountingConfig) -> CountResult:
