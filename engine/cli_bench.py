@@ -51,12 +51,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        help="--inversion: corpus test motions (default 16, quick 6); --transfer: in-distribution pairs; "
                             "--duet: held-out duets per interaction (default 3, quick 1)")
     edits.add_argument("--ood-pairs", type=int, default=None, help="--transfer: held-out pairs")
+    edits.add_argument("--seeds", type=int, default=None, help="--duet: seeds per held-out duet (default 1)")
     edits.add_argument("--steps", type=int, default=50, help="--inversion: DDIM steps")
     edits.add_argument("files", nargs="*", type=Path, help="--inversion: real motions (.bvh/.npy) to invert as well")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.seeds is not None and not args.duet:
+        raise ValueError("--seeds goes with --duet")
     if (args.calibrate or args.write) and not args.edits:
         raise ValueError("--calibrate and --write go with --edits")
     if args.write and not args.calibrate:
@@ -185,6 +188,10 @@ def run_duet(args: argparse.Namespace) -> int:
         config = replace(config, per_interaction=args.samples)
     if args.steps != 50:
         config = replace(config, steps=args.steps)
+    if args.seeds is not None:
+        if args.seeds < 1:
+            raise ValueError("--seeds must be at least 1")
+        config = replace(config, seeds=args.seeds)
     result = bench_duet(load_trained(args.duet_model, args.model), config, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0

@@ -367,3 +367,12 @@ def test_train_flags_belong_to_their_kind():
     assert done.returncode != 0 and "--shots applies to --commdm only" in done.stderr
     done = _moattn("train", "--commdm", "--data", "somewhere")
     assert done.returncode != 0 and "--data does not apply to --commdm" in done.stderr
+
+
+def test_bench_seeds_flag_goes_with_duet(capsys):
+    from engine.cli import main
+
+    assert main(["bench", "--edits", "--seeds", "2"]) == 2
+    assert "--seeds goes with --duet" in capsys.readouterr().err
+    assert main(["bench", "--duet", "--seeds", "0"]) == 2
+    assert "--seeds must be at least 1" in capsys.readouterr().err

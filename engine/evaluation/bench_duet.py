@@ -177,7 +177,7 @@ def bench_duet(model: DuetModel, config: DuetBenchConfig = DuetBenchConfig(), *,
 
 def format_table(result: dict) -> str:
     lines = [f"ComMDM vs the prior twice (no block): {result['samples']} held-out duets "
-             f"({', '.join(result['interactions'])}), {result['steps']} steps, {result['seconds']:.0f} s",
+             f"({', '.join(result['interactions'])}), {result['steps']} steps, {result['seeds']} seed(s) each, {result['seconds']:.0f} s",
              "", f"prefix completion (1 s given, text masked; n = {result['prefix']['commdm']['n']}), L2 error in m",
              f"{'method':<13}" + "".join(f"{h:>10}" for h in ("root 1s", "root 2s", "root 3s", "joint 1s",
                                                               "joint 2s", "joint 3s"))]
