@@ -127,7 +127,8 @@ def run_edits(args: argparse.Namespace) -> int:
     print(f"emphasis Spearman (weight vs amplitude): {result['emphasis_spearman']:.2f} (layers "
           f"{', '.join(map(str, result['emphasis']['layers']))})")
     r = result["replacement"]
-    print(f"replacement timing IoU: {r['iou']:.2f} (same noise, no replacement: {r['iou_without_replacement']:.2f})")
+    print(f"replacement timing IoU: {r['iou']:.2f} (same noise, no replacement: {r['iou_without_replacement']:.2f}; "
+          f"{r['pairs']} pairs timed, {r['pairs_without_walk']} whose reference does not walk)")
     print(f"shift order accuracy: {result['shift_order_acc']:.2f}")
     e = result["example_based"]
     print(f"example-based: FID {e['fid']:.3f} diversity {e['diversity']:.3f} | perturbed noise: FID "

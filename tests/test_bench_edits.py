@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine.evaluation.bench_edits import EditBenchConfig, amplitude, bench_edits, iou, root_speed, walking_interval
+from engine.evaluation.bench_edits import (EditBenchConfig, amplitude, bench_edits, iou, root_speed, walk_threshold,
+                                           walking_interval)
 from tests.test_eval_run import tiny_evaluator, tiny_model  # noqa: F401  (fixtures)
 
 
@@ -23,6 +24,11 @@ def test_measurements():
     assert walk[5:45].all() and not walk[60:].any()
     assert iou(walk, walk) == 1.0 and iou(walk, ~walk) == 0.0
     assert abs(root_speed(_motion())[20] - 1.2) < 0.05
+    # the walk is timed against half the reference's own peak speed; a reference that never walks is not timed
+    assert abs(walk_threshold(_motion()) - 0.6) < 0.03
+    slow = _motion()
+    slow[:, 0, 2] *= 0.2  # 0.24 m/s
+    assert walk_threshold(slow) is None
 
 
 def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
@@ -34,5 +40,7 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     assert result["counting"]["samples"] == 2
     assert 0.0 <= result["counting"]["attention"] <= 1.0 and 0.0 <= result["counting"]["baseline"] <= 1.0
     assert -1.0 <= result["emphasis_spearman"] <= 1.0
-    assert 0.0 <= result["replacement_iou"] <= 1.0
+    r = result["replacement"]
+    assert r["pairs"] + r["pairs_without_walk"] == 2
+    assert 0.0 <= result["replacement_iou"] <= 1.0 if r["pairs"] else np.isnan(result["replacement_iou"])
     assert result["example_based"]["samples"] == 4

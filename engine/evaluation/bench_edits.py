@@ -8,8 +8,11 @@ Figures (JSON keys):
 - emphasis_spearman: rank correlation between the emphasis weight on the verb and the motion's
   amplitude as the corpus's intensity scales it (see :func:`amplitude`), averaged over prompts and seeds;
   emphasis acts in the layers calibrated for the model (``moattn bench --edits --calibrate``, on other prompts);
-- replacement_iou: timing IoU of the first segment between reference and edited motion, with in-place
-  replacement, beside the same edited prompt sampled from the same noise without it;
+- replacement_iou: timing IoU of the first segment (the walk) between reference and edited motion, with
+  in-place replacement, beside the same edited prompt sampled from the same noise without it; a frame
+  walks when its root speed exceeds half the reference's peak speed (the same threshold for all three
+  motions), and a pair whose reference never reaches 0.3 m/s has no walk to time and is only counted
+  (``replacement.pairs_without_walk``);
 - shift_order_acc: share of shifted motions whose activity matches the rolled reference better than
   the unshifted one;
 - example_based: FID (vs held-out corpus motions) and diversity of example-based outputs beside
@@ -101,8 +104,17 @@ def root_speed(joints: np.ndarray) -> np.ndarray:
     return gaussian_filter1d(np.concatenate([v[:1], v]), 2.0)
 
 
+WALK_FRACTION, MIN_WALK_PEAK = 0.5, 0.3  # m/s
+
+
 def walking_interval(joints: np.ndarray, threshold: float = 0.45) -> np.ndarray:
     return root_speed(joints) > threshold
+
+
+def walk_threshold(reference: np.ndarray) -> float | None:
+    """Half the reference's peak root speed; None when the reference never walks (peak under 0.3 m/s)."""
+    peak = float(root_speed(reference).max())
+    return WALK_FRACTION * peak if peak >= MIN_WALK_PEAK else None
 
 
 def iou(a: np.ndarray, b: np.ndarray) -> float:
@@ -179,18 +191,25 @@ def _pairs(loaded: LoadedModel, n: int) -> list[tuple[str, str]]:
 def bench_replacement(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> tuple[dict, list[np.ndarray]]:
     frames = int(config.seconds * 20)
     sample = SampleConfig(steps=config.steps, guidance=config.guidance)
-    with_edit, without, outputs = [], [], []
+    with_edit, without, outputs, no_walk = [], [], [], 0
     for k, (ref, edit) in enumerate(_pairs(loaded, config.pairs)):
         s = SampleConfig(**{**sample.__dict__, "seed": k})
         out = edits.replace(loaded, ref, edit, ReplaceConfig(), frames=frames, sample=s)
-        plain = generate(loaded, Request(prompts=[edit], frames=[frames], noise=out.generation.noise[1:2]), s).joints[0]
-        ref_walk = walking_interval(out.before)
-        with_edit.append(iou(ref_walk, walking_interval(out.after)))
-        without.append(iou(ref_walk, walking_interval(plain)))
         outputs.append(out.after)
+        threshold = walk_threshold(out.before)
+        if threshold is None:
+            no_walk += 1
+            log(f"replace {ref!r} -> {edit!r}: the reference does not walk (peak root speed "
+                f"{root_speed(out.before).max():.2f} m/s); not timed")
+            continue
+        plain = generate(loaded, Request(prompts=[edit], frames=[frames], noise=out.generation.noise[1:2]), s).joints[0]
+        ref_walk = walking_interval(out.before, threshold)
+        with_edit.append(iou(ref_walk, walking_interval(out.after, threshold)))
+        without.append(iou(ref_walk, walking_interval(plain, threshold)))
         log(f"replace {ref!r} -> {edit!r}: IoU {with_edit[-1]:.2f} (without replacement {without[-1]:.2f})")
     return {"iou": float(np.mean(with_edit)) if with_edit else float("nan"),
-            "iou_without_replacement": float(np.mean(without)) if without else float("nan"), "pairs": len(with_edit)}, outputs
+            "iou_without_replacement": float(np.mean(without)) if without else float("nan"),
+            "pairs": len(with_edit), "pairs_without_walk": no_walk}, outputs
 
 
 def bench_shift(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> tuple[dict, list[np.ndarray]]:
