@@ -4,8 +4,8 @@ Only the block and the embedding rows of words the prior never saw are trained (
 both persons' clean motion and placement, plus a contact term on the hands; the two persons
 share the timestep and draw their own noise). A share of the pairs (``prefix_prob``) is trained
 for prefix completion: the first second of both people and their placement are given
-noise-free, as PriorMDM trains its completion task, and ``duet.complete`` samples them so. Checkpoints (train_state.pt for --resume, fp16 weights.pt), log.jsonl and the
-config go to --out.
+noise-free, as PriorMDM trains its completion task, and ``duet.complete`` samples them so.
+Checkpoints (train_state.pt for --resume, fp16 weights.pt), log.jsonl and the config go to --out.
 """
 from __future__ import annotations
 
@@ -125,11 +125,9 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
     rng = np.random.default_rng([config.seed, step])
     gen = torch.Generator().manual_seed(config.seed * 7919 + step)
     schedule = CosineSchedule()
-    mean = torch.from_numpy(prior.normalizer.mean)
-    std = torch.from_numpy(prior.normalizer.std)
     given = int(round(PREFIX_SECONDS * FPS))
-    info = {**model.config, "kind": "commdm", "prefix_noise_free": config.prefix_prob > 0, "train": config.to_json(), "prior_step": prior.config.get("step"),
-            "samples": len(samples), "items": len(items),
+    info = {**model.config, "kind": "commdm", "prefix_noise_free": config.prefix_prob > 0, "train": config.to_json(),
+            "prior_step": prior.config.get("step"), "samples": len(samples), "items": len(items),
             "interactions": sorted({s.interaction for s in samples})}
 
     def checkpoint() -> None:
@@ -164,7 +162,8 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
                 group["lr"] = lr_at(step, config, floor=LR_FLOOR)
             x0_hat = net(x_t, t, cond)
             mse, vel, place = duet_losses(x0_hat, x0, cond.frame_mask)
-            touch = contact_loss(x0_hat, x0, cond.frame_mask, mean=mean, std=std, near=config.contact_near)
+            touch = (contact_loss(x0_hat, x0, cond.frame_mask, normalizer=prior.normalizer, near=config.contact_near)
+                     if config.contact_weight else torch.zeros(()))
             loss = mse + config.velocity_weight * vel + config.place_weight * place + config.contact_weight * touch
             optimizer.zero_grad(set_to_none=True)
             loss.backward()
@@ -184,7 +183,8 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
             if step % config.log_every == 0 or step == config.steps:
                 w = np.asarray(window)
                 last = {"step": step, "mse": float(w[:, 0].mean()), "vel": float(w[:, 1].mean()),
-                        "place": float(w[:, 2].mean()), "contact": float(w[:, 3].mean()), "lr": lr_at(step, config, floor=LR_FLOOR),
+                        "place": float(w[:, 2].mean()), "contact": float(w[:, 3].mean()),
+                        "lr": lr_at(step, config, floor=LR_FLOOR),
                         "s_per_step": (time.perf_counter() - t0) / len(window), "time": time.time()}
                 bar.set_postfix(mse=f"{last['mse']:.4f}", place=f"{last['place']:.4f}", contact=f"{last['contact']:.3f}")
                 with (out / "log.jsonl").open("a") as fh:

@@ -20,7 +20,7 @@ def _motion(frames=100, jump=0.0, walk_until=50):
 def test_measurements():
     assert abs(amplitude(_motion(jump=0.3), "jumps") - 0.3) < 0.02
     assert amplitude(_motion(jump=0.0), "jumps") < 1e-9
-    walk = walking_interval(_motion())
+    walk = walking_interval(_motion(), 0.45)
     assert walk[5:45].all() and not walk[60:].any()
     assert iou(walk, walk) == 1.0 and iou(walk, ~walk) == 0.0
     assert abs(root_speed(_motion())[20] - 1.2) < 0.05

@@ -243,21 +243,20 @@ def test_contact_loss_measures_the_people_put_together():
     from engine.representation import FEATURE_DIM, Normalizer
 
     identity = Normalizer(mean=np.zeros(FEATURE_DIM), std=np.ones(FEATURE_DIM))
-    mean, std = torch.zeros(FEATURE_DIM), torch.ones(FEATURE_DIM)
     samples = few_shot("test", per_interaction=1)
     x0, mask = stack_pairs([pair_item(s, identity) for s in samples])
-    d = _together(x0, mean, std).numpy()
+    d = _together(x0, identity).numpy()
     for k, s in enumerate(samples):
         n = len(s.joints_a) - 1  # features hold one frame fewer than the joints
         hands = np.linalg.norm(s.joints_a[:n, RW] - s.joints_b[:n, RW], axis=-1)
         chest = np.linalg.norm(s.joints_b[:n, RW] - s.joints_a[:n, CHEST], axis=-1)
         np.testing.assert_allclose(d[k, :n, 0], hands, atol=1e-3)
         np.testing.assert_allclose(d[k, :n, 4], chest, atol=1e-3)
-    assert contact_loss(x0, x0, mask, mean=mean, std=std).item() == pytest.approx(0.0, abs=1e-5)
+    assert contact_loss(x0, x0, mask, normalizer=identity).item() == pytest.approx(0.0, abs=1e-5)
     moved = x0.clone().requires_grad_(True)
     shift = torch.zeros_like(x0)
     shift[: len(samples), -1, 1] = 0.3  # b stands 0.3 m further along a's z
-    loss = contact_loss(moved + shift, x0, mask, mean=mean, std=std)
+    loss = contact_loss(moved + shift, x0, mask, normalizer=identity)
     assert loss.item() > 0.05
     loss.backward()
     assert moved.grad[: len(samples), -1, :2].abs().sum() > 0

@@ -127,9 +127,8 @@ def count_from_attention(attn: np.ndarray, config: CountingConfig = CountingConf
     first, last = active_span(corr, period, config.active_fraction)
     count = max(1.0, (last - first + 1) / period)
     f = config.downsample
-    inside = lambda i: first <= i <= last  # noqa: E731
     peaks = [(i, i + sign * k * period) for k in range(1, n // period + 1) for i in range(first + f // 2, last + 1, f)
-             for sign in (1, -1) if inside(i + sign * k * period)]
+             for sign in (1, -1) if first <= i + sign * k * period <= last]
     return CountResult(count=float(count), peaks=peaks, processed=norm, period=period, span=(first, last))
 
 

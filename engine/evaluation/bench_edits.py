@@ -107,7 +107,8 @@ def root_speed(joints: np.ndarray) -> np.ndarray:
 WALK_FRACTION, MIN_WALK_PEAK = 0.5, 0.3  # m/s
 
 
-def walking_interval(joints: np.ndarray, threshold: float = 0.45) -> np.ndarray:
+def walking_interval(joints: np.ndarray, threshold: float) -> np.ndarray:
+    """Frames whose root speed exceeds ``threshold`` (m/s; see :func:`walk_threshold`)."""
     return root_speed(joints) > threshold
 
 
