@@ -97,6 +97,7 @@ class DuetSummary:
     prompt: str
     communicate: bool
     placement: object  # Pose: person b seen from person a
+    contacts: str  # what contact guidance did, in words
     distance_m: float
     facing_each_other: bool
     prefix_frames: int
@@ -113,6 +114,7 @@ class DuetSettings(param.Parameterized):
     prefix = param.String(default=EXAMPLE + "handshake", doc="where the prefix comes from: an example or a duet")
     prefix_seconds = param.Number(default=1.0, doc="seconds of the prefix given")
     communicate = param.Boolean(default=True, doc="ComMDM (the block); off: the prior twice, fixed placement")
+    contact = param.Boolean(default=True, doc="guide the hands to touch when the training examples do (text only)")
     duet_dir = param.Parameter(default=DUET_DIR, doc="folder of the trained ComMDM block")
     uploads = param.Dict(default={}, doc="name -> (2, T, 22, 3) duets uploaded in this session")
     unknown_words = param.List(default=[])
@@ -183,6 +185,7 @@ class DuetJob:
     communicate: bool
     sample: object  # SampleConfig
     description: str
+    contact: bool = False  # contact guidance (text only)
 
 
 def prepare(state, settings: DuetSettings) -> DuetJob:
@@ -203,7 +206,7 @@ def prepare(state, settings: DuetSettings) -> DuetJob:
             raise ValueError(f"the length must be between {MIN_SECONDS:g} and {MAX_SECONDS:g} s")
         sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
         return DuetJob(mode="text", prompt=prompt, seconds=seconds, prefix=None, prefix_seconds=0.0,
-                       communicate=settings.communicate, sample=sample, description="duet")
+                       communicate=settings.communicate, sample=sample, description="duet", contact=settings.contact)
     given = _seconds(settings.prefix_seconds, "the prefix")
     if prompt:
         model.tokenizer.encode(prompt)
@@ -251,6 +254,7 @@ def run_job(loaded, job: DuetJob, *, duet_dir, on_step: Callable[[int, int], Non
             on_wait: Callable[[], None] | None = None):
     """Sample on the worker (holding the sampling slot)."""
     from engine.methods.duet import complete, text_to_duet
+    from engine.methods.duet_contact import ContactConfig
 
     model, problem = duet_model(duet_dir, loaded)
     if model is None:
@@ -267,7 +271,8 @@ def run_job(loaded, job: DuetJob, *, duet_dir, on_step: Callable[[int, int], Non
     with sampling_slot(cancel, on_wait):
         if job.mode == "text":
             duet = text_to_duet(model, job.prompt, seconds=job.seconds, sample=job.sample,
-                                communicate=job.communicate, on_step=step)
+                                communicate=job.communicate, contact=ContactConfig() if job.contact else None,
+                                on_step=step)
         else:
             duet = complete(model, *job.prefix, prefix_seconds=job.prefix_seconds, seconds=job.seconds,
                             prompt=job.prompt, sample=job.sample, communicate=job.communicate, on_step=step)
@@ -303,7 +308,7 @@ def finish(state, settings: DuetSettings, job: DuetJob, duet, seconds_taken: flo
     given = int(round(job.prefix_seconds * FPS)) if job.mode == "prefix" else 0
     p = duet.placement
     summary = DuetSummary(names=(first, second), mode=job.mode, prompt=job.prompt or "", communicate=job.communicate,
-                          placement=p, distance_m=float(np.hypot(p.x, p.z)),
+                          placement=p, contacts=contact_words(job, duet), distance_m=float(np.hypot(p.x, p.z)),
                           facing_each_other=face_each_other(duet.joints), prefix_frames=given,
                           n_frames=duet.frames, seconds_taken=seconds_taken)
     state.end_job(f"{job.description}: {duet.frames} frames in {seconds_taken:.1f} s")
@@ -327,11 +332,26 @@ def is_duet(shown: list) -> bool:
     return len(shown) == 2 and all(isinstance(p, DuetPair) for p in pairs) and pairs[0] is pairs[1]
 
 
+def contact_words(job: DuetJob, duet) -> str:
+    """The readout's line on contact guidance."""
+    if job.mode != "text":
+        return "none (completion)"
+    if not job.contact:
+        return "off"
+    if duet.interaction is None:
+        return "none: the prompt reads as no trained interaction"
+    if not duet.contacts:
+        return f"none: a {duet.interaction.replace('_', ' ')} has no contact"
+    spans = ", ".join(f"{c.kind.replace('_', ' ')} {100 * c.start:.0f}–{100 * c.end:.0f} %" for c in duet.contacts)
+    return f"{duet.interaction.replace('_', ' ')}: {spans} of the clip"
+
+
 def describe(summary: DuetSummary) -> list[tuple[str, str]]:
     p = summary.placement
     rows = [("method", "ComMDM" if summary.communicate else "prior twice (no block)"),
             ("person b from person a", f"{summary.distance_m:.2f} m, facing {np.degrees(p.yaw):+.0f}°"),
             ("face each other (mid-clip)", "yes" if summary.facing_each_other else "no"),
+            ("contact guidance", summary.contacts),
             ("frames", f"{summary.n_frames} ({summary.n_frames / FPS:.1f} s)"
              + (f", first {summary.prefix_frames} given" if summary.prefix_frames else "")),
             ("time", f"{summary.seconds_taken:.1f} s")]

@@ -25,6 +25,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--prefix-seconds", type=float, default=1.0, help="seconds of the prefix kept (default 1)")
     p.add_argument("--no-communication", action="store_true",
                    help="the baseline: the prior run twice without the block (fixed placement)")
+    p.add_argument("--no-contact", action="store_true",
+                   help="no contact guidance (by default, a prompt read as a trained interaction with contacts, "
+                   "e.g. a handshake, has the hands guided to touch when the training examples do)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--steps", type=int, default=50)
     p.add_argument("--guidance", type=float, default=None, help="default 2.5 (1.0 with --prefix and no prompt)")
@@ -78,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
     from engine.generate import SampleConfig
     from engine.train_commdm import load_trained
     from engine.methods.duet import COMPLETE_SECONDS, complete, text_to_duet
+    from engine.methods.duet_contact import ContactConfig
 
     if args.out.suffix.lower() not in (".npy", ".bvh"):
         raise ValueError(f"--out must end in .npy or .bvh, got {args.out.name!r}")
@@ -96,13 +100,15 @@ def run(args: argparse.Namespace) -> int:
         duet = complete(model, a, b, prefix_seconds=args.prefix_seconds, prompt=args.prompt,
                         seconds=args.seconds or COMPLETE_SECONDS, sample=sample, communicate=communicate)
     else:
-        duet = text_to_duet(model, args.prompt, seconds=args.seconds or 5.0, sample=sample, communicate=communicate)
+        duet = text_to_duet(model, args.prompt, seconds=args.seconds or 5.0, sample=sample, communicate=communicate,
+                            contact=None if args.no_contact else ContactConfig())
     written = write_duet(duet.joints, args.out)
     p = duet.placement
     report = {"out": [str(w) for w in written], "frames": duet.frames, "seconds": duet.frames / 20,
               "communication": communicate,
               "placement_of_b_from_a": {"x_m": round(p.x, 3), "z_m": round(p.z, 3),
-                                        "facing_deg": round(float(np.degrees(p.yaw)), 1)}}
+                                        "facing_deg": round(float(np.degrees(p.yaw)), 1)},
+              "contacts": [{**c.to_json(), "interaction": duet.interaction} for c in duet.contacts]}
     if args.render is not None:
         report["render"] = str(render_duet(duet.joints, args.render, title=args.prompt))
     print(json.dumps(report, indent=2))

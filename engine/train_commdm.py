@@ -26,6 +26,7 @@ from engine.diffusion.schedule import CosineSchedule
 from engine.methods.commdm import ComConfig, duet_roles
 from engine.methods.duet import PREFIX_SECONDS, DuetModel, load_duet, new_duet
 from engine.methods.duet_losses import contact_loss, duet_losses, prefix_cells
+from engine.methods.duet_contact import learn_plans
 from engine.methods.duet_data import PairItem, duet_words, few_shot, mean_placement, stack_pairs, training_items
 from engine.model.denoiser import Condition
 from engine.attention.context import WordIndex
@@ -128,7 +129,7 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
     given = int(round(PREFIX_SECONDS * FPS))
     info = {**model.config, "kind": "commdm", "prefix_noise_free": config.prefix_prob > 0, "train": config.to_json(),
             "prior_step": prior.config.get("step"), "samples": len(samples), "items": len(items),
-            "interactions": sorted({s.interaction for s in samples})}
+            "interactions": sorted({s.interaction for s in samples}), "contacts": learn_plans(samples)}
 
     def checkpoint() -> None:
         trainable = set(net.trainable())

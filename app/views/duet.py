@@ -18,7 +18,8 @@ from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown, on_text, table_row
 
 HELP = ("Two copies of the base model, one per person, exchange what they are doing through a small trained "
         "**communication block** (ComMDM), which also places the two people. Turn it off to see the base model run "
-        "twice, side by side at a fixed placement. Seed, steps and guidance come from the sidebar; a completion "
+        "twice, side by side at a fixed placement. **Contact guidance** brings the hands together when the training "
+        "examples of the interaction the prompt reads as touch (a handshake, a high five, a hug, a push). Seed, steps and guidance come from the sidebar; a completion "
         "without a prompt is unconditional, as in the paper.")
 MODE_LABELS = {label: key for key, label in MODES.items()}
 
@@ -49,6 +50,8 @@ class DuetTab(pn.viewable.Viewer):
                                     self.upload, sizing_mode="stretch_width")
         self.communicate = pn.widgets.Checkbox(label="communication block (ComMDM); off: the base model twice",
                                                value=d.communicate, css_classes=["duet-communicate"])
+        self.contact = pn.widgets.Checkbox(label="contact guidance: hands touch when the training examples do",
+                                           value=d.contact, css_classes=["duet-contact"])
         self.model_note = pn.pane.HTML("", margin=(0, 10), css_classes=["duet-model-note"], stylesheets=[_CSS])
         self.bar = JobBar(state=self.state, jobs=["duet"], label="Make the duet", prefix="duet",
                           on_run=lambda: start_duet(self.state, self.settings),
@@ -62,6 +65,7 @@ class DuetTab(pn.viewable.Viewer):
         self.prefix_seconds.param.watch(
             lambda e: setattr(d, "prefix_seconds", e.new if e.new is not None else d.prefix_seconds), "value")
         self.communicate.param.watch(lambda e: setattr(d, "communicate", bool(e.new)), "value")
+        self.contact.param.watch(lambda e: setattr(d, "contact", bool(e.new)), "value")
         self.upload.param.watch(self._on_upload, "value")
         d.param.watch(self._on_words, ["unknown_words", "mode"])
         d.param.watch(self._on_mode, "mode")
@@ -83,6 +87,7 @@ class DuetTab(pn.viewable.Viewer):
     def _on_mode(self, *_):
         prefix = self.settings.mode == "prefix"
         self.prefix_box.visible = prefix
+        self.contact.visible = not prefix  # completion has no contact guidance
         self.seconds.label = "Completed (s)" if prefix else "Seconds"
         # each mode's default length (the paper completes 3 s); a length the user typed is kept
         defaults = {True: 3.0, False: 5.0}
@@ -140,7 +145,7 @@ class DuetTab(pn.viewable.Viewer):
         return pn.Column(
             pn.pane.Markdown(HELP, styles={"font-size": "12px", "color": "#444"}, margin=(0, 10)),
             self.mode, pn.Row(self.prompt, self.seconds, sizing_mode="stretch_width"), self.flag, self.prefix_box,
-            self.communicate, self.model_note, self.bar, self.readout, css_classes=["duet-tab"],
+            self.communicate, self.contact, self.model_note, self.bar, self.readout, css_classes=["duet-tab"],
             sizing_mode="stretch_width")
 
 

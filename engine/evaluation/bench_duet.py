@@ -13,7 +13,10 @@ interactions). In one run:
   face each other.
 
 The baseline (``prior_twice``) is the same prior and word rows with no block; its placement is
-the training set's mean.
+the training set's mean. ``commdm`` samples text-to-duet with contact guidance (``duet_contact``,
+beyond the paper); two more text-only rows separate its parts: ``block_only`` (the block, no
+guidance) and ``prior_contact`` (no block, with guidance). Completion has no guidance, so it is
+run for ``commdm`` and ``prior_twice`` only.
 """
 from __future__ import annotations
 
@@ -25,11 +28,17 @@ import numpy as np
 from engine.generate import FPS, SampleConfig
 from engine.methods.commdm import Pose, placements
 from engine.methods.duet import DuetModel, complete, text_to_duet
+from engine.methods.duet_contact import ContactConfig
 from engine.methods.duet_data import few_shot
 from engine.representation import facing_direction
 from engine.skeleton import JOINT_INDEX
 
-METHODS = ("commdm", "prior_twice")
+# method -> (the block communicates, contact guidance)
+METHODS: dict[str, tuple[bool, ContactConfig | None]] = {
+    "commdm": (True, ContactConfig()), "prior_twice": (False, None),
+    "block_only": (True, None), "prior_contact": (False, ContactConfig()),
+}
+PREFIX_METHODS = ("commdm", "prior_twice")
 FACE_TO_FACE = ("handshake", "high_five", "hug", "push", "sparring", "dance_together")
 CHEST = JOINT_INDEX["spine3"]
 WRISTS = (JOINT_INDEX["left_wrist"], JOINT_INDEX["right_wrist"])
@@ -132,19 +141,18 @@ def bench_duet(model: DuetModel, config: DuetBenchConfig = DuetBenchConfig(), *,
     given, total = FPS, 4 * FPS
     result: dict = {"samples": len(samples), "interactions": sorted({s.interaction for s in samples}),
                     "steps": config.steps, "seeds": config.seeds, "prefix": {}, "text": {}}
-    for method in METHODS:
-        communicate = method == "commdm"
+    for method, (communicate, contact) in METHODS.items():
         errs, place_m, place_deg, timing, touched, facing = [], [], [], [], [], []
         per_kind: dict[str, list[float]] = {}
         for k, s in enumerate(samples):
             for seed in range(config.seeds):
                 seed_value = config.seed + seed
-                if len(s.joints_a) >= total + 1:
+                if method in PREFIX_METHODS and len(s.joints_a) >= total + 1:
                     d = complete(model, s.joints_a, s.joints_b, communicate=communicate,
                                  sample=SampleConfig(steps=config.steps, guidance=1.0, seed=seed_value))
                     errs.append(_prefix_errors(d.joints, s.joints_a, s.joints_b, given))
                 seconds = min(9.8, (len(s.joints_a) - 1) / FPS)
-                d = text_to_duet(model, s.captions[0], seconds=seconds, communicate=communicate,
+                d = text_to_duet(model, s.captions[0], seconds=seconds, communicate=communicate, contact=contact,
                                  sample=SampleConfig(steps=config.steps, guidance=config.guidance, seed=seed_value))
                 dist, ang = placement_error(d.joints, s.joints_a, s.joints_b)
                 place_m.append(dist)
@@ -157,7 +165,8 @@ def bench_duet(model: DuetModel, config: DuetBenchConfig = DuetBenchConfig(), *,
                 if s.interaction in FACE_TO_FACE:
                     facing.append(face_each_other(d.joints))
             log(f"[{time.time() - t0:5.0f}s] {method}: {k + 1}/{len(samples)} duets")
-        result["prefix"][method] = {key: float(np.mean([e[key] for e in errs])) for key in errs[0]} | {"n": len(errs)}
+        if errs:
+            result["prefix"][method] = {key: float(np.mean([e[key] for e in errs])) for key in errs[0]} | {"n": len(errs)}
         result["text"][method] = {
             "placement_m": float(np.mean(place_m)), "facing_deg": float(np.mean(place_deg)),
             "contact_timing_s": float(np.mean(timing)), "contact_rate": float(np.mean(touched)),
@@ -178,18 +187,19 @@ def bench_duet(model: DuetModel, config: DuetBenchConfig = DuetBenchConfig(), *,
 def format_table(result: dict) -> str:
     lines = [f"ComMDM vs the prior twice (no block): {result['samples']} held-out duets "
              f"({', '.join(result['interactions'])}), {result['steps']} steps, {result['seeds']} seed(s) each, {result['seconds']:.0f} s",
-             "", f"prefix completion (1 s given, text masked; n = {result['prefix']['commdm']['n']}), L2 error in m",
+             "", f"prefix completion (1 s given, text masked, no contact guidance; n = {result['prefix']['commdm']['n']}), "
+             "L2 error in m",
              f"{'method':<13}" + "".join(f"{h:>10}" for h in ("root 1s", "root 2s", "root 3s", "joint 1s",
                                                               "joint 2s", "joint 3s"))]
-    for m in METHODS:
+    for m in PREFIX_METHODS:
         r = result["prefix"][m]
         lines.append(f"{m:<13}" + "".join(f"{r[k]:>10.3f}" for k in ("root_1s", "root_2s", "root_3s", "joints_1s",
                                                                       "joints_2s", "joints_3s")))
-    lines += ["", f"text-to-duet (n = {result['text']['commdm']['n']})",
-              f"{'method':<13}{'place m':>10}{'facing°':>10}{'contact s':>11}{'touched':>9}{'face2face':>11}"]
+    lines += ["", f"text-to-duet (n = {result['text']['commdm']['n']}; commdm = block + contact guidance)",
+              f"{'method':<14}{'place m':>10}{'facing°':>10}{'contact s':>11}{'touched':>9}{'face2face':>11}"]
     for m in METHODS:
         r = result["text"][m]
-        lines.append(f"{m:<13}{r['placement_m']:>10.3f}{r['facing_deg']:>10.1f}{r['contact_timing_s']:>11.2f}"
+        lines.append(f"{m:<14}{r['placement_m']:>10.3f}{r['facing_deg']:>10.1f}{r['contact_timing_s']:>11.2f}"
                      f"{r['contact_rate']:>9.2f}{r['face_each_other']:>11.2f}")
     lines += ["", "placement error by interaction (m): " + ", ".join(
         f"{k} {result['text']['commdm']['placement_m_by_interaction'][k]:.2f}/"

@@ -20,6 +20,7 @@ from engine.generate import FPS, SampleConfig, frames_for
 from engine.methods.commdm import (PLACE_DIMS, ComConfig, DuetDenoiser, Pose, PriorTwice, duet_roles,
                                    fingerprint, mean_pose, placements, unpack)
 from engine.methods.control import Inpaint, KnownLatents
+from engine.methods.duet_contact import ContactConfig, ContactGuidance, ContactPlan, plans_for
 from engine.model.denoiser import Condition
 from engine.representation import features_to_joints, joints_to_features
 from engine.text import TokenizedPrompt, Tokenizer
@@ -39,6 +40,19 @@ class DuetModel:
     @property
     def normalizer(self):
         return self.prior.normalizer
+
+    @property
+    def contact_table(self) -> dict:
+        """What the training duets say touches and when (``duet_contact.learn_plans``); older
+        models, saved without it, get it from their recorded few-shot set."""
+        if "contacts" not in self.config:
+            from engine.methods.duet_contact import learn_plans
+            from engine.methods.duet_data import few_shot
+
+            train = self.config.get("train", {})
+            samples = few_shot("train", per_interaction=int(train.get("shots", 6)), seed=int(train.get("seed", 0)))
+            self.config["contacts"] = learn_plans(samples)
+        return self.config["contacts"]
 
 
 def new_duet(prior: LoadedModel, words, *, config: ComConfig = ComConfig(), mean_place: Pose = Pose(0.0, 1.0, np.pi),
@@ -91,6 +105,8 @@ class Duet:
     features: np.ndarray  # (2, T, 263) each person in its own canonical frame
     prompt: str | None
     communicate: bool
+    interaction: str | None = None  # what contact guidance read the prompt as (None: no guidance)
+    contacts: tuple[ContactPlan, ...] = ()  # the contacts it guided
 
     @property
     def frames(self) -> int:
@@ -132,7 +148,8 @@ def _denoiser(model: DuetModel, sample: SampleConfig, communicate: bool):
 
 
 def _sample(model: DuetModel, cond: Condition, frames: int, sample: SampleConfig, *, communicate: bool,
-            known: KnownCells | None, on_step: Callable[[StepState], None] | None) -> torch.Tensor:
+            known: KnownCells | None, on_step: Callable[[StepState], None] | None,
+            contacts: tuple[ContactPlan, ...] = (), contact: ContactConfig | None = None) -> torch.Tensor:
     """DDIM over duet states; known cells follow the truth noise-free when the block was trained so
     (``prefix_noise_free``), otherwise with fresh noise (plain MDM inpainting, what the prior alone knows)."""
     if sample.sampler != "ddim":
@@ -141,6 +158,8 @@ def _sample(model: DuetModel, cond: Condition, frames: int, sample: SampleConfig
     schedule = CosineSchedule()
     noise = torch.randn(len(cond), frames + 1, model.prior.model.config.feature_dim, generator=g)
     denoiser = _denoiser(model, sample, communicate)
+    if contacts and contact is not None and contact.active:
+        denoiser = ContactGuidance(denoiser, contacts, model.normalizer, contact)
     hooks = []
     if known is not None:
         noise_free = communicate and bool(model.config.get("prefix_noise_free", False))
@@ -181,12 +200,19 @@ def _unit_yaw(v: np.ndarray) -> np.ndarray:
 
 
 def text_to_duet(model: DuetModel, prompt: str, *, seconds: float = 5.0, sample: SampleConfig = SampleConfig(),
-                 communicate: bool = True, on_step=None) -> Duet:
-    """Two people from one prompt (both persons read it)."""
+                 communicate: bool = True, contact: ContactConfig | None = ContactConfig(), on_step=None) -> Duet:
+    """Two people from one prompt (both persons read it). With ``contact`` (and a prompt that reads
+    as a training interaction with contacts) the hands are guided to touch when the examples do
+    (``duet_contact``); ``contact=None`` samples the block alone."""
     frames = frames_for(seconds)
     cond = _condition(model, prompt, frames)
-    x0 = _sample(model, cond, frames, sample, communicate=communicate, known=None, on_step=on_step)
-    return _finish(model, x0, prompt=prompt, communicate=communicate)
+    interaction, plans = plans_for(model.contact_table, prompt) if contact is not None else (None, [])
+    x0 = _sample(model, cond, frames, sample, communicate=communicate, known=None, on_step=on_step,
+                 contacts=tuple(plans), contact=contact)
+    duet = _finish(model, x0, prompt=prompt, communicate=communicate)
+    if contact is not None and contact.active:
+        duet.interaction, duet.contacts = interaction, tuple(plans)
+    return duet
 
 
 def check_prefix(joints: np.ndarray, what: str) -> np.ndarray:
