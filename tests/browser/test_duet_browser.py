@@ -45,6 +45,8 @@ def test_duet_tab_makes_and_plays_two_people(browser, server_url, screens):
         key = br.player_stats(page)["motion_key"]
         page.locator(".duet-run button").click()
         page.locator(".duet-readout .duet-box", has_text="person b from person a").wait_for(timeout=180000)
+        # the prompt read as a handshake: contact guidance names its span
+        page.locator(".duet-readout .duet-box", has_text="handshake: right hands").wait_for(timeout=5000)
         page.wait_for_function(f"window.moattnPlayer.motion_key !== {key}", timeout=60000)
         br.wait_all_frames(page, timeout_ms=180000)
         assert page.evaluate("window.moattnPlayer.n_frames") == 60
