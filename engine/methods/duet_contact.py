@@ -175,14 +175,14 @@ class ContactGuidance:
                 (grad,) = torch.autograd.grad(contact_error(v, self.plans, self.normalizer), v)
             direction = self._direction(grad)
             # the step along it that would close the linearised error, halved until the error really drops
-            step = err / (grad * direction).sum().clamp_min(1e-12) * direction
+            move = err / (grad * direction).sum().clamp_min(1e-12) * direction
             for _ in range(self.config.halvings):
-                trial = guided - step
+                trial = guided - move
                 trial_err = self._error(trial)
                 if trial_err < err:
                     guided, err = trial, trial_err
                     break
-                step = step / 2
+                move = move / 2
             else:
                 break
         return guided
