@@ -239,13 +239,13 @@ def test_contact_loss_measures_the_people_put_together():
     between the corpus's two people in their shared frame; the loss is 0 on the truth, grows when the
     predicted placement moves person b away, and its gradient reaches the placement."""
     from engine.methods.duet_data import few_shot, pair_item, stack_pairs
-    from engine.methods.duet_losses import CHEST, RW, contact_loss, together
+    from engine.methods.duet_losses import CHEST, RW, _together, contact_loss
     from engine.representation import FEATURE_DIM, Normalizer
 
     identity = Normalizer(mean=np.zeros(FEATURE_DIM), std=np.ones(FEATURE_DIM))
     samples = few_shot("test", per_interaction=1)
     x0, mask = stack_pairs([pair_item(s, identity) for s in samples])
-    d = together(x0, identity).numpy()
+    d = _together(x0, identity).numpy()
     for k, s in enumerate(samples):
         n = len(s.joints_a) - 1  # features hold one frame fewer than the joints
         hands = np.linalg.norm(s.joints_a[:n, RW] - s.joints_b[:n, RW], axis=-1)

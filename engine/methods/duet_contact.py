@@ -39,10 +39,9 @@ KINDS: dict[str, tuple[tuple[int, ...], float]] = {
     "bodies": ((1, 2), 0.14),  # both wrists of the hugging person at the other's back
     "hands_on_chest": ((1, 2), 0.16),
 }
-MIN_OVERLAP = 0.5
+MIN_OVERLAP = 0.5  # share of words (Jaccard) a prompt must have in common with a training caption
 # how much of the wrist's move each joint of the arm follows (guidance moves only these and the placement)
 ARM_SHARE = {"left_wrist": 1.0, "right_wrist": 1.0, "left_elbow": 0.5, "right_elbow": 0.5}
-  # share of words a prompt must have in common with a training caption
 
 
 @dataclass(frozen=True)

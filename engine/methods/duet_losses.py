@@ -45,7 +45,7 @@ def contact_distances(ja: torch.Tensor, jb: torch.Tensor) -> torch.Tensor:
     return torch.stack([torch.linalg.vector_norm(p - q, dim=-1) for p, q in pairs], dim=-1)
 
 
-def together(x: torch.Tensor, normalizer: Normalizer) -> torch.Tensor:
+def _together(x: torch.Tensor, normalizer: Normalizer) -> torch.Tensor:
     """Duet states (2P, T + 1, D) (a slots, then b slots) -> contact distances (P, T, 5)."""
     p = x.shape[0] // 2
     joints = features_to_joints(normalizer.denormalize(x[:, :-1]))  # (2P, T, 22, 3)
@@ -57,9 +57,9 @@ def contact_loss(x0_hat: torch.Tensor, x0: torch.Tensor, frame_mask: torch.Tenso
     """Mean |d̂ − d| (m) over the contact distances; distances the truth has under ``near`` count
     fully, the rest ``far_weight`` (only how close people come matters, not how far apart they walk)."""
     p = x0.shape[0] // 2
-    d_hat = together(x0_hat, normalizer)
+    d_hat = _together(x0_hat, normalizer)
     with torch.no_grad():
-        d = together(x0, normalizer)
+        d = _together(x0, normalizer)
         real = (frame_mask[:p, :-1] & frame_mask[p:, :-1])[..., None].float()  # (P, T, 1)
         w = real * torch.where(d < near, 1.0, far_weight)
     return ((d_hat - d).abs() * w).sum() / w.sum().clamp_min(1e-6)
