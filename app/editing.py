@@ -317,15 +317,13 @@ def count_record(record: AttentionRecord, joints: np.ndarray, *, item: str, run=
     from engine.methods.edits import CountingRun
 
     run = run or CountingRun()
-    lo, hi = int(run.steps[0] * record.num_steps), int(run.steps[1] * record.num_steps)
-    steps = [s for s in record.steps if lo <= s < hi] or list(record.steps)
-    maps = record.self_maps[[record.step_position(s) for s in steps]]
-    if run.layers is not None:
-        maps = maps[:, list(run.layers)]
+    steps = run.chosen_steps(list(record.steps), record.num_steps)
+    layers = run.chosen_layers(list(range(record.n_layers)))
+    maps = record.self_maps[[record.step_position(s) for s in steps]][:, layers]
     attn = maps.astype(np.float32).mean(axis=(0, 1, 2))
     result = count_from_attention(attn, run.counting)
-    source = (f"recorded self-attention: mean of heads and layers over {len(steps)} recorded step(s) "
-              f"{steps[0] + 1}–{steps[-1] + 1} of {record.num_steps}")
+    source = (f"recorded self-attention: mean of heads, layers {', '.join(str(l + 1) for l in layers)} of "
+              f"{record.n_layers} over {len(steps)} recorded step(s) {steps[0] + 1}–{steps[-1] + 1} of {record.num_steps}")
     return CountReadout(item=item, count=result.count, rounded=result.rounded,
                         baseline=count_from_root_height(np.asarray(joints)[:, 0, 1]), peaks=list(result.peaks),
                         processed=result.processed, downsample=run.counting.downsample, source=source,

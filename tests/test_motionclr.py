@@ -187,3 +187,40 @@ def test_counting_on_a_synthetic_action_map():
         CountingConfig(method="fft")
     with pytest.raises(ValueError):
         count_from_attention(np.zeros((5, 6)))
+
+
+def test_counting_skips_a_weak_sub_period_stripe():
+    """A jumping jack hops twice per repetition: besides the repetition's stripes (period 32) its map carries
+    faint ones at half the period. The first peak of the lag profile is the hop; the period is the first
+    peak at least ``relative_prominence`` as prominent as the strongest."""
+    reps, period = 3, 32
+    attn = cyclic_attention_map(reps, rest=10, period=period)
+    t = np.arange(len(attn))
+    active = (t >= 10) & (t < 10 + reps * period)
+    hop = np.exp(2 * (np.cos(4 * np.pi * (t[:, None] - t[None]) / period) - 1)) * np.outer(active, active)
+    attn = attn + 0.004 * hop  # the hop stripe: a tenth as prominent as the repetition's in the lag profile
+    attn /= attn.sum(1, keepdims=True)
+    res = count_from_attention(attn)
+    assert res.rounded == reps and abs(res.period - period) <= 1, (res.count, res.period)
+    naive = count_from_attention(attn, CountingConfig(relative_prominence=0.0))
+    assert abs(naive.period - period // 2) <= 1 and naive.rounded == 2 * reps, (naive.count, naive.period)
+    with pytest.raises(ValueError, match="relative_prominence"):
+        CountingConfig(relative_prominence=1.5)
+
+
+def test_counting_run_chooses_layers_and_steps():
+    from engine.methods.edits import CountingRun
+
+    assert CountingRun().chosen_layers([0, 1, 2, 3, 4, 5]) == [2, 3, 4, 5]
+    assert CountingRun().chosen_layers([0, 1]) == [1]  # two layers: the first is skipped, one is kept
+    assert CountingRun().chosen_layers([0]) == [0]
+    assert CountingRun(skip_layers=0).chosen_layers([0, 1, 2]) == [0, 1, 2]
+    assert CountingRun(layers=(1, 3)).chosen_layers([0, 1, 2, 3]) == [1, 3]
+    with pytest.raises(ValueError, match="not recorded"):
+        CountingRun(layers=(7,)).chosen_layers([0, 1])
+    assert CountingRun().chosen_steps([0, 4, 9, 14, 19], 20) == [14, 19]
+    assert CountingRun(steps=(0.0, 0.1)).chosen_steps([5, 10], 20) == [5, 10]  # none inside: all recorded
+    with pytest.raises(ValueError, match="skip_layers"):
+        CountingRun(skip_layers=1.0)
+    with pytest.raises(ValueError, match="steps"):
+        CountingRun(steps=(0.8, 0.2))

