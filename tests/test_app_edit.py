@@ -149,6 +149,10 @@ def test_replace_needs_aligned_prompts_and_says_why(studio):
     level, text = s.notices[-1]
     assert level == "error" and "not aligned" in text and "word by word" in text
     assert not s.running and len(s.items) == n_items
+    tab.kind.value = "emphasise"  # only replacement needs aligned prompts
+    assert not tab.run.disabled
+    tab.kind.value = "replace"
+    assert tab.run.disabled
     tab.edited.value = "a person flurbs twice"
     assert "unknown word" in tab.alignment.object
     tab.edited.value = "a person kicks twice"

@@ -17,7 +17,7 @@ from bokeh.plotting import figure
 
 from app.editing import KIND_HELP, KIND_LABELS, PROMPT_SOURCE, alignment
 from app.state import StudioState
-from app.views.jobs import on_text
+from app.views.jobs import JobBar, on_text
 from app.views.guard import SyncGuard
 
 WORD_KINDS = ("emphasize", "erase", "ground")
@@ -66,13 +66,9 @@ class EditTab(pn.viewable.Viewer):
                                               css_classes=["edit-style-source"], width=260)
         self.style_prompt = pn.widgets.TextInput(label="Style prompt", value=e.style_prompt,
                                                  css_classes=["edit-style-prompt"], width=260)
-        self.run = pn.widgets.Button(label="Run edit", color="primary", css_classes=["edit-run"],
-                                     sizing_mode="stretch_width")
-        self.cancel = pn.widgets.Button(label="Cancel", color="warning", disabled=True, width=90,
-                                        css_classes=["edit-cancel"])
-        self.progress = pn.indicators.Progress(value=0, max=1, bar_color="primary", height=12,
-                                               sizing_mode="stretch_width", css_classes=["edit-progress"])
-        self.status = pn.pane.Markdown("", css_classes=["edit-status"], margin=(0, 10))
+        self.bar = JobBar(state=s, jobs=["edit", "counting"], label="Run edit", prefix="edit",
+                          on_run=lambda: self.state.run_edit(), blocked=self._misaligned)
+        self.run, self.cancel, self.progress, self.status = self.bar.run, self.bar.cancel, self.bar.progress, self.bar.status
         self.result = pn.pane.Markdown("", css_classes=["edit-result"], margin=(0, 10))
         self.readout = pn.pane.HTML("", css_classes=["count-readout"], margin=(0, 10), stylesheets=[_CSS])
         self.count_button = pn.widgets.Button(label="Count this motion", css_classes=["count-button"], width=160)
@@ -92,8 +88,6 @@ class EditTab(pn.viewable.Viewer):
         self.source.param.watch(lambda ev: self._set("source", ev.new), "value")
         self.style_source.param.watch(lambda ev: self._set("style_source", ev.new), "value")
         on_text(self.style_prompt, lambda text: self._set("style_prompt", text))
-        self.run.on_click(lambda _: self.state.run_edit())
-        self.cancel.on_click(lambda _: self.state.cancel())
         self.count_button.on_click(lambda _: self.state.count_current())
 
         e.param.watch(self._on_kind, "kind")
@@ -105,7 +99,7 @@ class EditTab(pn.viewable.Viewer):
         s.param.watch(self._on_prompt_text, "prompt")
         s.param.watch(self._on_seconds, "seconds")
         s.param.watch(self._on_items, "items")
-        s.param.watch(self._on_progress, ["running", "progress", "progress_total", "status", "job"])
+        s.param.watch(self._on_running, "running")
         s.param.watch(self._on_count, "current")
         self._describe_model()
         self._on_prompt()
@@ -113,7 +107,7 @@ class EditTab(pn.viewable.Viewer):
         self._on_kind()
         self._on_mode()
         self._on_alignment()
-        self._on_progress()
+        self._on_running()
         self._on_count()
 
     # ------------------------------------------------------------------ widgets -> state
@@ -250,6 +244,7 @@ class EditTab(pn.viewable.Viewer):
 
             e.edited = " ".join(_swap_example(list(self.state.prompt_words)))
             self._sync(lambda: setattr(self.edited, "value", e.edited))
+        self.bar.refresh()  # Run waits for aligned prompts in replacement only
 
     def _on_mode(self, *_):
         e = self.state.edit
@@ -264,33 +259,30 @@ class EditTab(pn.viewable.Viewer):
         self._sync(apply)
         e.weight = value
 
-    def _on_alignment(self, *_):
-        e = self.state.edit
-        if e.engine_kind != "replace" and not e.edited:
-            self.alignment.object = ""
-            return
+    def _alignment(self) -> tuple[bool, str]:
         try:
             tokenizer = self.state.model.tokenizer
         except Exception:
             tokenizer = None
-        ok, message = alignment(tokenizer, self.state.prompt, e.edited)
+        return alignment(tokenizer, self.state.prompt, self.state.edit.edited)
+
+    def _on_alignment(self, *_):
+        e = self.state.edit
+        self.bar.refresh()
+        if e.engine_kind != "replace" and not e.edited:
+            self.alignment.object = ""
+            return
+        ok, message = self._alignment()
         cls = "align-ok" if ok else "align-bad"
         self.alignment.object = f'<div class="{cls}">{html.escape(message)}</div>'
-        if e.engine_kind == "replace":
-            self.run.disabled = self.state.running or not ok
         self._sync(lambda: setattr(self.edited, "value", e.edited) if self.edited.value != e.edited else None)
 
-    def _on_progress(self, *_):
-        s = self.state
-        mine = s.job in ("edit", "counting")
-        self.progress.max = max(1, s.progress_total)
-        self.progress.value = min(s.progress, self.progress.max) if mine else 0
-        self.status.object = html.escape(s.status) if mine else ""
-        self.cancel.disabled = not s.running
-        self.run.disabled = s.running
-        self.count_button.disabled = s.running
-        if not s.running and s.edit.engine_kind == "replace":
-            self._on_alignment()
+    def _on_running(self, *_):
+        self.count_button.disabled = self.state.running
+
+    def _misaligned(self) -> bool:
+        """Replacement needs prompts aligned word by word: Run waits until they are."""
+        return self.state.edit.engine_kind == "replace" and not self._alignment()[0]
 
     def _on_last_edit(self, *_):
         last = self.state.edit.last_edit
@@ -357,8 +349,7 @@ class EditTab(pn.viewable.Viewer):
             self.steps, self.layers, sizing_mode="stretch_width")
         counting = pn.Column("#### Counting", pn.Row(pn.Column(self.readout, self.count_button, width=250),
                                                      self.count_pane), sizing_mode="stretch_width")
-        return pn.Column(self.kind, self.help, settings, pn.Row(self.run, self.cancel, sizing_mode="stretch_width"),
-                         self.progress, self.status, self.result, pn.layout.Divider(), counting,
+        return pn.Column(self.kind, self.help, settings, self.bar, self.result, pn.layout.Divider(), counting,
                          css_classes=["edit-tab"], sizing_mode="stretch_width")
 
 
