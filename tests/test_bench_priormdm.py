@@ -5,7 +5,9 @@ import json
 
 import numpy as np
 
-from engine.evaluation.bench_compose import ComposeBenchConfig, bench_compose, build_sequences, jerk, windows
+from engine.evaluation.bench_compose import (
+    ComposeBenchConfig, bench_compose, build_sequences, format_table, jerk, windows,
+)
 from engine.evaluation.bench_control import ControlBenchConfig, bench_control, control_error
 from tests.test_eval_run import tiny_evaluator, tiny_model  # noqa: F401  (fixtures)
 
@@ -43,6 +45,9 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     for m in ("doubletake", "first_take", "naive"):
         assert np.isfinite(compose[m]["transition_fid"]) and compose[m]["jerk"] > 0
     assert compose["seconds_60s"] > 0 and compose["long_motion_seconds"] == 13.0
+    # the floor: true transitions of other sequences are not the same windows, so their FID is above 0
+    assert compose["truth_redraw"]["transitions"] > 0 and compose["truth_redraw"]["transition_fid"] > 0
+    assert "the floor" in format_table(compose)
     control = bench_control(tiny_model, tiny_evaluator, ControlBenchConfig(motions=2, steps=2),
                             models={"root": tiny_model, "left_wrist": tiny_model}, log=lambda line: None)
     assert set(control["tasks"]["root+left_wrist"]) == {"inpainting", "blending"}
