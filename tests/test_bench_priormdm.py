@@ -53,4 +53,5 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     assert set(control["tasks"]["root+left_wrist"]) == {"inpainting", "blending"}
     assert "fine_tuned" not in control["tasks"]["right_wrist"]
     assert control["tasks"]["root"]["fine_tuned"]["error_m"] < 0.01
+    assert control["truth_redraw_fid"] > 0
     json.dumps({"compose": compose, "control": control})

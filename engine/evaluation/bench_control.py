@@ -7,6 +7,8 @@ base model with plain inpainting generate from the same noise. Figures (JSON
 ``control.<task>.<method>``): ``error_m`` (mean distance of the controlled joint from its true
 position: the root on the floor, the wrist relative to the root), ``off_0_5m`` (share of frames
 more than 0.5 m off), ``fid`` (evaluator, vs the held-out motions) and ``skate`` (foot skating).
+``control.truth_redraw_fid`` is the floor of that FID: as many other held-out motions scored against the same
+ones (with a few dozen motions it is far from 0; a ratio of two FIDs near it is mostly noise).
 """
 from __future__ import annotations
 
@@ -58,16 +60,23 @@ def bench_control(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Contr
     t0 = time.time()
     models = load_controls(CONTROL_DIR) if models is None else models
     corpus = Corpus(split="test", seed=config.seed)
-    items, i = [], 20000
-    while len(items) < config.motions:
-        s = corpus.sample(i)
-        i += 1
-        if len(s.joints) - 1 >= config.min_seconds * FPS:
-            items.append(s)
-    truth_feats = [s.features for s in items]
-    truth_emb = evaluator.motion_embeddings(truth_feats)
+
+    def held_out(start: int) -> list:
+        out, i = [], start
+        while len(out) < config.motions:
+            s = corpus.sample(i)
+            i += 1
+            if len(s.joints) - 1 >= config.min_seconds * FPS:
+                out.append(s)
+        return out
+
+    items = held_out(20000)
+    truth_emb = evaluator.motion_embeddings([s.features for s in items])
+    floor = fid(evaluator.motion_embeddings([s.features for s in held_out(40000)]), truth_emb)
+    log(f"  truth (other motions): FID {floor:.3f} (the floor)")
     sample = SampleConfig(steps=config.steps, guidance=config.guidance, seed=config.seed)
-    result = {"motions": len(items), "steps": config.steps, "models": sorted(models), "tasks": {}}
+    result = {"motions": len(items), "steps": config.steps, "models": sorted(models), "tasks": {},
+              "truth_redraw_fid": floor}
     for task, names in TASKS.items():
         methods = {"inpainting": None}
         if all(n in models for n in names):
@@ -107,6 +116,7 @@ def format_table(result: dict) -> str:
     ratio = result["blending_fid_vs_inpainting"]
     lines.append("blending / inpainting FID (root + left wrist): " + ("n/a (no control models)" if ratio is None
                                                                        else f"{ratio:.2f} (target <= 0.5)"))
+    lines.append(f"FID floor (other held-out motions vs the same ones): {result['truth_redraw_fid']:.3f}")
     lines.append(f"{result['motions']} held-out motions, {result['steps']} steps, control models: "
                  f"{', '.join(result['models']) or 'none'}, {result['seconds']:.0f} s")
     return "\n".join(lines)
