@@ -323,7 +323,8 @@ def count_record(record: AttentionRecord, joints: np.ndarray, *, item: str, run=
     attn = maps.astype(np.float32).mean(axis=(0, 1, 2))
     result = count_from_attention(attn, run.counting)
     source = (f"recorded self-attention: mean of heads, layers {', '.join(str(l + 1) for l in layers)} of "
-              f"{record.n_layers} over {len(steps)} recorded step(s) {steps[0] + 1}–{steps[-1] + 1} of {record.num_steps}")
+              f"{record.n_layers} over {len(steps)} recorded step(s) {steps[0] + 1}–{steps[-1] + 1} "
+              f"of {record.num_steps}")
     return CountReadout(item=item, count=result.count, rounded=result.rounded,
                         baseline=count_from_root_height(np.asarray(joints)[:, 0, 1]), peaks=list(result.peaks),
                         processed=result.processed, downsample=run.counting.downsample, source=source,

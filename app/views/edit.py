@@ -68,7 +68,8 @@ class EditTab(pn.viewable.Viewer):
                                                  css_classes=["edit-style-prompt"], width=260)
         self.bar = JobBar(state=s, jobs=["edit", "counting"], label="Run edit", prefix="edit",
                           on_run=lambda: self.state.run_edit(), blocked=self._misaligned)
-        self.run, self.cancel, self.progress, self.status = self.bar.run, self.bar.cancel, self.bar.progress, self.bar.status
+        b = self.bar
+        self.run, self.cancel, self.progress, self.status = b.run, b.cancel, b.progress, b.status
         self.result = pn.pane.Markdown("", css_classes=["edit-result"], margin=(0, 10))
         self.readout = pn.pane.HTML("", css_classes=["count-readout"], margin=(0, 10), stylesheets=[_CSS])
         self.count_button = pn.widgets.Button(label="Count this motion", css_classes=["count-button"], width=160)

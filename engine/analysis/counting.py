@@ -18,9 +18,10 @@ class CountingConfig:
     ``prominence`` and at least ``relative_prominence`` of the most prominent peak's prominence is the
     period P (no peak: count 1). The relative test skips weak sub-period peaks: a jumping jack hops twice
     per repetition, and the hop draws a faint stripe at half the period (on 300 training-split motions
-    it lifted exact counts from 82 % to 89 % with every layer averaged). A repeated action makes every frame attend to the
-    same phase of the other repetitions, so the map carries stripes parallel to the diagonal at
-    multiples of P; the profile adds them up. The count is the *active span* / P: a frame is active when
+    it lifted exact counts from 82 % to 89 % with every layer averaged).
+    A repeated action makes every frame attend to the same phase of the other repetitions, so the map
+    carries stripes parallel to the diagonal at multiples of P; the profile adds them up. The count is
+    the *active span* / P: a frame is active when
     it attends more to the frames a period away than to those half a period away (rest frames attend
     alike to both), above ``active_fraction`` of the strongest frame's contrast. Dividing the whole
     clip by P instead counts the standing still before and after as repetitions too.

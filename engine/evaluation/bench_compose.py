@@ -123,7 +123,8 @@ def bench_compose(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Compo
     true_emb = evaluator.motion_embeddings([joints_to_features(w) for w in true_windows])
     result = {"sequences": len(seqs), "transitions": len(true_windows), "steps": config.steps,
               "ground_truth_jerk": float(np.mean([jerk(w) for w in true_windows]))}
-    redraw = [w for s in build_sequences(config, seed=config.seed + 1) for w in windows(s.truth, s.boundaries, config.window)]
+    redraw = [w for s in build_sequences(config, seed=config.seed + 1)
+              for w in windows(s.truth, s.boundaries, config.window)]
     redraw_emb = evaluator.motion_embeddings([joints_to_features(w) for w in redraw])
     result["truth_redraw"] = {"transition_fid": fid(redraw_emb, true_emb), "transitions": len(redraw)}
     log(f"  truth (other sequences): transition FID {result['truth_redraw']['transition_fid']:.3f} (the floor)")
