@@ -21,7 +21,7 @@ from app.editing import EditConfig, EditResult, count_imported, count_record, pr
 from app.generation import Cancelled, GenerationResult, GenerationSettings, check, prompt_analysis, run_generation
 from app.transfer import TransferSettings, paint_clusters, start_transfer
 
-MAX_ITEMS = 8
+MAX_ITEMS = 24  # motions are small (a 10-s motion is 140 KB); a transfer onto 8 followers adds 17
 MAX_ITEMS_WITH_ATTENTION = 3
 
 

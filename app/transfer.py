@@ -59,6 +59,8 @@ class TransferSettings(param.Parameterized):
     root = param.Selector(default="trajectory", objects=list(ROOT_LABELS.values()), doc="what the out takes from "
                                                                                          "the leader's root")
     color_by = param.Selector(default="roles", objects=list(COLOR_BY), doc="skeleton colours in the viewer")
+    more_followers = param.String(default="", doc="more follower prompts, one per line: the leader drives each of "
+                                                  "them too (one out per follower, in the same batch)")
     result = param.Parameter(default=None, doc="TransferView of the last finished transfer")
 
     def __init__(self, *, tokenizer: Callable[[], object] | None = None, **params):
@@ -76,15 +78,18 @@ class TransferJob:
 
     leader: object  # engine.methods.momo.Source
     follower: object
+    extra: tuple  # Sources of followers 2, 3, ... (prompts from ``more_followers``)
     config: object  # engine.methods.momo.TransferConfig
     sample: object  # engine.generate.SampleConfig
-    labels: dict  # role -> label for names and titles
+    labels: dict  # role -> label for names and titles ("follower 2" ... for the extra followers)
     description: str
 
 
 @dataclass
 class TransferView:
-    """A finished transfer as the views need it: the session motions (role -> item name), the analysis."""
+    """A finished transfer as the views need it: the session motions (role -> item name), the analysis (of the
+    first follower). Roles: ``leader``, ``follower``, ``out``, then ``follower 2``, ``out 2``, ... for extra
+    followers."""
 
     names: dict[str, str]
     frames: dict[str, int]
@@ -141,15 +146,45 @@ def prepare(state) -> TransferJob:
     loaded = state.model
     leader, leader_label = _source(state, cfg.leader, loaded)
     follower, follower_label = _source(state, cfg.follower, loaded)
+    extra = more_followers(cfg.more_followers, seconds=cfg.follower.seconds, loaded=loaded)
     layers = None if cfg.layers is None else tuple(range(int(cfg.layers[0]), int(cfg.layers[1]) + 1))
     config = TransferConfig(start=float(cfg.steps[0]), end=float(cfg.steps[1]), layers=layers, root=cfg.root)
     window = config.window(loaded.model.config.layers)  # layers outside the model fail here, with the range
     sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
     lay = window.layers
-    description = (f"{_short(leader_label)} → {_short(follower_label)} (layers {lay[0]}–{lay[-1]}, steps "
+    more = f" + {len(extra)} more" if extra else ""
+    description = (f"{_short(leader_label)} → {_short(follower_label)}{more} (layers {lay[0]}–{lay[-1]}, steps "
                    f"{config.start:.0%}–{config.end:.0%})")
-    return TransferJob(leader=leader, follower=follower, config=config, sample=sample,
-                       labels={"leader": leader_label, "follower": follower_label}, description=description)
+    labels = {"leader": leader_label, "follower": follower_label}
+    labels.update({f"follower {k}": src.prompt for k, src in enumerate(extra, start=2)})
+    return TransferJob(leader=leader, follower=follower, extra=tuple(extra), config=config, sample=sample,
+                       labels=labels, description=description)
+
+
+def more_followers(text: str, *, seconds: float, loaded) -> list:
+    """The extra followers typed one prompt per line (blank lines skipped), each checked against the vocabulary;
+    generated with the first follower's duration when it is a prompt (4 s otherwise)."""
+    from engine.generate import frames_for
+    from engine.methods.momo import MAX_FOLLOWERS, Source
+
+    prompts = [line.strip() for line in (text or "").splitlines() if line.strip()]
+    if len(prompts) + 1 > MAX_FOLLOWERS:
+        raise ValueError(f"at most {MAX_FOLLOWERS} followers in one transfer: remove "
+                         f"{len(prompts) + 1 - MAX_FOLLOWERS} of the extra prompts")
+    try:
+        seconds = float(seconds)
+        frames_for(seconds)
+    except (TypeError, ValueError):
+        seconds = 4.0
+    seconds = min(seconds, loaded.model.config.max_frames / 20)
+    out = []
+    for k, prompt in enumerate(prompts, start=2):
+        try:
+            loaded.tokenizer.encode(prompt)
+        except ValueError as exc:
+            raise ValueError(f"follower {k} ({_short(prompt)!r}): {exc}") from None
+        out.append(Source(prompt=prompt, seconds=seconds, name=prompt))
+    return out
 
 
 def _short(text: str, limit: int = 28) -> str:
@@ -206,9 +241,11 @@ def run_job(loaded, job: TransferJob, *, on_step=None, cancel=None, on_wait=None
         inverted = [r for r, s in (("leader", job.leader), ("follower", job.follower)) if s.joints is not None]
         if inverted:
             note(f"inverting the {' and the '.join(inverted)} ({job.sample.steps} DDIM steps)…")
-        result = transfer(loaded, job.leader, [job.follower], job.config, sample=job.sample,
+        result = transfer(loaded, job.leader, [job.follower, *job.extra], job.config, sample=job.sample,
                           record=record_for(loaded, job.sample.steps), on_step=step)
         joints = {"leader": result.leader_joints(), "follower": result.follower(0), "out": result.out(0)}
+        for k in range(1, 1 + len(job.extra)):
+            joints.update({f"follower {k + 1}": result.follower(k), f"out {k + 1}": result.out(k)})
         joints = {r: np.asarray(j, dtype=np.float32) for r, j in joints.items()}
         bad = [r for r, j in joints.items() if not np.isfinite(j).all()]
         if bad:
@@ -234,11 +271,15 @@ def finish(state, job: TransferJob, view: TransferView) -> None:
     """Three session motions (leader, follower, out) side by side in the viewer; the analysis on the tab."""
     from app.state import MotionItem
 
-    titles = {"leader": f"leader · {job.labels['leader']}", "follower": f"follower · {job.labels['follower']}",
-              "out": f"out · {_short(job.labels['follower'])} ← {_short(job.labels['leader'])}"}
-    prompts = {"leader": job.leader.prompt or "", "follower": job.follower.prompt or "",
-               "out": job.follower.prompt or ""}
-    for role in ROLES:
+    titles = {"leader": f"leader · {job.labels['leader']}"}
+    prompts = {"leader": job.leader.prompt or ""}
+    for k, src in enumerate((job.follower, *job.extra), start=1):
+        n = "" if k == 1 else f" {k}"
+        label = job.labels[f"follower{n}"]
+        titles.update({f"follower{n}": f"follower{n} · {label}",
+                       f"out{n}": f"out{n} · {_short(label)} ← {_short(job.labels['leader'])}"})
+        prompts.update({f"follower{n}": src.prompt or "", f"out{n}": src.prompt or ""})
+    for role in view.joints:
         item = MotionItem(name=state._unique_name(titles[role]), joints=view.joints[role], source="generated",
                           prompt=prompts[role], info={"transfer": job.description, "role": role,
                                                       "inversion": view.inversion.get(role)})
@@ -250,7 +291,8 @@ def finish(state, job: TransferJob, view: TransferView) -> None:
 
 
 def show_roles(state) -> None:
-    """Leader / follower / out side by side and in sync in the viewer (the last transfer)."""
+    """Leader / follower / out side by side and in sync in the viewer (the last transfer), then the outs of any
+    extra followers."""
     view = state.transfer.result
     if view is None or any(n not in state.items for n in view.names.values()):
         state.error("the transfer's motions are no longer in the session: run it again")
@@ -258,7 +300,7 @@ def show_roles(state) -> None:
     with param.parameterized.batch_call_watchers(state):
         state.show(view.names["leader"])
         state.compare = view.names["follower"]
-        state.also = [view.names["out"]]
+        state.also = [view.names["out"], *(view.names[r] for r in view.names if r.startswith("out "))]
 
 
 # ---------------------------------------------------------------------------------------------- colours

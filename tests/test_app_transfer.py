@@ -135,7 +135,36 @@ def test_transfer_from_an_imported_motion(studio):
     tab.leader.kind.value = "prompt"
 
 
+def test_one_leader_onto_several_followers(studio):
+    s, tab = studio.state, studio.transfer
+    _set_prompts(tab, "a person walks forward", "a person jumps twice", seconds=(3.0, 2.0))
+    tab.more.value = "a person runs forward\n\n  a person waves with the right hand  "
+    assert s.transfer.more_followers.splitlines()[0] == "a person runs forward"
+    try:
+        n_items = len(s.items)
+        _run(studio)
+    finally:
+        tab.more.value = ""
+    view = s.transfer.result
+    n, m = frames_for(3.0), frames_for(2.0)
+    assert list(view.frames) == ["leader", "follower", "out", "follower 2", "out 2", "follower 3", "out 3"]
+    assert view.frames == {"leader": n, "follower": m, "out": n, "follower 2": m, "out 2": n, "follower 3": m,
+                           "out 3": n}
+    assert len(s.items) == n_items + 7
+    assert s.items[view.names["follower 3"]].prompt == "a person waves with the right hand"
+    assert s.items[view.names["out 2"]].prompt == "a person runs forward"
+    # leader, follower, out, then the other outs, side by side
+    assert [it.name for it in s.shown_items] == [view.names[r] for r in ("leader", "follower", "out", "out 2",
+                                                                          "out 3")]
+    outs = [s.items[view.names[r]].joints for r in ("out", "out 2", "out 3")]
+    assert not np.allclose(outs[0], outs[1]) and not np.allclose(outs[1], outs[2])  # each its own follower's
+    assert "+ 2 more" in tab.result.object and "out 3: " in tab.result.object
+    assert view.analysis.maps["mixed"].shape == (n, m)  # the analysis reads the first follower
+
+
 @pytest.mark.parametrize("change, message", [
+    (lambda tab, s: setattr(tab.more, "value", "a person runs\na person glorps"), "follower 3"),
+    (lambda tab, s: setattr(tab.more, "value", "\n".join(["a person runs"] * 8)), "at most 8 followers"),
     (lambda tab, s: setattr(tab.leader.prompt, "value", "   "), "type a prompt for the leader"),
     (lambda tab, s: setattr(tab.follower.prompt, "value", "a person flumps twice"), "flumps"),
     (lambda tab, s: setattr(s.transfer, "layers", (1, 5)), "do not exist"),
@@ -158,6 +187,7 @@ def test_bad_input_is_refused_with_a_message(studio, change, message):
     s.transfer.layers = None
     s.transfer.leader.param.update(kind="prompt", motion="")
     tab.follower.seconds.value = 2.5
+    tab.more.value = ""
 
 
 def test_cancel_stops_the_transfer_and_keeps_the_session(studio):

@@ -47,6 +47,9 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
         assert 0.0 <= row["foot_contact"] <= 1.0 and 0.0 <= row["r_precision_top3"] <= 1.0
         assert row["ood"]["n"] == 2
     assert result["methods"]["nn_motion"]["follower_loc"] == 1.0  # it copies follower poses
+    truth, copy = result["reference"]["truth"], result["reference"]["leader_copy"]
+    assert truth["gt_mpjpe"] < 1e-6 and copy["foot_contact"] == 1.0 and copy["follower_loc"] == 0.0
+    assert result["targets"]["truth_follower_loc"] == truth["follower_loc"]
     json.dumps(result)
 
 

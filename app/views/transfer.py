@@ -13,7 +13,7 @@ import panel as pn
 import param
 
 from app.state import StudioState
-from app.transfer import COLOR_BY, ROLES, ROOT_LABELS, SourceSettings, describe_inversion, show_roles
+from app.transfer import COLOR_BY, ROOT_LABELS, SourceSettings, describe_inversion, show_roles
 from app.views.controls import WORD_CSS, word_chips
 from app.views.jobs import JobBar, on_text
 from app.views.transfer_plots import TransferPlots
@@ -123,6 +123,11 @@ class TransferTab(pn.viewable.Viewer):
         s, t = self.state, self.state.transfer
         self.leader = SourcePicker(state=s, source=t.leader)
         self.follower = SourcePicker(state=s, source=t.follower)
+        self.more = pn.widgets.TextAreaInput(
+            label="More followers (optional): one prompt per line, each gets its own out",
+            value=t.more_followers, placeholder="a person runs like a zombie\na person walks and waves", rows=3,
+            css_classes=["transfer-more"], sizing_mode="stretch_width")
+        on_text(self.more, lambda text: setattr(t, "more_followers", text))
         layers = self._n_layers()
         default = (min(1, layers - 1), layers - 1)
         self.layers = pn.widgets.IntRangeSlider(label="Layers that mix (0-based)", start=0, end=max(layers - 1, 1),
@@ -176,7 +181,7 @@ class TransferTab(pn.viewable.Viewer):
             self.result.object = ""
             return
         parts = [f"<b>{html.escape(view.description)}</b> in {view.seconds_taken:.1f} s"]
-        for role in ROLES:
+        for role in view.frames:
             inv = describe_inversion(view.inversion.get(role))
             extra = f" · <span class='inversion-error'>{html.escape(inv)}</span>" if inv else ""
             parts.append(f"{role}: {view.frames[role]} frames{extra}")
@@ -184,7 +189,7 @@ class TransferTab(pn.viewable.Viewer):
 
     def __panel__(self):
         sources = pn.Row(self.leader, self.follower)
-        settings = pn.Column(self.layers, self.steps, pn.pane.Markdown("Root of the out", margin=(0, 10)),
+        settings = pn.Column(self.more, self.layers, self.steps, pn.pane.Markdown("Root of the out", margin=(0, 10)),
                              self.root, sizing_mode="stretch_width")
         colours = pn.Row(pn.pane.Markdown("Skeleton colours", margin=(8, 10)), self.color)
         return pn.Column(sources, settings, self.bar, self.result, pn.Row(self.show), colours,

@@ -22,6 +22,11 @@ Figures per method (JSON keys, the paper's definitions):
 
 Methods: ``momo`` (leader's root trajectory kept, the default), ``momo_paper_root`` (the paper's
 root-rotation copy only), ``nn_motion``, ``nn_latent``, ``inpaint_upper`` (see momo_baselines).
+
+References (JSON ``reference``), measured the same way: ``truth`` (the ground truth itself as the
+output: what a perfect transfer scores on the similarity figures, which are not 1 for it: the
+ground truth keeps the leader's outline, so it is often nearer the leader's poses than the
+follower's) and ``leader_copy`` (the leader unchanged: the trivial transfer).
 """
 from __future__ import annotations
 
@@ -42,6 +47,7 @@ from engine.representation import SLICES, foot_contacts, joints_to_features
 LEADER_ACTIONS = ("walk", "run", "jog", "jump", "jump_forward", "dance", "side_step", "walk_backward", "hop")
 FOLLOWER_ACTIONS = ("walk", "run", "jog", "dance", "jump", "side_step")
 METHODS = ("momo", "momo_paper_root", "nn_motion", "nn_latent", "inpaint_upper")
+REFERENCES = ("truth", "leader_copy")
 KEYS = ("fid", "r_precision_top3", "foot_contact", "follower_rot", "follower_loc", "gt_mpjpe", "gt_mpjpe_local")
 
 
@@ -176,8 +182,8 @@ def bench_transfer(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Tran
     paper_root = TransferConfig(root="rotation")
     scale = (loaded.normalizer.std[SLICES["ric"]], loaded.normalizer.std[SLICES["rot6d"]])
     pose_scale = np.concatenate(scale)
-    outputs = {m: [] for m in METHODS}
-    rows = {m: [] for m in METHODS}
+    outputs = {m: [] for m in (*METHODS, *REFERENCES)}
+    rows = {m: [] for m in (*METHODS, *REFERENCES)}
     inversion = []
     for i, pair in enumerate(pairs):
         lead = prepare(loaded, Source(joints=pair.leader.joints, prompt=pair.leader.captions[0]), seed=config.seed,
@@ -190,6 +196,8 @@ def bench_transfer(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Tran
             "nn_motion": motion_space_nn(pair.leader.joints, pair.follower.joints, scale=pose_scale),
             "nn_latent": latent_nn(loaded, lead, follow, transfer_config, sample=sample),
             "inpaint_upper": inpaint_upper_body(loaded, lead, follow, sample=sample),
+            "truth": pair.reference["truth"][0],
+            "leader_copy": pair.reference["leader"][0],
         }
         for m, joints in results.items():
             outputs[m].append(joints)
@@ -203,21 +211,24 @@ def bench_transfer(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Tran
     distractors = evaluator.motion_embeddings([corpus.sample(10000 + j).features for j in range(config.distractors)])
     captions = [p.follower.captions[0] for p in pairs]
     ood = np.array([p.ood for p in pairs])
-    result = {"pairs": len(pairs), "ood_pairs": int(ood.sum()), "steps": config.steps, "methods": {}}
-    for m in METHODS:
+    result = {"pairs": len(pairs), "ood_pairs": int(ood.sum()), "steps": config.steps, "methods": {}, "reference": {}}
+    for m in (*METHODS, *REFERENCES):
         pick = lambda mask: ([r for r, k in zip(rows[m], mask) if k], [o for o, k in zip(outputs[m], mask) if k],  # noqa: E731
                              [c for c, k in zip(captions, mask) if k])
         r_in, o_in, c_in = pick(~ood)
         r_ood, o_ood, c_ood = pick(ood)
         summary = _summary(r_in, o_in, c_in, evaluator, truth_emb[~ood], distractors)
         summary["ood"] = _summary(r_ood, o_ood, c_ood, evaluator, truth_emb[ood], distractors) if r_ood else None
-        result["methods"][m] = summary
+        result["methods" if m in METHODS else "reference"][m] = summary
     momo, nn = result["methods"]["momo"], result["methods"]["nn_motion"]
+    truth = result["reference"]["truth"]
     result["targets"] = {
         "gt_mpjpe_vs_nn_motion": momo["gt_mpjpe"] / max(nn["gt_mpjpe"], 1e-9),
         "foot_contact": momo["foot_contact"],
         "follower_loc": momo["follower_loc"],
         "ood_vs_in_distribution": (momo["ood"]["gt_mpjpe"] / max(momo["gt_mpjpe"], 1e-9)) if momo["ood"] else None,
+        "truth_foot_contact": truth["foot_contact"],  # what the ground truth itself scores on the two above
+        "truth_follower_loc": truth["follower_loc"],
     }
     result["seconds"] = time.time() - t0
     return result
@@ -226,7 +237,9 @@ def bench_transfer(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Tran
 def format_table(result: dict) -> str:
     head = f"{'method':<20}" + "".join(f"{k:>17}" for k in KEYS)
     lines = [head, "-" * len(head)]
-    for m, row in result["methods"].items():
+    rows = list(result["methods"].items())
+    rows += [(f"({m})", r) for m, r in result.get("reference", {}).items()]
+    for m, row in rows:
         for name, r in ((m, row), (f"  {m} ood", row.get("ood"))):
             if r is None:
                 continue
@@ -236,6 +249,9 @@ def format_table(result: dict) -> str:
     lines.append(f"momo gt_mpjpe / nn_motion: {t['gt_mpjpe_vs_nn_motion']:.2f} (target <= 0.5); foot_contact "
                  f"{t['foot_contact']:.3f} (>= 0.90); follower_loc {t['follower_loc']:.3f} (>= 0.97); ood / in "
                  + ("n/a" if t["ood_vs_in_distribution"] is None else f"{t['ood_vs_in_distribution']:.2f}") + " (<= 1.5)")
+    if "truth_foot_contact" in t:
+        lines.append(f"the ground truth itself scores foot_contact {t['truth_foot_contact']:.3f} and follower_loc "
+                     f"{t['truth_follower_loc']:.3f}")
     lines.append(f"{result['pairs']} pairs ({result['ood_pairs']} held-out), {result['steps']} steps, "
                  f"{result['seconds']:.0f} s")
     return "\n".join(lines)
