@@ -35,6 +35,10 @@ def test_measurements_on_known_outputs():
     reps = np.concatenate([follower] * (n // len(follower) + 1))[:n]
     f = measure(reps, pair)
     assert f["follower_loc"] > 0.9 and f["follower_rot"] > 0.9
+    # measured against other streams (momo_gen's generated leader and follower): the follower is now the "leader"
+    swapped = measure(reps, pair, streams=(reps, canonical(pair.leader.joints)))
+    assert swapped["foot_contact"] == 1.0 and swapped["follower_loc"] == 0.0
+    assert swapped["gt_mpjpe"] == f["gt_mpjpe"]  # still against the pair's ground truth
 
 
 def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811

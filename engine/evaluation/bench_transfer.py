@@ -21,7 +21,11 @@ Figures per method (JSON keys, the paper's definitions):
 - ``ood``: the same figures on the held-out subset.
 
 Methods: ``momo`` (leader's root trajectory kept, the default), ``momo_paper_root`` (the paper's
-root-rotation copy only), ``nn_motion``, ``nn_latent``, ``inpaint_upper`` (see momo_baselines).
+root-rotation copy only), ``nn_motion``, ``nn_latent``, ``inpaint_upper`` (see momo_baselines), and
+``momo_gen`` (the paper's "MoMo Gen.": leader and follower generated from the pair's captions instead
+of inverted, so its foot / rot / loc figures are measured against those generated streams; its
+``gt_mpjpe`` compares it with a ground truth made from other leader and follower motions and only
+tells how far the captions alone get).
 
 References (JSON ``reference``), measured the same way: ``truth`` (the ground truth itself as the
 output: what a perfect transfer scores on the similarity figures, which are not 1 for it: the
@@ -40,13 +44,13 @@ from engine.checkpoint import LoadedModel
 from engine.evaluation.evaluator import LoadedEvaluator
 from engine.evaluation.metrics import fid
 from engine.generate import SampleConfig
-from engine.methods.momo import Source, TransferConfig, canonical, prepare, transfer_streams
+from engine.methods.momo import Source, TransferConfig, canonical, prepare, transfer, transfer_streams
 from engine.methods.momo_baselines import inpaint_upper_body, latent_nn, motion_space_nn
 from engine.representation import SLICES, foot_contacts, joints_to_features
 
 LEADER_ACTIONS = ("walk", "run", "jog", "jump", "jump_forward", "dance", "side_step", "walk_backward", "hop")
 FOLLOWER_ACTIONS = ("walk", "run", "jog", "dance", "jump", "side_step")
-METHODS = ("momo", "momo_paper_root", "nn_motion", "nn_latent", "inpaint_upper")
+METHODS = ("momo", "momo_paper_root", "momo_gen", "nn_motion", "nn_latent", "inpaint_upper")
 REFERENCES = ("truth", "leader_copy")
 KEYS = ("fid", "r_precision_top3", "foot_contact", "follower_rot", "follower_loc", "gt_mpjpe", "gt_mpjpe_local")
 
@@ -135,9 +139,18 @@ def _nearest_is_follower(out: np.ndarray, leader: np.ndarray, follower: np.ndarr
     return float((d(out, follower) < d(out, leader)).mean())
 
 
-def measure(out: np.ndarray, pair: Pair) -> dict:
-    """Ground-truth and similarity figures of one output (joints (T, 22, 3) of the leader's length)."""
-    (truth, ft), (lead_j, fl), (_, ff) = (pair.reference[r] for r in ("truth", "leader", "follower"))
+def measure(out: np.ndarray, pair: Pair, *, streams: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
+    """Ground-truth and similarity figures of one output (joints (T, 22, 3) of the leader's length).
+
+    ``streams``: the (leader, follower) joints the output was made from when they are not the pair's own
+    (generated from its captions); foot contact and follower similarity are measured against them.
+    """
+    truth, ft = pair.reference["truth"]
+    if streams is None:
+        (lead_j, fl), (_, ff) = pair.reference["leader"], pair.reference["follower"]
+    else:
+        lead_j, follow_j = (canonical(j) for j in streams)
+        fl, ff = joints_to_features(lead_j), joints_to_features(follow_j)
     n = min(len(out), len(truth))
     mpjpe = float(np.linalg.norm(out[:n] - truth[:n], axis=-1).mean())
     m = min(len(out), len(lead_j))
@@ -179,6 +192,7 @@ def bench_transfer(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Tran
     log(f"transfer benchmark: {sum(not p.ood for p in pairs)} in-distribution pairs, {sum(p.ood for p in pairs)} held-out")
     sample = SampleConfig(steps=config.steps, guidance=config.guidance, seed=config.seed)
     transfer_config = TransferConfig()
+    streams = {}
     paper_root = TransferConfig(root="rotation")
     scale = (loaded.normalizer.std[SLICES["ric"]], loaded.normalizer.std[SLICES["rot6d"]])
     pose_scale = np.concatenate(scale)
@@ -190,8 +204,14 @@ def bench_transfer(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Tran
                        steps=config.steps, measure_inversion=False)
         follow = prepare(loaded, Source(joints=pair.follower.joints, prompt=pair.follower.captions[0]),
                          seed=config.seed + 1, steps=config.steps, measure_inversion=False)
+        seconds = {r: len(pair.reference[r][1]) / 20 for r in ("leader", "follower")}  # feature frames at 20 fps
+        gen = transfer(loaded, Source(prompt=pair.leader.captions[0], seconds=seconds["leader"]),
+                       [Source(prompt=pair.follower.captions[0], seconds=seconds["follower"])], transfer_config,
+                       sample=sample)
+        streams["momo_gen"] = (gen.leader_joints(), gen.follower(0))
         results = {
             "momo": transfer_streams(loaded, lead, [follow], transfer_config, sample=sample).out(0),
+            "momo_gen": gen.out(0),
             "momo_paper_root": transfer_streams(loaded, lead, [follow], paper_root, sample=sample).out(0),
             "nn_motion": motion_space_nn(pair.leader.joints, pair.follower.joints, scale=pose_scale),
             "nn_latent": latent_nn(loaded, lead, follow, transfer_config, sample=sample),
@@ -201,7 +221,7 @@ def bench_transfer(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Tran
         }
         for m, joints in results.items():
             outputs[m].append(joints)
-            rows[m].append(measure(joints, pair))
+            rows[m].append(measure(joints, pair, streams=streams.get(m)))
         log(f"  pair {i + 1}/{len(pairs)}{' (ood)' if pair.ood else ''}: {pair.leader.captions[0]!r} <- "
             f"{pair.follower.captions[0]!r}: momo {rows['momo'][-1]['gt_mpjpe']:.3f} m, "
             f"nn {rows['nn_motion'][-1]['gt_mpjpe']:.3f} m ({time.time() - t0:.0f} s)")
