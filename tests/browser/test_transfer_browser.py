@@ -1,6 +1,6 @@
 """The Transfer tab in Debian's Chromium against a real `moattn serve` (tiny model): type a leader and a follower
 prompt, run, see leader / follower / out side by side, the Q/K cluster strips, skeletons coloured by cluster,
-and a click on a strip moving the viewer. Screenshots are saved (``screens``)."""
+a click on a strip moving the viewer, and a second follower adding its own out. Screenshots are saved (``screens``)."""
 from __future__ import annotations
 
 import io
@@ -95,6 +95,28 @@ def test_transfer_from_two_prompts(browser, server_url, screens):
         masks = _role_pixels(_img(coloured))
         assert masks["green"].sum() < counts["green"] / 2 or masks["orange"].sum() < counts["orange"] / 2, \
             {k: int(m.sum()) for k, m in masks.items()}
+
+        # one leader onto two followers: a second follower prompt gives a fourth skeleton (its out, purple) on the
+        # right of the first out
+        page.locator(".transfer-color button", has_text="roles").click()
+        page.locator(".transfer-more textarea").fill("a person runs forward")
+        page.wait_for_timeout(500)
+        key_before = br.player_stats(page)["motion_key"]
+        page.locator(".transfer-run button").click()
+        page.locator(".transfer-result", has_text="+ 1 more").wait_for(timeout=180000)
+        page.locator(".transfer-result", has_text="out 2: 80 frames").wait_for(timeout=5000)
+        page.wait_for_function(f"window.moattnPlayer.motion_key !== {key_before}", timeout=60000)
+        br.wait_all_frames(page, timeout_ms=180000)
+        page.wait_for_timeout(800)
+        four = page.locator(".skeleton-view canvas").screenshot()
+        save("transfer_viewer_two_followers.png", four)
+        img = _img(four)
+        r, g, b = img[..., 0], img[..., 1], img[..., 2]
+        masks = {**_role_pixels(img), "purple": (b - g > 60) & (r - g > 20) & (b > 150)}
+        assert all(int(m.sum()) > 100 for m in masks.values()), {k: int(m.sum()) for k, m in masks.items()}
+        columns = np.arange(img.shape[1])[None, :].repeat(img.shape[0], 0)
+        xs = [columns[masks[k]].mean() for k in ("blue", "orange", "green", "purple")]
+        assert xs[0] < xs[1] < xs[2] < xs[3], xs
         errors = [m for m in page.console_messages if m.startswith(("error", "pageerror"))
                   and "ERR_NAME_NOT_RESOLVED" not in m]
         assert not errors, errors
