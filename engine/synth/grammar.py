@@ -179,29 +179,22 @@ def action_phrase(seg: Segment, form: int, rng: np.random.Generator, *, with_cou
 
 def _vp(program: Program, rng, style: bool) -> str:
     """Third-person phrase; "before" joins switch the following phrase to a gerund."""
-    phrases = []
-    for seg in program.segments:
-        phrases.append(seg)
-    parts = []
-    sty_at = int(rng.integers(len(phrases))) if program.style != "none" and style else -1
-    for i, seg in enumerate(phrases):
-        join = "" if i == 0 else _pick(rng, SEQ_JOIN)
-        form = 1 if join == " before " else 0
-        p = action_phrase(seg, form, rng)
-        if seg.overlay is not None:
-            p += " while " + action_phrase(seg.overlay, 1, rng)
-        if i == sty_at:
-            p += " " + _pick(rng, STYLE_PHRASES[program.style])
-        parts.append(join + p)
-    return "".join(parts)
+    return _joined(program, rng, style, joins=SEQ_JOIN, gerund_after_before=True)
 
 
 def _ing(program: Program, rng, style: bool) -> str:
+    """Gerund phrase ("walking, then jumping")."""
+    return _joined(program, rng, style, joins=(", then ", " and then ", " before "), gerund_after_before=False)
+
+
+def _joined(program: Program, rng, style: bool, *, joins, gerund_after_before: bool) -> str:
+    """The segments' phrases joined in order, an overlay as "while ...", the style phrase on one of them."""
     parts = []
     sty_at = int(rng.integers(len(program.segments))) if program.style != "none" and style else -1
     for i, seg in enumerate(program.segments):
-        join = "" if i == 0 else _pick(rng, (", then ", " and then ", " before "))
-        p = action_phrase(seg, 1, rng)
+        join = "" if i == 0 else _pick(rng, joins)
+        form = 1 if not gerund_after_before or join == " before " else 0
+        p = action_phrase(seg, form, rng)
         if seg.overlay is not None:
             p += " while " + action_phrase(seg.overlay, 1, rng)
         if i == sty_at:
