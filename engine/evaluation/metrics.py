@@ -18,7 +18,8 @@ def fid(a: np.ndarray, b: np.ndarray) -> float:
         eps = np.eye(len(cov_a)) * 1e-6
         covmean = linalg.sqrtm((cov_a + eps) @ (cov_b + eps))
     covmean = covmean.real
-    return float(((mu_a - mu_b) ** 2).sum() + np.trace(cov_a + cov_b - 2 * covmean))
+    value = float(((mu_a - mu_b) ** 2).sum() + np.trace(cov_a + cov_b - 2 * covmean))
+    return max(value, 0.0)  # a distance: identical sets can come out a hair below 0 from the matrix square root
 
 
 def _pairwise(a: np.ndarray, b: np.ndarray) -> np.ndarray:
