@@ -74,7 +74,7 @@ class AttentionExplorer(pn.viewable.Viewer):
         lines.nonselection_glyph = None
         fig.add_tools(HoverTool(renderers=[lines], tooltips=[("word", "@word")], line_policy="nearest"))
         self.curve_cursor = Span(location=0, dimension="height", line_color="#d62728", line_width=2,
-                                 line_dash="dashed")
+                                 line_dash="dashed", level="overlay")
         fig.add_layout(self.curve_cursor)
         self.curve_src.selected.on_change("indices", self._on_curve_selected)
         fig.on_event(Tap, self._on_curve_tap)

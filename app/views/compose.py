@@ -189,7 +189,8 @@ class ComposeTab(pn.viewable.Viewer):
                  hatch_pattern="/", hatch_color="white", source=self.hand_src)
         fig.add_layout(LabelSet(x="left", y="y", text="label", x_offset=4, source=self.strip_src,
                                 text_font_size="11px", text_color="#223"))
-        self.playhead = Span(location=0, dimension="height", line_color="#111", line_width=2, visible=False)
+        self.playhead = Span(location=0, dimension="height", line_color="#111", line_width=2, visible=False,
+                             level="overlay")
         fig.add_layout(self.playhead)
         fig.yaxis.visible = False
         fig.ygrid.visible = False

@@ -67,8 +67,8 @@ class TransferPlots(pn.viewable.Viewer):
         fig.rect("x", "y", width="w", height=0.8, source=self.strip_src, fill_color="color", line_color=None)
         fig.select_one(HoverTool).tooltips = [("", "@panel of @y"), ("frame", "@frame"), ("cluster", "@cluster")]
         fig.xaxis.visible = False
-        self.strip_cursors = [Span(location=0, dimension="height", line_color="black", line_width=1.5)
-                              for _ in range(2)]
+        self.strip_cursors = [Span(location=0, dimension="height", line_color="black", line_width=1.5,
+                                   level="overlay") for _ in range(2)]
         for span in self.strip_cursors:
             fig.add_layout(span)
         self.strips = fig
@@ -85,7 +85,7 @@ class TransferPlots(pn.viewable.Viewer):
         fig.yaxis.major_label_overrides = {2.5: "follower", 1.5: "leader", 0.5: "leader replaced\nby neighbours"}
         fig.ygrid.visible = False
         self.film_cursor = Span(location=0, dimension="height", line_color="black", line_width=1.5,
-                                line_dash="dashed")
+                                line_dash="dashed", level="overlay")
         fig.add_layout(self.film_cursor)
         self.film = fig
 
@@ -117,7 +117,7 @@ class TransferPlots(pn.viewable.Viewer):
         fig.legend.orientation = "horizontal"
         fig.add_layout(fig.legend[0], "above")
         self.query_cursor = Span(location=0, dimension="height", line_color="black", line_width=1.5,
-                                 line_dash="dashed")
+                                 line_dash="dashed", level="overlay")
         fig.add_layout(self.query_cursor)
         self.query = fig
 
@@ -203,12 +203,14 @@ class TransferPlots(pn.viewable.Viewer):
 
     def _on_frame(self, *_):
         view = self.state.transfer.result
+        if view is None or self.state.current not in view.names.values():
+            return  # the cursors follow the transfer's own motions (moving them repaints the plots)
         frame = self.state.frame
         self.strip_cursors[0].location = frame + 0.5
         self.strip_cursors[1].location = self._offset + frame + 0.5
         self.film_cursor.location = frame + 0.5
         self.query_cursor.location = frame
-        if view is None or self.state.playing:
+        if self.state.playing:
             return
         query = int(min(frame, view.frames["leader"] - 1))
         rows = view.analysis.per_query(query)
