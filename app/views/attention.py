@@ -79,18 +79,26 @@ class AttentionExplorer(pn.viewable.Viewer):
         self.curve_src.selected.on_change("indices", self._on_curve_selected)
         fig.on_event(Tap, self._on_curve_tap)
         fig.x_range = Range1d(0, 1)
+        # the top snaps to tenths above the highest curve (see _write_curves): switching between layers or steps
+        # of similar scale redraws the lines without re-ranging the axis (an auto-range re-lays out the plot
+        # at every switch)
+        fig.y_range = Range1d(0, 1.0)
         self.curves = fig
 
     def _build_heatmap(self) -> None:
-        self.heat_src = ColumnDataSource(dict(image=[np.zeros((1, 1), np.float32)], dw=[1], dh=[1]))
+        # "image": the attention values (hover, the row plot); "shown": the same divided by the map's 99.5th
+        # percentile, drawn through a fixed 0..1 colour mapper (re-ranging a mapper per map redraws the colour bar
+        # and costs a layer switch about a third of its time in the browser)
+        empty = np.zeros((1, 1), np.float32)
+        self.heat_src = ColumnDataSource(dict(image=[empty], shown=[empty], dw=[1], dh=[1]))
         self.mapper = LinearColorMapper(palette=Viridis256, low=0.0, high=1.0)
         fig = figure(height=380, width=WIDTH - 60, tools="tap,wheel_zoom,pan,reset", toolbar_location="right",
                      x_axis_label="key frame", y_axis_label="query frame (row)", title="Self-attention",
                      x_range=Range1d(0, 1), y_range=Range1d(1, 0), match_aspect=False, css_classes=["self-heatmap"])
-        img = fig.image(image="image", x=0, y=0, dw="dw", dh="dh", source=self.heat_src, color_mapper=self.mapper)
+        img = fig.image(image="shown", x=0, y=0, dw="dw", dh="dh", source=self.heat_src, color_mapper=self.mapper)
         fig.add_tools(HoverTool(renderers=[img], tooltips=[("query frame", "$y{0}"), ("key frame", "$x{0}"),
                                                            ("attention", "@image{0.0000}")]))
-        fig.add_layout(ColorBar(color_mapper=self.mapper, width=10), "right")
+        fig.add_layout(ColorBar(color_mapper=self.mapper, width=10, title="÷ 99.5th pct", title_standoff=4), "right")
         self.row_box = BoxAnnotation(bottom=0, top=1, fill_color="#ff2d2d", fill_alpha=0.25, line_color="#ff2d2d",
                                      line_width=2, line_alpha=1.0)
         fig.add_layout(self.row_box)
@@ -123,7 +131,8 @@ class AttentionExplorer(pn.viewable.Viewer):
                 self.info.object = ("This motion has no recorded attention (imported, or recording was off)."
                                     if item is not None else "Generate a motion to see its attention.")
                 self.curve_src.data = dict(xs=[], ys=[], color=[], width=[], alpha=[], word=[])
-                self.heat_src.data = dict(image=[np.zeros((1, 1), np.float32)], dw=[1], dh=[1])
+                self.heat_src.data = dict(image=[np.zeros((1, 1), np.float32)], shown=[np.zeros((1, 1), np.float32)],
+                                          dw=[1], dh=[1])
                 self.row_src.data = dict(x=[], y=[])
                 self.peak_src.data = dict(x=[], y=[])
                 return
@@ -183,8 +192,8 @@ class AttentionExplorer(pn.viewable.Viewer):
         cross = record.cross_map(**sel)
         n = heat.shape[0]
         with pn.io.hold():  # one message to the page, no relayout (titles and text stay put)
-            self.heat_src.data = dict(image=[heat], dw=[n], dh=[n])
-            self.mapper.update(low=0.0, high=float(np.quantile(heat, 0.995)) or 1.0)
+            scale = float(np.quantile(heat, 0.995)) or 1.0
+            self.heat_src.data = dict(image=[heat], shown=[(heat / scale).astype(np.float32)], dw=[n], dh=[n])
             self._cross = cross
             self._write_curves()
         self.timings.append(time.perf_counter() - t0)
@@ -198,6 +207,9 @@ class AttentionExplorer(pn.viewable.Viewer):
         n, w = cross.shape
         chosen = self.state.word
         x = np.arange(n)
+        top = float(np.clip(np.ceil(float(np.nanmax(cross, initial=0.0)) * 1.1 * 10) / 10, 0.1, 1.0))
+        if self.curves.y_range.end != top:
+            self.curves.y_range.end = top
         self.curve_src.data = dict(
             xs=[x] * w,
             ys=[cross[:, i] for i in range(w)],
