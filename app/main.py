@@ -122,7 +122,7 @@ def serve(*, port: int = 5006, show: bool = False, address: str = "localhost", i
     pn.config.exception_handler = _exception_handler
     if model_dir is not None:
         try:
-            get_model(model_dir)
+            preload(get_model(model_dir), controls_dir=controls_dir, duet_dir=duet_dir)
         except Exception as exc:
             print(f"warning: {exc} (the studio starts without generation)")
     origins = [f"{address}:{port}", f"localhost:{port}", f"127.0.0.1:{port}"]
@@ -130,6 +130,18 @@ def serve(*, port: int = 5006, show: bool = False, address: str = "localhost", i
              port=port, address=address, show=show,
              title="Motion Attention Studio", websocket_origin=origins, threaded=False,
              websocket_max_message_size=200 * 1024 * 1024, liveness=True)
+
+
+def preload(loaded, *, controls_dir: Path | None = None, duet_dir: Path | None = None) -> None:
+    """Load the control models and the duet model on the base model before the first page (each is cached per
+    server, so the first visitor's page builds as fast as the next ones). A missing or unusable folder is not an
+    error here: its tab says why."""
+    from app.controlling import control_models
+    from app.dueting import duet_model
+    from engine.paths import CONTROL_DIR, DUET_DIR
+
+    control_models(controls_dir or CONTROL_DIR, base=loaded)
+    duet_model(duet_dir or DUET_DIR, loaded)
 
 
 def _exception_handler(exc: Exception) -> None:

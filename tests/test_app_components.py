@@ -295,3 +295,31 @@ def test_exports_give_valid_files(studio, real_joints, tmp_path):
     s.show(item.name)
     assert not studio.exports.buttons["attention.png"].disabled
     assert studio.exports.buttons["bvh"].filename.endswith(".bvh")
+
+
+def test_preload_loads_the_control_and_duet_models_once_per_server(tiny_model_dir, tmp_path, monkeypatch):
+    """``moattn serve`` loads them before the first page; building a page then loads nothing more."""
+    from app import controlling, dueting
+    from app.main import preload
+    from app.model_cache import get_model
+    from engine.methods import control, duet
+
+    loaded = get_model(tiny_model_dir)
+    controls, duet_dir = tmp_path / "control", tmp_path / "duet"  # empty: their tabs say why, nothing fails
+    controls.mkdir()
+    preload(loaded, controls_dir=controls, duet_dir=duet_dir)
+    assert controls.resolve() in controlling._models
+    assert (duet_dir.resolve(), id(loaded)) in dueting._cache
+    calls = []
+    monkeypatch.setattr(control, "load_controls", lambda *a, **k: calls.append("control") or {})
+    monkeypatch.setattr(duet, "load_duet", lambda *a, **k: calls.append("duet"))
+    st = Studio(model_dir=tiny_model_dir, initial=None, controls_dir=controls, duet_dir=duet_dir)
+    try:
+        assert calls == []  # served from the caches
+        assert "no duet model" in dueting.duet_model(duet_dir, loaded)[1]
+    finally:
+        st.close()
+    del controlling._models[controls.resolve()]  # not preloaded: the page loads them itself
+    st = Studio(model_dir=tiny_model_dir, initial=None, controls_dir=controls, duet_dir=duet_dir)
+    st.close()
+    assert calls == ["control"]
