@@ -118,7 +118,7 @@ class StudioState(param.Parameterized):
             self.edit = EditConfig()
         if self.transfer is None:
             self.transfer = TransferSettings(tokenizer=self._tokenizer)
-        self.transfer.param.watch(lambda *_: paint_clusters(self), ["color_by", "result"])
+        self.transfer.param.watch(lambda *_: paint_clusters(self), ["color_by", "result", "analysed"])
         self.param.watch(self._analyse_prompt, "prompt")
         self.param.watch(self._auto_count, "current")
         self._analyse_prompt()

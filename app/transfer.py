@@ -11,7 +11,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import param
@@ -62,6 +62,8 @@ class TransferSettings(param.Parameterized):
     more_followers = param.String(default="", doc="more follower prompts, one per line: the leader drives each of "
                                                   "them too (one out per follower, in the same batch)")
     result = param.Parameter(default=None, doc="TransferView of the last finished transfer")
+    analysed = param.Integer(default=1, bounds=(1, None), doc="which follower (1-based) the analysis views and "
+                                                              "the cluster colours show")
 
     def __init__(self, *, tokenizer: Callable[[], object] | None = None, **params):
         super().__init__(**params)
@@ -93,11 +95,27 @@ class TransferView:
 
     names: dict[str, str]
     frames: dict[str, int]
-    analysis: object  # engine.analysis.qk.TransferAnalysis
+    analysis: object  # engine.analysis.qk.TransferAnalysis of the first follower
     inversion: dict[str, dict | None]  # role -> {"mean_m", "max_m"} for an inverted source, else None
     joints: dict[str, np.ndarray] = field(repr=False, default_factory=dict)
     description: str = ""
     seconds_taken: float = 0.0
+    analyses: list = field(repr=False, default_factory=list)  # one per follower (the first is ``analysis``)
+
+    @property
+    def followers(self) -> int:
+        return max(1, len(self.analyses))
+
+    def focus(self, k: int) -> "TransferView":
+        """Follower ``k`` (1-based) and its out under the roles ``follower`` and ``out``, with their analysis:
+        what the analysis views and the cluster colours read."""
+        if len(self.analyses) < 2 or not 1 <= k <= len(self.analyses):
+            return self
+        n = "" if k == 1 else f" {k}"
+        roles = {"leader": "leader", "follower": f"follower{n}", "out": f"out{n}"}
+        pick = lambda d: {r: d[src] for r, src in roles.items() if src in d}  # noqa: E731
+        return replace(self, names=pick(self.names), frames=pick(self.frames), joints=pick(self.joints),
+                       inversion=pick(self.inversion), analysis=self.analyses[k - 1])
 
 
 # ---------------------------------------------------------------------------------------------- checks
@@ -250,10 +268,13 @@ def run_job(loaded, job: TransferJob, *, on_step=None, cancel=None, on_wait=None
         bad = [r for r, j in joints.items() if not np.isfinite(j).all()]
         if bad:
             raise ValueError(f"the model produced non-finite joints for the {' and the '.join(bad)}")
-        analysis = analyze(loaded, result, clusters=clusters, sample=job.sample)
-    return TransferView(names={}, frames={r: len(j) for r, j in joints.items()}, analysis=analysis,
-                        inversion={"leader": result.leader.inversion, "follower": result.followers[0].inversion},
-                        joints=joints, description=job.description, seconds_taken=time.perf_counter() - start)
+        analyses = [analyze(loaded, result, clusters=clusters, follower=k, sample=job.sample)
+                    for k in range(len(result.followers))]
+    inversion = {"leader": result.leader.inversion, "follower": result.followers[0].inversion}
+    inversion.update({f"follower {k + 1}": f.inversion for k, f in enumerate(result.followers) if k})
+    return TransferView(names={}, frames={r: len(j) for r, j in joints.items()}, analysis=analyses[0],
+                        inversion=inversion, joints=joints, description=job.description,
+                        seconds_taken=time.perf_counter() - start, analyses=analyses)
 
 
 def start_transfer(state) -> bool:
@@ -286,7 +307,9 @@ def finish(state, job: TransferJob, view: TransferView) -> None:
         state.add_item(item, show=False)
         view.names[role] = item.name
     state.end_job(f"transfer {job.description}: done in {view.seconds_taken:.1f} s ({job.sample.steps} steps)")
-    state.transfer.result = view
+    with param.parameterized.batch_call_watchers(state.transfer):
+        state.transfer.analysed = 1
+        state.transfer.result = view
     show_roles(state)
 
 
@@ -326,7 +349,7 @@ def hex_rgb(colors: list[str]) -> np.ndarray:
 def paint_clusters(state) -> None:
     """Skeleton colours per frame from the last transfer's Q or K clusters (or none: the role colours)."""
     cfg = state.transfer
-    view = cfg.result
+    view = focused(cfg)
     if view is None or cfg.color_by == "roles":
         colors = {}
     else:
@@ -335,6 +358,12 @@ def paint_clusters(state) -> None:
         colors = {view.names[r]: hex_rgb(cluster_colors(labels[r], n)) for r in ROLES if r in view.names}
     if colors or state.frame_colors:
         state.frame_colors = colors
+
+
+def focused(settings: TransferSettings) -> TransferView | None:
+    """The last transfer seen through the follower the analysis shows (None before the first transfer)."""
+    view = settings.result
+    return None if view is None else view.focus(settings.analysed)
 
 
 def n_clusters(view: TransferView) -> int:

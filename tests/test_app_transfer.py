@@ -159,7 +159,20 @@ def test_one_leader_onto_several_followers(studio):
     outs = [s.items[view.names[r]].joints for r in ("out", "out 2", "out 3")]
     assert not np.allclose(outs[0], outs[1]) and not np.allclose(outs[1], outs[2])  # each its own follower's
     assert "+ 2 more" in tab.result.object and "out 3: " in tab.result.object
-    assert view.analysis.maps["mixed"].shape == (n, m)  # the analysis reads the first follower
+    # the analysis views show the first follower, and any other on request (its maps, its out's cluster colours)
+    assert len(view.analyses) == 3 and view.analysis is view.analyses[0] and tab.analysed_row.visible
+    plots = tab.plots
+    np.testing.assert_allclose(plots.map_srcs["mixed"][0].data["image"][0], view.analyses[0].maps["mixed"])
+    tab.analysed.value = 3
+    assert s.transfer.analysed == 3
+    np.testing.assert_allclose(plots.map_srcs["mixed"][0].data["image"][0], view.analyses[2].maps["mixed"])
+    assert not np.allclose(view.analyses[2].maps["mixed"], view.analyses[0].maps["mixed"])
+    tab.color.value = "Q cluster"
+    coloured = set(s.frame_colors)
+    assert coloured == {view.names[r] for r in ("leader", "follower 3", "out 3")}
+    tab.color.value = "roles"
+    tab.analysed.value = 1
+    assert set(view.focus(1).names.values()) == {view.names[r] for r in ("leader", "follower", "out")}
 
 
 @pytest.mark.parametrize("change, message", [

@@ -146,12 +146,16 @@ class TransferTab(pn.viewable.Viewer):
                                       width=230, disabled=True)
         self.color = pn.widgets.RadioButtonGroup(label="Skeleton colours", options=list(COLOR_BY), value=t.color_by,
                                                  color="primary", variant="outline", css_classes=["transfer-color"])
+        self.analysed = pn.widgets.RadioButtonGroup(options={"follower 1": 1}, value=t.analysed, color="primary",
+                                                    variant="outline", css_classes=["transfer-analysed"])
+        self.analysed_row = pn.Row(pn.pane.Markdown("Analysis of", margin=(8, 10)), self.analysed, visible=False)
         self.plots = TransferPlots(state=s)
 
         self.layers.param.watch(lambda e: self._set("layers", tuple(int(v) for v in e.new)), "value")
         self.steps.param.watch(lambda e: self._set("steps", tuple(round(v, 4) for v in e.new)), "value")
         self.root.param.watch(lambda e: self._set("root", e.new), "value")
         self.color.param.watch(lambda e: self._set("color_by", e.new), "value")
+        self.analysed.param.watch(lambda e: self._set("analysed", int(e.new)), "value")
         self.show.on_click(lambda _: show_roles(self.state))
         for src in (t.leader, t.follower):
             src.param.watch(self.bar.refresh, ["unknown_words", "kind"])
@@ -177,6 +181,10 @@ class TransferTab(pn.viewable.Viewer):
     def _on_result(self, *_):
         view = self.state.transfer.result
         self.show.disabled = view is None
+        n = 1 if view is None else view.followers
+        self.analysed.options = {f"follower {k}": k for k in range(1, n + 1)}
+        self.analysed.value = min(self.state.transfer.analysed, n)
+        self.analysed_row.visible = n > 1
         if view is None:
             self.result.object = ""
             return
@@ -192,5 +200,5 @@ class TransferTab(pn.viewable.Viewer):
         settings = pn.Column(self.more, self.layers, self.steps, pn.pane.Markdown("Root of the out", margin=(0, 10)),
                              self.root, sizing_mode="stretch_width")
         colours = pn.Row(pn.pane.Markdown("Skeleton colours", margin=(8, 10)), self.color)
-        return pn.Column(sources, settings, self.bar, self.result, pn.Row(self.show), colours,
+        return pn.Column(sources, settings, self.bar, self.result, pn.Row(self.show), colours, self.analysed_row,
                          pn.layout.Divider(), self.plots, css_classes=["transfer-tab"], sizing_mode="stretch_width")

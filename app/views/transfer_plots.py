@@ -17,7 +17,7 @@ from bokeh.palettes import Viridis256
 from bokeh.plotting import figure
 
 from app.state import StudioState
-from app.transfer import ROLES, cluster_colors, cluster_palette, index_colors, n_clusters
+from app.transfer import ROLES, cluster_colors, cluster_palette, focused, index_colors, n_clusters
 from viz.geometry import BONE_CHILDREN, BONE_PARENTS
 
 WIDTH = 580
@@ -54,7 +54,7 @@ class TransferPlots(pn.viewable.Viewer):
         self._build_query()
         for fig in (self.strips, self.film, self.query, *self.maps.values()):
             fig.on_event(Tap, lambda event, fig=fig: self._on_tap(fig, event))
-        self.state.transfer.param.watch(self._on_result, "result")
+        self.state.transfer.param.watch(self._on_result, ["result", "analysed"])
         self.state.param.watch(self._on_frame, ["frame", "playing"])
         self._on_result()
 
@@ -123,7 +123,7 @@ class TransferPlots(pn.viewable.Viewer):
 
     # ------------------------------------------------------------------ state -> views
     def _on_result(self, *_):
-        view = self.state.transfer.result
+        view = focused(self.state.transfer)
         if view is None:
             self.sites.object = "Run a transfer to see the clusters, correspondences and maps."
             return
@@ -202,7 +202,7 @@ class TransferPlots(pn.viewable.Viewer):
         self.film.x_range.start, self.film.x_range.end = -0.02 * longest, longest * 1.02
 
     def _on_frame(self, *_):
-        view = self.state.transfer.result
+        view = focused(self.state.transfer)
         if view is None or self.state.current not in view.names.values():
             return  # the cursors follow the transfer's own motions (moving them repaints the plots)
         frame = self.state.frame
