@@ -39,6 +39,12 @@ def pose_strokes(joints: np.ndarray, frames: np.ndarray, *, centers: np.ndarray,
     return xs, ys
 
 
+def _no_selection_look(renderer) -> None:
+    """A click picks a frame (Tap events), not glyphs: keep every cell in its colour, none faded or highlighted."""
+    renderer.selection_glyph = None
+    renderer.nonselection_glyph = None
+
+
 class TransferPlots(pn.viewable.Viewer):
     state = param.ClassSelector(class_=StudioState)
 
@@ -64,7 +70,8 @@ class TransferPlots(pn.viewable.Viewer):
         fig = figure(height=165, width=WIDTH, y_range=FactorRange(*reversed(ROLES)), x_range=Range1d(0, 1),
                      tools="tap,hover", toolbar_location=None, title="Q clusters (left) · K clusters (right)",
                      css_classes=["cluster-strips"])
-        fig.rect("x", "y", width="w", height=0.8, source=self.strip_src, fill_color="color", line_color=None)
+        cells = fig.rect("x", "y", width="w", height=0.8, source=self.strip_src, fill_color="color", line_color=None)
+        _no_selection_look(cells)
         fig.select_one(HoverTool).tooltips = [("", "@panel of @y"), ("frame", "@frame"), ("cluster", "@cluster")]
         fig.xaxis.visible = False
         self.strip_cursors = [Span(location=0, dimension="height", line_color="black", line_width=1.5,
@@ -79,8 +86,10 @@ class TransferPlots(pn.viewable.Viewer):
         fig = figure(height=300, width=WIDTH, x_range=Range1d(0, 1), y_range=Range1d(-0.05, 3.0), tools="tap",
                      toolbar_location=None, x_axis_label="frame", css_classes=["correspondence"],
                      title="Nearest follower frame of each leader frame")
-        fig.rect("x", "y", width=1.0, height=0.12, source=self.cells_src, fill_color="color", line_color=None)
-        fig.multi_line("xs", "ys", source=self.bones_src, line_color="color", line_width=2.2)
+        for glyph in (fig.rect("x", "y", width=1.0, height=0.12, source=self.cells_src, fill_color="color",
+                               line_color=None),
+                      fig.multi_line("xs", "ys", source=self.bones_src, line_color="color", line_width=2.2)):
+            _no_selection_look(glyph)
         fig.yaxis.ticker = FixedTicker(ticks=[2.5, 1.5, 0.5])
         fig.yaxis.major_label_overrides = {2.5: "follower", 1.5: "leader", 0.5: "leader replaced\nby neighbours"}
         fig.ygrid.visible = False

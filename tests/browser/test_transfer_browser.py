@@ -108,6 +108,11 @@ def test_transfer_from_two_prompts(browser, server_url, screens):
         page.wait_for_function(f"window.moattnPlayer.motion_key !== {key_before}", timeout=60000)
         br.wait_all_frames(page, timeout_ms=180000)
         page.wait_for_timeout(800)
+        page.locator(".transfer-analysed", has_text="follower 2").wait_for(timeout=5000)  # pick whose analysis
+        page.locator(".transfer-analysed").scroll_into_view_if_needed()
+        save("transfer_tab_two_followers.png", page.screenshot())
+        s = _img(strips.screenshot())  # clicked earlier: a click picks a frame, it does not fade the other cells
+        assert int(((s.max(-1) - s.min(-1)) > 60).sum()) > 5000
         four = page.locator(".skeleton-view canvas").screenshot()
         save("transfer_viewer_two_followers.png", four)
         img = _img(four)
