@@ -104,8 +104,9 @@ class AttentionExplorer(pn.viewable.Viewer):
         fig.add_layout(self.row_box)
         # the counting peaks (Edit tab's readout) of the shown motion, in frame units
         self.peak_src = ColumnDataSource(dict(x=[], y=[]))
-        fig.scatter("x", "y", source=self.peak_src, size=6, marker="circle", fill_color="#ff2d2d", fill_alpha=0.9,
-                    line_color="white", line_width=1.2, legend_label="counting peaks")
+        peaks = fig.scatter("x", "y", source=self.peak_src, size=6, marker="circle", fill_color="#ff2d2d",
+                            fill_alpha=0.9, line_color="white", line_width=1.2, legend_label="counting peaks")
+        peaks.selection_glyph = peaks.nonselection_glyph = None  # a click picks a frame; no peak fades
         fig.legend.location = "bottom_left"
         fig.legend.label_text_font_size = "10px"
         fig.legend.background_fill_alpha = 0.6
