@@ -181,7 +181,7 @@ def prepare(state) -> TransferJob:
 
 def more_followers(text: str, *, seconds: float, loaded) -> list:
     """The extra followers typed one prompt per line (blank lines skipped), each checked against the vocabulary;
-    generated with the first follower's duration when it is a prompt (4 s otherwise)."""
+    each generated as long as the follower's Seconds setting (4 s when that is not a valid duration)."""
     from engine.generate import frames_for
     from engine.methods.momo import MAX_FOLLOWERS, Source
 
@@ -289,7 +289,8 @@ def start_transfer(state) -> bool:
 
 
 def finish(state, job: TransferJob, view: TransferView) -> None:
-    """Three session motions (leader, follower, out) side by side in the viewer; the analysis on the tab."""
+    """Session motions (leader, follower, out, then follower k / out k of any extra follower) side by side in
+    the viewer; the analysis on the tab."""
     from app.state import MotionItem
 
     titles = {"leader": f"leader · {job.labels['leader']}"}
