@@ -59,6 +59,8 @@ class TransferSettings(param.Parameterized):
     root = param.Selector(default="trajectory", objects=list(ROOT_LABELS.values()), doc="what the out takes from "
                                                                                          "the leader's root")
     color_by = param.Selector(default="roles", objects=list(COLOR_BY), doc="skeleton colours in the viewer")
+    feet = param.Boolean(default=False, doc="the out also keeps the leader's footwork (foot contacts, feet and "
+                                            "ankles; not in the paper)")
     more_followers = param.String(default="", doc="more follower prompts, one per line: the leader drives each of "
                                                   "them too (one out per follower, in the same batch)")
     result = param.Parameter(default=None, doc="TransferView of the last finished transfer")
@@ -166,7 +168,8 @@ def prepare(state) -> TransferJob:
     follower, follower_label = _source(state, cfg.follower, loaded)
     extra = more_followers(cfg.more_followers, seconds=cfg.follower.seconds, loaded=loaded)
     layers = None if cfg.layers is None else tuple(range(int(cfg.layers[0]), int(cfg.layers[1]) + 1))
-    config = TransferConfig(start=float(cfg.steps[0]), end=float(cfg.steps[1]), layers=layers, root=cfg.root)
+    config = TransferConfig(start=float(cfg.steps[0]), end=float(cfg.steps[1]), layers=layers, root=cfg.root,
+                            feet=bool(cfg.feet))
     window = config.window(loaded.model.config.layers)  # layers outside the model fail here, with the range
     sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
     lay = window.layers

@@ -22,6 +22,8 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="fractions of the sampling steps that mix (default 0.1 0.9)")
     p.add_argument("--root", choices=("trajectory", "rotation", "none"), default="trajectory",
                    help="what the output takes from the leader's root (default: its whole trajectory)")
+    p.add_argument("--keep-feet", action="store_true",
+                   help="also keep the leader's footwork (foot contacts, feet and ankle positions); not in the paper")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--steps", type=int, default=50)
     p.add_argument("--guidance", type=float, default=2.5)
@@ -78,7 +80,8 @@ def config_from_args(args: argparse.Namespace):
         if last < first:
             raise ValueError(f"--layers {first} {last}: the last layer comes before the first")
         layers = tuple(range(first, last + 1))
-    return TransferConfig(start=args.step_window[0], end=args.step_window[1], layers=layers, root=args.root)
+    return TransferConfig(start=args.step_window[0], end=args.step_window[1], layers=layers, root=args.root,
+                          feet=args.keep_feet)
 
 
 def _run(args: argparse.Namespace, *, record: bool):

@@ -135,6 +135,19 @@ def test_transfer_from_an_imported_motion(studio):
     tab.leader.kind.value = "prompt"
 
 
+def test_footwork_option_reaches_the_engine(studio):
+    from app.transfer import prepare
+
+    s, tab = studio.state, studio.transfer
+    _set_prompts(tab, "a person walks forward", "a person jumps twice")
+    assert prepare(s).config.feet is False
+    tab.feet.value = True
+    try:
+        assert s.transfer.feet is True and prepare(s).config.feet is True
+    finally:
+        tab.feet.value = False
+
+
 def test_one_leader_onto_several_followers(studio):
     s, tab = studio.state, studio.transfer
     _set_prompts(tab, "a person walks forward", "a person jumps twice", seconds=(3.0, 2.0))

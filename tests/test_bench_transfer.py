@@ -78,6 +78,11 @@ def test_cli_transfer_and_analysis(tiny_model_dir, tmp_path, capsys):
         assert (figs / name).stat().st_size > 1000
     data = json.loads((figs / "analysis.json").read_text())
     assert len(data["nearest"]) == 40 and len(data["q_labels"]["follower"]) == 40
+    feet = tmp_path / "feet.npy"
+    assert main(["transfer", "--leader", "a person walks", "--follower", "a person jumps", "--keep-feet", "--steps",
+                 "3", "--seconds", "2", "--model", str(tiny_model_dir), "--out", str(feet)]) == 0
+    capsys.readouterr()
+    assert np.load(feet).shape == (40, 22, 3)
     assert main(["transfer", "--leader", "a person flurbs", "--follower", "a person jumps", "--out", str(out),
                  "--model", str(tiny_model_dir)]) == 2
     assert "flurbs" in capsys.readouterr().err

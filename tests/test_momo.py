@@ -22,6 +22,7 @@ from engine.methods.momo import (
 from engine.methods.momo_baselines import inpaint_upper_body, lower_body_dims, motion_space_nn
 from engine.methods.windows import Window
 from engine.representation import SLICES
+from engine.skeleton import JOINT_INDEX
 from engine.synth import Corpus
 from engine.text import PromptError
 
@@ -104,6 +105,23 @@ def test_transfer_changes_the_output_and_keeps_lengths_and_root(loaded):
     root = slice(0, SLICES["root_lin_vel"].stop)
     for i in range(2):  # "trajectory": the leader's root, exactly
         np.testing.assert_array_equal(feats[result.slot(OUT, i), :50, root], feats[0, :50, root])
+
+
+def test_keep_feet_option_copies_the_leaders_footwork(loaded):
+    from engine.methods.momo import kept_dims
+
+    sample = SampleConfig(steps=STEPS, guidance=2.0)
+    leader, follower = Source(prompt="a person walks forward", seconds=2), Source(prompt="a person jumps", seconds=2)
+    feet = kept_dims(TransferConfig(feet=True))
+    assert set(kept_dims(TransferConfig()).tolist()) < set(feet.tolist())
+    assert set(range(SLICES["contacts"].start, SLICES["contacts"].stop)) <= set(feet.tolist())
+    kept = transfer(loaded, leader, [follower], TransferConfig(feet=True), sample=sample).output.generation.features
+    plain = transfer(loaded, leader, [follower], sample=sample).output.generation.features
+    out = 2  # [leader, follower, out]
+    np.testing.assert_array_equal(kept[out, :40][:, feet], kept[0, :40][:, feet])
+    assert np.abs(plain[out, :40][:, feet] - plain[0, :40][:, feet]).max() > 1e-4  # not so without the option
+    hands = [SLICES["ric"].start + (JOINT_INDEX["right_wrist"] - 1) * 3 + k for k in range(3)]
+    assert np.abs(kept[out, :40][:, hands] - kept[0, :40][:, hands]).max() > 1e-4  # the rest stays the out's own
 
 
 def test_paper_root_option_copies_only_the_rotation(loaded):

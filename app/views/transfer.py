@@ -138,6 +138,8 @@ class TransferTab(pn.viewable.Viewer):
                                             sizing_mode="stretch_width")
         self.root = pn.widgets.RadioButtonGroup(label="Root of the out", options=ROOT_LABELS, value=t.root,
                                                 color="primary", variant="outline", css_classes=["transfer-root"])
+        self.feet = pn.widgets.Checkbox(label="keep the leader's footwork (feet and contacts; not in the paper)",
+                                        value=t.feet, css_classes=["transfer-feet"])
         self.bar = JobBar(state=s, jobs=["transfer"], label="Run transfer", busy_label="Running…", prefix="transfer",
                           on_run=lambda: self.state.run_transfer(), blocked=self._unknown_words)
         self.run, self.cancel, self.progress, self.status = self.bar.run, self.bar.cancel, self.bar.progress, self.bar.status
@@ -154,6 +156,7 @@ class TransferTab(pn.viewable.Viewer):
         self.layers.param.watch(lambda e: self._set("layers", tuple(int(v) for v in e.new)), "value")
         self.steps.param.watch(lambda e: self._set("steps", tuple(round(v, 4) for v in e.new)), "value")
         self.root.param.watch(lambda e: self._set("root", e.new), "value")
+        self.feet.param.watch(lambda e: self._set("feet", bool(e.new)), "value")
         self.color.param.watch(lambda e: self._set("color_by", e.new), "value")
         self.analysed.param.watch(lambda e: self._set("analysed", int(e.new)), "value")
         self.show.on_click(lambda _: show_roles(self.state))
@@ -198,7 +201,7 @@ class TransferTab(pn.viewable.Viewer):
     def __panel__(self):
         sources = pn.Row(self.leader, self.follower)
         settings = pn.Column(self.more, self.layers, self.steps, pn.pane.Markdown("Root of the out", margin=(0, 10)),
-                             self.root, sizing_mode="stretch_width")
+                             self.root, self.feet, sizing_mode="stretch_width")
         colours = pn.Row(pn.pane.Markdown("Skeleton colours", margin=(8, 10)), self.color)
         return pn.Column(sources, settings, self.bar, self.result, pn.Row(self.show), colours, self.analysed_row,
                          pn.layout.Divider(), self.plots, css_classes=["transfer-tab"], sizing_mode="stretch_width")

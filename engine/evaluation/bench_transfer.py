@@ -21,7 +21,8 @@ Figures per method (JSON keys, the paper's definitions):
 - ``ood``: the same figures on the held-out subset.
 
 Methods: ``momo`` (leader's root trajectory kept, the default), ``momo_paper_root`` (the paper's
-root-rotation copy only), ``nn_motion``, ``nn_latent``, ``inpaint_upper`` (see momo_baselines), and
+root-rotation copy only), ``momo_feet`` (the default plus the leader's footwork kept, an option
+that is not in the paper), ``nn_motion``, ``nn_latent``, ``inpaint_upper`` (see momo_baselines), and
 ``momo_gen`` (the paper's "MoMo Gen.": leader and follower generated from the pair's captions instead
 of inverted, so its foot / rot / loc figures are measured against those generated streams; its
 ``gt_mpjpe`` compares it with a ground truth made from other leader and follower motions and only
@@ -50,7 +51,7 @@ from engine.representation import SLICES, foot_contacts, joints_to_features
 
 LEADER_ACTIONS = ("walk", "run", "jog", "jump", "jump_forward", "dance", "side_step", "walk_backward", "hop")
 FOLLOWER_ACTIONS = ("walk", "run", "jog", "dance", "jump", "side_step")
-METHODS = ("momo", "momo_paper_root", "momo_gen", "nn_motion", "nn_latent", "inpaint_upper")
+METHODS = ("momo", "momo_paper_root", "momo_feet", "momo_gen", "nn_motion", "nn_latent", "inpaint_upper")
 REFERENCES = ("truth", "leader_copy")
 KEYS = ("fid", "r_precision_top3", "foot_contact", "follower_rot", "follower_loc", "gt_mpjpe", "gt_mpjpe_local")
 
@@ -194,6 +195,7 @@ def bench_transfer(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Tran
     transfer_config = TransferConfig()
     streams = {}
     paper_root = TransferConfig(root="rotation")
+    keep_feet = TransferConfig(feet=True)
     scale = (loaded.normalizer.std[SLICES["ric"]], loaded.normalizer.std[SLICES["rot6d"]])
     pose_scale = np.concatenate(scale)
     outputs = {m: [] for m in (*METHODS, *REFERENCES)}
@@ -213,6 +215,7 @@ def bench_transfer(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Tran
             "momo": transfer_streams(loaded, lead, [follow], transfer_config, sample=sample).out(0),
             "momo_gen": gen.out(0),
             "momo_paper_root": transfer_streams(loaded, lead, [follow], paper_root, sample=sample).out(0),
+            "momo_feet": transfer_streams(loaded, lead, [follow], keep_feet, sample=sample).out(0),
             "nn_motion": motion_space_nn(pair.leader.joints, pair.follower.joints, scale=pose_scale),
             "nn_latent": latent_nn(loaded, lead, follow, transfer_config, sample=sample),
             "inpaint_upper": inpaint_upper_body(loaded, lead, follow, sample=sample),

@@ -28,6 +28,7 @@ from engine.methods.inversion import InversionConfig, invert, reconstruct
 from engine.methods.mixing import MixConfig, MixedAttention
 from engine.methods.windows import Window
 from engine.representation import SLICES, features_to_joints, joints_to_features
+from engine.skeleton import JOINT_INDEX
 
 LEADER, FOLLOWER, OUT = "leader", "follower", "out"
 MAX_FOLLOWERS = 8
@@ -47,6 +48,10 @@ class TransferConfig:
         output (keeps the direction, the output's own speed and path shape);
       - "none": the output's own root.
     ``hard``: arg-max instead of softmax (the latent nearest-neighbour baseline).
+    ``feet``: also keep the leader's footwork (not in the paper): its foot-contact labels and the feet and
+      ankles' root-relative positions are inpainted into the outputs at every step, so the output steps
+      exactly where and when the leader does and the follower shows in the rest of the body (its own
+      gait style and walk -> run changes are given up).
     """
 
     start: float = 0.1
@@ -54,6 +59,7 @@ class TransferConfig:
     layers: tuple[int, ...] | None = None
     root: Literal["trajectory", "rotation", "none"] = "trajectory"
     hard: bool = False
+    feet: bool = False
 
     def __post_init__(self) -> None:
         if self.root not in ("trajectory", "rotation", "none"):
@@ -184,14 +190,31 @@ def transfer_streams(loaded: LoadedModel, leader: Stream, followers: Sequence[St
     store = AttentionStore(record) if record is not None else None
     outs = tuple(i for i, r in enumerate(roles) if r == OUT)
     hooks = [PinTrajectory(pins)] if pins else []
-    if config.root == "trajectory":
-        hooks.append(KeepDims(source=0, targets=outs, dims=torch.arange(SLICES["root_lin_vel"].stop), frames=leader.frames))
+    kept = kept_dims(config)
+    if len(kept):
+        hooks.append(KeepDims(source=0, targets=outs, dims=kept, frames=leader.frames))
     gen = generate(loaded, Request(prompts=prompts, frames=frames, roles=roles, noise=noise), sample,
                    controller=stack(store, mix), hooks=hooks, on_step=on_step)
     if config.root == "rotation":
         copy_root_rotation(gen, leader_slot=0, out_slots=outs, frames=leader.frames)
     output = EditOutput(generation=gen, before_role=LEADER, after_role=OUT, store=store)
     return Transfer(output=output, leader=leader, followers=list(followers), config=config)
+
+
+FOOT_JOINTS = ("left_ankle", "right_ankle", "left_foot", "right_foot")
+
+
+def kept_dims(config: TransferConfig) -> torch.Tensor:
+    """Feature dims the outputs take from the leader at every step: (K,) long, possibly empty."""
+    dims: list[int] = []
+    if config.root == "trajectory":
+        dims += list(range(SLICES["root_lin_vel"].stop))  # root rotation and linear velocity
+    if config.feet:
+        ric = SLICES["ric"].start
+        for name in FOOT_JOINTS:  # ric holds joints 1..21 (no pelvis), 3 dims each
+            dims += [ric + (JOINT_INDEX[name] - 1) * 3 + k for k in range(3)]
+        dims += list(range(SLICES["contacts"].start, SLICES["contacts"].stop))
+    return torch.tensor(dims, dtype=torch.long)
 
 
 def copy_root_rotation(gen, *, leader_slot: int, out_slots: Sequence[int], frames: int) -> None:
