@@ -174,8 +174,9 @@ def prepare(state) -> TransferJob:
     sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
     lay = window.layers
     more = f" + {len(extra)} more" if extra else ""
+    feet = ", leader's footwork" if config.feet else ""
     description = (f"{_short(leader_label)} → {_short(follower_label)}{more} (layers {lay[0]}–{lay[-1]}, steps "
-                   f"{config.start:.0%}–{config.end:.0%})")
+                   f"{config.start:.0%}–{config.end:.0%}{feet})")
     labels = {"leader": leader_label, "follower": follower_label}
     labels.update({f"follower {k}": src.prompt for k, src in enumerate(extra, start=2)})
     return TransferJob(leader=leader, follower=follower, extra=tuple(extra), config=config, sample=sample,

@@ -144,6 +144,7 @@ def test_footwork_option_reaches_the_engine(studio):
     tab.feet.value = True
     try:
         assert s.transfer.feet is True and prepare(s).config.feet is True
+        assert prepare(s).description.endswith("leader's footwork)")
     finally:
         tab.feet.value = False
 
