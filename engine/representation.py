@@ -45,6 +45,14 @@ HML_RAW_OFFSETS = np.array(
 _UP = np.array([0.0, 1.0, 0.0])
 
 
+def ric_dims(joint: int) -> list[int]:
+    """The 3 feature dims of a joint's root-relative position (ric holds joints 1..21; the pelvis has none)."""
+    if not 1 <= joint < NUM_JOINTS:
+        raise ValueError(f"joint {joint} has no ric dims (joints 1..{NUM_JOINTS - 1})")
+    start = SLICES["ric"].start + 3 * (joint - 1)
+    return [start, start + 1, start + 2]
+
+
 def _ik_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per bone along HumanML3D's chains: child joint, parent joint, previous bone (-1 = root)."""
     child, parent, prev = [], [], []

@@ -27,6 +27,12 @@ def _label_options(n: int, what: str, mean_label: str) -> dict[str, int]:
     return {mean_label: MEAN, **{f"{what} {i}": i for i in range(n)}}
 
 
+def _no_heat() -> dict:
+    """The heatmap's data before any map (one blank cell)."""
+    empty = np.zeros((1, 1), np.float32)
+    return dict(image=[empty], shown=[empty], dw=[1], dh=[1])
+
+
 class AttentionExplorer(pn.viewable.Viewer):
     state = param.ClassSelector(class_=StudioState)
 
@@ -89,8 +95,7 @@ class AttentionExplorer(pn.viewable.Viewer):
         # "image": the attention values (hover, the row plot); "shown": the same divided by the map's 99.5th
         # percentile, drawn through a fixed 0..1 colour mapper (re-ranging a mapper per map redraws the colour bar
         # and costs a layer switch about a third of its time in the browser)
-        empty = np.zeros((1, 1), np.float32)
-        self.heat_src = ColumnDataSource(dict(image=[empty], shown=[empty], dw=[1], dh=[1]))
+        self.heat_src = ColumnDataSource(_no_heat())
         self.mapper = LinearColorMapper(palette=Viridis256, low=0.0, high=1.0)
         fig = figure(height=380, width=WIDTH - 60, tools="tap,wheel_zoom,pan,reset", toolbar_location="right",
                      x_axis_label="key frame", y_axis_label="query frame (row)", title="Self-attention",
@@ -132,8 +137,7 @@ class AttentionExplorer(pn.viewable.Viewer):
                 self.info.object = ("This motion has no recorded attention (imported, or recording was off)."
                                     if item is not None else "Generate a motion to see its attention.")
                 self.curve_src.data = dict(xs=[], ys=[], color=[], width=[], alpha=[], word=[])
-                self.heat_src.data = dict(image=[np.zeros((1, 1), np.float32)], shown=[np.zeros((1, 1), np.float32)],
-                                          dw=[1], dh=[1])
+                self.heat_src.data = _no_heat()
                 self.row_src.data = dict(x=[], y=[])
                 self.peak_src.data = dict(x=[], y=[])
                 return

@@ -15,7 +15,7 @@ import torch
 from engine.checkpoint import LoadedModel, load_model
 from engine.diffusion import CLEAN, CosineSchedule, StepState
 from engine.generate import Generation, Request, SampleConfig, denoiser_for, frames_for, generate
-from engine.representation import SLICES
+from engine.representation import SLICES, ric_dims
 from engine.skeleton import JOINT_INDEX
 
 CONTROLS = ("root", "left_wrist", "right_wrist")
@@ -25,9 +25,7 @@ def control_dims(name: str) -> np.ndarray:
     if name == "root":
         return np.arange(SLICES["root_lin_vel"].stop)
     if name in ("left_wrist", "right_wrist"):
-        j = JOINT_INDEX[name]
-        start = SLICES["ric"].start + 3 * (j - 1)
-        return np.arange(start, start + 3)
+        return np.array(ric_dims(JOINT_INDEX[name]))
     raise ValueError(f"unknown control {name!r}: choose from {', '.join(CONTROLS)}")
 
 

@@ -27,8 +27,8 @@ from engine.methods.hooks import KeepDims, PinTrajectory
 from engine.methods.inversion import InversionConfig, invert, reconstruct
 from engine.methods.mixing import MixConfig, MixedAttention
 from engine.methods.windows import Window
-from engine.representation import SLICES, features_to_joints, joints_to_features
-from engine.skeleton import JOINT_INDEX
+from engine.representation import SLICES, features_to_joints, joints_to_features, ric_dims
+from engine.skeleton import FOOT_JOINTS
 
 LEADER, FOLLOWER, OUT = "leader", "follower", "out"
 MAX_FOLLOWERS = 8
@@ -201,18 +201,14 @@ def transfer_streams(loaded: LoadedModel, leader: Stream, followers: Sequence[St
     return Transfer(output=output, leader=leader, followers=list(followers), config=config)
 
 
-FOOT_JOINTS = ("left_ankle", "right_ankle", "left_foot", "right_foot")
-
-
 def kept_dims(config: TransferConfig) -> torch.Tensor:
     """Feature dims the outputs take from the leader at every step: (K,) long, possibly empty."""
     dims: list[int] = []
     if config.root == "trajectory":
         dims += list(range(SLICES["root_lin_vel"].stop))  # root rotation and linear velocity
     if config.feet:
-        ric = SLICES["ric"].start
-        for name in FOOT_JOINTS:  # ric holds joints 1..21 (no pelvis), 3 dims each
-            dims += [ric + (JOINT_INDEX[name] - 1) * 3 + k for k in range(3)]
+        for joints in FOOT_JOINTS.values():  # (ankle, toe) per side
+            dims += [d for j in joints for d in ric_dims(j)]
         dims += list(range(SLICES["contacts"].start, SLICES["contacts"].stop))
     return torch.tensor(dims, dtype=torch.long)
 

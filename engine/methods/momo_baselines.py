@@ -18,7 +18,7 @@ from engine.checkpoint import LoadedModel
 from engine.generate import Request, SampleConfig, generate
 from engine.methods.hooks import KeepDims, PinTrajectory
 from engine.methods.momo import LEADER, OUT, Stream, TransferConfig, pad_noise, transfer_streams
-from engine.representation import SLICES, features_to_joints, joints_to_features
+from engine.representation import SLICES, features_to_joints, joints_to_features, ric_dims
 from engine.skeleton import JOINT_INDEX
 
 LOWER_BODY = ("pelvis", "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle",
@@ -29,10 +29,10 @@ def lower_body_dims() -> np.ndarray:
     """Feature dims of the root and the legs (the part the leader keeps when inpainting)."""
     joints = [JOINT_INDEX[n] for n in LOWER_BODY]
     dims = list(range(0, 4))  # root rotation velocity, linear velocity, height
-    ric0, rot0, vel0 = SLICES["ric"].start, SLICES["rot6d"].start, SLICES["local_vel"].start
+    rot0, vel0 = SLICES["rot6d"].start, SLICES["local_vel"].start
     for j in joints:
         if j > 0:
-            dims += list(range(ric0 + 3 * (j - 1), ric0 + 3 * j))
+            dims += ric_dims(j)
             dims += list(range(rot0 + 6 * (j - 1), rot0 + 6 * j))
         dims += list(range(vel0 + 3 * j, vel0 + 3 * j + 3))
     dims += list(range(SLICES["contacts"].start, SLICES["contacts"].stop))
