@@ -64,10 +64,9 @@ def test_compose_two_intervals(browser, server_url, screens):
         assert blue.sum() < orange.sum(), (blue.sum(), orange.sum())
         # a click on the timeline strip moves the viewer there
         strip = page.locator(".compose-timeline").first
-        box = strip.bounding_box()
-        assert box and box["width"] > 300, box
         assert page.evaluate("window.moattnTest.canvases('.compose-timeline').length") >= 1
-        page.mouse.click(box["x"] + box["width"] * 0.3, box["y"] + box["height"] * 0.4)
+        clicked = br.tap(strip, 0.3, 0.4)
+        assert clicked["box"]["width"] > 300, clicked
         page.wait_for_function("window.moattnPlayer.frame !== 40", timeout=20000)
         frame = page.evaluate("window.moattnPlayer.frame")
         assert 5 < frame < 40, frame

@@ -31,17 +31,17 @@ def test_draw_a_root_path_and_follow_it(browser, server_url, screens):
         page.locator(".control-root-info .bad", has_text="no root path").wait_for(timeout=10000)
         canvas = page.locator(".control-topdown").first
         canvas.scroll_into_view_if_needed()
-        box = canvas.bounding_box()
-        assert box and box["width"] > 300 and box["height"] > 300, box
         # a stroke from near the origin forward (up the screen), bending to the screen's left (the person's left)
         stroke = [(0.50 + 0.10 * np.sin(np.pi * t) * -1.5, 0.74 - 0.55 * t) for t in np.linspace(0, 1, 30)]
-        page.mouse.move(box["x"] + stroke[0][0] * box["width"], box["y"] + stroke[0][1] * box["height"])
-        page.mouse.down()
-        for u, v in stroke[1:]:
-            page.mouse.move(box["x"] + u * box["width"], box["y"] + v * box["height"], steps=2)
-        page.mouse.up()
+        drawn = br.drag(canvas, stroke)
+        box = drawn["box"]
+        assert box["width"] > 300 and box["height"] > 300, box
         info = page.locator(".control-root-info span", has_text=re.compile(r"\d+ points"))
-        info.wait_for(timeout=15000)
+        try:
+            info.wait_for(timeout=15000)
+        except Exception as e:
+            shown = page.locator(".control-root-info span").all_inner_texts()
+            raise AssertionError(f"the stroke did not become a path: {drawn}, the tab says {shown!r}") from e
         text = info.inner_text()
         m = re.search(r"(\d+) points, ([\d.]+) m from \((-?[\d.]+), (-?[\d.]+)\) to \((-?[\d.]+), (-?[\d.]+)\)", text)
         assert m, text

@@ -95,9 +95,9 @@ def test_clicking_a_heatmap_cell_moves_the_viewer_to_that_frame(page, generated,
     before = br.player_stats(page)["frame"]
     before_img = _img(page.locator(".skeleton-view canvas").screenshot())
     heat = page.locator(".self-heatmap")
-    box = heat.bounding_box()
+    box = br.stable_box(heat)
     # the plot area spans roughly x 60..410 and y 30..320 of the 500 x 380 figure; aim at row ~ 60 of 80
-    page.mouse.click(box["x"] + 200, box["y"] + 30 + 0.75 * 290)
+    br.tap(heat, 200 / box["width"], (30 + 0.75 * 290) / box["height"])
     page.wait_for_function(f"window.moattnPlayer.frame !== {before}", timeout=15000)
     frame = br.player_stats(page)["frame"]
     assert 45 <= frame <= 75, frame
@@ -192,8 +192,8 @@ def _acceptance(browser, url, screens, tag):
     page.wait_for_timeout(500)
     _save(screens, f"acceptance_{tag}.png", page.screenshot(full_page=True))
     heat = page.locator(".self-heatmap")
-    box = heat.bounding_box()
-    page.mouse.click(box["x"] + 150, box["y"] + 30 + 0.3 * 290)
+    box = br.stable_box(heat)
+    br.tap(heat, 150 / box["width"], (30 + 0.3 * 290) / box["height"])
     page.wait_for_timeout(800)
     assert br.player_stats(page)["frame"] > 0
     _save(screens, f"acceptance_{tag}_picked.png", page.screenshot(full_page=True))

@@ -71,15 +71,11 @@ def test_transfer_from_two_prompts(browser, server_url, screens):
         save("transfer_analysis.png", page.locator(".transfer-plots").screenshot())
 
         # a click on the out's Q strip (past the row labels, about frame 30) moves the viewer there
-        box = strips.bounding_box()
-        for attempt in range(3):  # a click landing while Bokeh re-lays out the page can be lost: click again
-            page.mouse.click(box["x"] + box["width"] * 0.4, box["y"] + box["height"] * 0.75)
-            try:
-                page.wait_for_function("window.moattnPlayer.frame > 5", timeout=10000)
-                break
-            except Exception:
-                if attempt == 2:
-                    raise
+        clicked = br.tap(strips, 0.4, 0.75)
+        try:
+            page.wait_for_function("window.moattnPlayer.frame > 5", timeout=10000)
+        except Exception as e:
+            raise AssertionError(f"the click on the strips did not move the viewer: {clicked}") from e
         frame = br.player_stats(page)["frame"]
         assert 5 < frame < 80, frame
 
