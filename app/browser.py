@@ -41,8 +41,11 @@ PAGE_HELPERS = r"""
     return out;
   }
   function canvasHash(hostSel) {
+    return hashOf(canvases(hostSel));
+  }
+  function hashOf(list) {
     let hash = 0;
-    for (const c of canvases(hostSel)) {
+    for (const c of list) {
       if (!c.width || !c.height) continue;
       let ctx; try { ctx = c.getContext('2d'); } catch (e) { continue; }
       if (!ctx) continue;
@@ -80,20 +83,22 @@ PAGE_HELPERS = r"""
     lastImageDraw.set(this.canvas, performance.now());
     return drawImage.apply(this, args);
   };
-  function drawnSince(hostSel, t0) {
-    return canvases(hostSel).some(c => (lastImageDraw.get(c) || -1) > t0);
+  function drawnSince(list, t0) {
+    return list.some(c => (lastImageDraw.get(c) || -1) > t0);
   }
   async function timedSelect(selectHost, label, canvasHost, timeoutMs) {
     // ms from the change until the canvas shows new pixels: the first frame after an image is drawn into it
-    // whose pixels differ from before (-1: no change within timeoutMs)
-    const before = canvasHash(canvasHost);
+    // whose pixels differ from before (-1: no change within timeoutMs). The canvases are looked up once, before
+    // the change: a deep query of the page at every frame would take the page's time from what is measured.
+    const list = canvases(canvasHost);
+    const before = hashOf(list);
     const t0 = performance.now();
     let since = t0;
     selectOption(selectHost, label);
     return await new Promise(resolve => {
       function poll(now) {
-        if (drawnSince(canvasHost, since)) {
-          if (canvasHash(canvasHost) !== before) return resolve(now - t0);
+        if (drawnSince(list, since)) {
+          if (hashOf(list) !== before) return resolve(now - t0);
           since = performance.now();  // redrawn with the same pixels: keep waiting
         }
         if (performance.now() - t0 > (timeoutMs || 5000)) return resolve(-1);
@@ -239,16 +244,22 @@ def wait_all_frames(page, timeout_ms: float = 120000) -> None:
 
 
 def measure_playback(page, seconds: float = 3.0) -> dict:
-    """Press Play, count distinct frames drawn over ``seconds``, press Pause."""
+    """Press Play, count the distinct frames drawn over about ``seconds``, press Pause.
+
+    The rate is frames per second between the first and the last frame change seen (page clock), so a window's
+    ragged ends do not count as a missing frame; ``skipped``: frames the player jumped over because the page was
+    too slow to show them (0 at full rate)."""
+    read = "[window.moattnPlayer.distinct, window.moattnPlayer.distinct_at, window.moattnPlayer.skipped]"
     page.locator(".skeleton-view .moattn-play").click()
     page.wait_for_function("window.moattnPlayer.playing", timeout=5000)
     page.wait_for_timeout(300)
-    a = page.evaluate("[window.moattnPlayer.distinct, performance.now()]")
+    a = page.evaluate(read)
     page.wait_for_timeout(seconds * 1000)
-    b = page.evaluate("[window.moattnPlayer.distinct, performance.now()]")
+    b = page.evaluate(read)
     page.locator(".skeleton-view .moattn-play").click()
-    fps = (b[0] - a[0]) / ((b[1] - a[1]) / 1000.0)
-    return {"playback_fps": fps, "frames_drawn": b[0] - a[0], "seconds": (b[1] - a[1]) / 1000.0}
+    elapsed = (b[1] - a[1]) / 1000.0
+    fps = (b[0] - a[0]) / elapsed if elapsed > 0 else 0.0
+    return {"playback_fps": fps, "frames_drawn": b[0] - a[0], "seconds": elapsed, "skipped": b[2] - a[2]}
 
 
 #: BokehJS's UIGestures.press_threshold (ms): a button held this long before the pointer moves is a press, not a drag

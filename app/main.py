@@ -72,6 +72,9 @@ class Studio:
             main=[main], sidebar_width=340, theme_toggle=False, main_layout=None,
             font="system-ui, -apple-system, Segoe UI, Roboto, sans-serif", font_url="data:text/css,",  # no CDN
             design=OfflineFast,
+            # no header spinner toggled around every server callback: each toggle is two more messages to the page
+            # (a layer switch sent three instead of one); long work shows its own progress bar (JobBar)
+            busy_indicator=None,
         )
 
 

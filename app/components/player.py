@@ -72,7 +72,7 @@ export function render({ model, el }) {
   let current = model.frame;
   let playing = false;
   let t0 = 0, f0 = 0, lastSync = 0, raf = 0;
-  const stats = {draws: 0, distinct: 0, last_drawn: -1, loaded: 0, n_frames: model.n_frames,
+  const stats = {draws: 0, distinct: 0, distinct_at: 0, skipped: 0, last_drawn: -1, loaded: 0, n_frames: model.n_frames,
                  motion_key: -1, version: -1, first_draw: {}, frame: current, playing: false};
   window.moattnPlayer = stats;
 
@@ -97,7 +97,7 @@ export function render({ model, el }) {
     }
     ctx.drawImage(entry.bmp, 0, 0);
     stats.draws += 1;
-    if (k !== stats.last_drawn) { stats.distinct += 1; stats.last_drawn = k; }
+    if (k !== stats.last_drawn) { stats.distinct += 1; stats.distinct_at = performance.now(); stats.last_drawn = k; }
     if (!(motionKey in stats.first_draw)) stats.first_draw[motionKey] = performance.now();
     updateLabel();
     return true;
@@ -127,7 +127,10 @@ export function render({ model, el }) {
       else { k = n() - 1; setPlaying(false, true); }
     }
     if (k !== current) {
-      if (cache.has(k)) { current = k; draw(k); }
+      if (cache.has(k)) {
+        if (k > current + 1) stats.skipped += k - current - 1;  // frames the page was too slow to show
+        current = k; draw(k);
+      }
       else { f0 = current; t0 = now; }   // wait for the frame (rendered progressively)
     }
     if (model.sync_ms > 0 && now - lastSync > model.sync_ms) { lastSync = now; model.send_msg({type: "frame", frame: current}); }

@@ -13,7 +13,8 @@ import numpy as np
 import panel as pn
 import param
 from bokeh.events import Tap
-from bokeh.models import BoxAnnotation, ColorBar, ColumnDataSource, HoverTool, LinearColorMapper, Range1d, Span
+from bokeh.models import (BoxAnnotation, ColorBar, ColumnDataSource, HoverTool, LinearColorMapper, PrintfTickFormatter,
+                          Range1d, Span)
 from bokeh.palettes import Category10_10, Viridis256
 from bokeh.plotting import figure
 
@@ -89,6 +90,7 @@ class AttentionExplorer(pn.viewable.Viewer):
         # of similar scale redraws the lines without re-ranging the axis (an auto-range re-lays out the plot
         # at every switch)
         fig.y_range = Range1d(0, 1.0)
+        fig.yaxis.formatter = PrintfTickFormatter(format="%.2f")
         self.curves = fig
 
     def _build_heatmap(self) -> None:
@@ -124,6 +126,7 @@ class AttentionExplorer(pn.viewable.Viewer):
                      x_axis_label="key frame", title="Row of the picked frame", css_classes=["row-profile"])
         row.line("x", "y", source=self.row_src, line_width=2, color="#d62728")
         row.yaxis.ticker.desired_num_ticks = 3
+        row.yaxis.formatter = PrintfTickFormatter(format="%.3f")
         self.row_fig = row
 
     # ------------------------------------------------------------------ state -> views
