@@ -201,6 +201,12 @@ def test_layer_head_step_switch_uses_recorded_maps_fast(studio):
         np.testing.assert_allclose(ex.heat_src.data["image"][0], rec.self_map(step=step, layer=layer, head=head))
         curves = ex.curve_src.data["ys"]
         np.testing.assert_allclose(curves[2], rec.word_curve(2, step=step, layer=layer, head=head))
+        # the y axis spans the curves (ends on multiples of 0.05, less than 0.05 beyond them), not 0..1
+        lo, hi = float(np.min(curves)), float(np.max(curves))
+        y = ex.curves.y_range
+        assert y.start <= lo and hi <= y.end, (y.start, lo, hi, y.end)
+        assert lo - y.start <= 0.0501 and y.end - hi <= 0.0501, (y.start, lo, hi, y.end)
+        assert abs(y.start / 0.05 - round(y.start / 0.05)) < 1e-6 and abs(y.end / 0.05 - round(y.end / 0.05)) < 1e-6
     assert ex.layer.value == 1 and ex.head.value == 1 and ex.step.value == 0
     # the widgets drive the state
     ex.layer.value = -1

@@ -28,6 +28,16 @@ def _label_options(n: int, what: str, mean_label: str) -> dict[str, int]:
     return {mean_label: MEAN, **{f"{what} {i}": i for i in range(n)}}
 
 
+def curve_range(cross: np.ndarray, *, snap: float = 0.05) -> tuple[float, float]:
+    """The word curves' y range: from the lowest to the highest value, both ends snapped outwards to ``snap``."""
+    finite = cross[np.isfinite(cross)]
+    if not finite.size:
+        return 0.0, 1.0
+    lo = max(0.0, np.floor(float(finite.min()) / snap - 1e-6) * snap)
+    hi = min(1.0, np.ceil(float(finite.max()) / snap + 1e-6) * snap)
+    return round(lo, 4), round(max(hi, lo + snap), 4)
+
+
 def _no_heat() -> dict:
     """The heatmap's data before any map (one blank cell)."""
     empty = np.zeros((1, 1), np.float32)
@@ -86,9 +96,9 @@ class AttentionExplorer(pn.viewable.Viewer):
         self.curve_src.selected.on_change("indices", self._on_curve_selected)
         fig.on_event(Tap, self._on_curve_tap)
         fig.x_range = Range1d(0, 1)
-        # the top snaps to tenths above the highest curve (see _write_curves): switching between layers or steps
-        # of similar scale redraws the lines without re-ranging the axis (an auto-range re-lays out the plot
-        # at every switch)
+        # the range spans the curves, its ends snapped to 0.05 (see _write_curves): the curves fill the plot, so a
+        # word's rise and fall over the frames shows (from 0, a jump's few hundredths were a flat line), and
+        # switching between layers or steps of similar scale redraws the lines without re-ranging the axis
         fig.y_range = Range1d(0, 1.0)
         fig.yaxis.formatter = PrintfTickFormatter(format="%.2f")
         self.curves = fig
@@ -215,9 +225,9 @@ class AttentionExplorer(pn.viewable.Viewer):
         n, w = cross.shape
         chosen = self.state.word
         x = np.arange(n)
-        top = float(np.clip(np.ceil(float(np.nanmax(cross, initial=0.0)) * 1.1 * 10) / 10, 0.1, 1.0))
-        if self.curves.y_range.end != top:
-            self.curves.y_range.end = top
+        lo, hi = curve_range(cross)
+        if (self.curves.y_range.start, self.curves.y_range.end) != (lo, hi):
+            self.curves.y_range.update(start=lo, end=hi)
         self.curve_src.data = dict(
             xs=[x] * w,
             ys=[cross[:, i] for i in range(w)],
