@@ -190,14 +190,13 @@ def test_cancel_stops_the_worker(tiny_model_dir):
 
 
 # ---------------------------------------------------------------------------------------------- attention views
-def test_layer_head_step_switch_uses_recorded_maps_fast(studio):
+def test_layer_head_step_switch_uses_recorded_maps(studio):
+    # how fast a switch is, in the browser, is `moattn bench --app`'s figure (not a timed test)
     s, ex = studio.state, studio.attention
     rec = s.attention
     for layer, head, step in [(0, None, 7), (1, 0, 3), (None, None, None), (1, 1, 0)]:
-        t0 = time.perf_counter()
         s.param.update(layer=layer, head=head, att_step=step)
-        took = time.perf_counter() - t0
-        assert took < 0.2
+        assert s.attention is rec  # nothing was sampled again
         np.testing.assert_allclose(ex.heat_src.data["image"][0], rec.self_map(step=step, layer=layer, head=head))
         curves = ex.curve_src.data["ys"]
         np.testing.assert_allclose(curves[2], rec.word_curve(2, step=step, layer=layer, head=head))
@@ -213,7 +212,7 @@ def test_layer_head_step_switch_uses_recorded_maps_fast(studio):
     assert s.layer is None
     ex.step.value = 7
     assert s.att_step == 7
-    assert max(ex.timings) < 0.2
+    assert len(ex.timings) >= 6  # every switch updated the maps
 
 
 def test_picking_a_frame_moves_the_viewer_and_highlights_the_row(studio):
