@@ -122,6 +122,10 @@ def serve(*, port: int = 5006, show: bool = False, address: str = "localhost", i
     from app.model_cache import get_model
 
     pn.extension(notifications=True)
+    # every component is built in the page's design: otherwise each pane starts in Panel's default design and
+    # takes the template's on its first update, and that swap of stylesheets makes Bokeh re-index the whole
+    # document (0.15-0.35 s per pane; the first generation's first frame waited for three of them)
+    pn.config.design = OfflineFast
     pn.config.exception_handler = _exception_handler
     if model_dir is not None:
         try:
@@ -136,8 +140,8 @@ def serve(*, port: int = 5006, show: bool = False, address: str = "localhost", i
 
 
 def preload(loaded, *, controls_dir: Path | None = None, duet_dir: Path | None = None) -> None:
-    """Load the control models and the duet model on the base model before the first page (each is cached per
-    server, so the first visitor's page builds as fast as the next ones). A missing or unusable folder is not an
+    """Load the control models and the duet model on the base model, and import what a generation needs, before
+    the first page (each is cached per server, so the first visitor's page builds as fast as the next ones). A missing or unusable folder is not an
     error here: its tab says why."""
     from app.controlling import control_models
     from app.dueting import duet_model
@@ -145,6 +149,9 @@ def preload(loaded, *, controls_dir: Path | None = None, duet_dir: Path | None =
 
     control_models(controls_dir or CONTROL_DIR, base=loaded)
     duet_model(duet_dir or DUET_DIR, loaded)
+    # what the first generation needs besides the model: every generated motion is counted when it is shown, and
+    # the counting's first import (scipy.signal) took 1.8 s of the first click -> first frame
+    import engine.analysis.counting  # noqa: F401
 
 
 def _exception_handler(exc: Exception) -> None:

@@ -283,9 +283,8 @@ class StudioState(param.Parameterized):
                 raise Cancelled()
 
             def show():
-                if cancel is self._cancel and self.running:
-                    self.progress = done
-                    self.status = f"{verb}: step {done} / {total}"
+                if cancel is self._cancel and self.running:  # one update: the views refresh once per step
+                    self.param.update(progress=done, status=f"{verb}: step {done} / {total}")
             self.post(show)
 
         def on_wait() -> None:

@@ -92,12 +92,13 @@ class GenerateControls(pn.viewable.Viewer):
 
     def _on_progress(self, *_):
         s = self.state
-        self.progress.max = max(1, s.progress_total)
-        self.progress.value = min(s.progress, self.progress.max)
-        self.generate.disabled = s.running or bool(s.unknown_words)
-        self.generate.label = "Generating…" if s.running else "Generate"
-        self.cancel.disabled = not s.running
-        self.status.object = html.escape(s.status)
+        with pn.io.hold():  # one message to the page per step, not one per widget
+            self.progress.max = max(1, s.progress_total)
+            self.progress.value = min(s.progress, self.progress.max)
+            self.generate.disabled = s.running or bool(s.unknown_words)
+            self.generate.label = "Generating…" if s.running else "Generate"
+            self.cancel.disabled = not s.running
+            self.status.object = html.escape(s.status)
 
     def _on_memory(self, *_):
         s = self.state

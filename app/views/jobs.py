@@ -42,13 +42,14 @@ class JobBar(pn.viewable.Viewer):
     def refresh(self, *_):
         s = self.state
         mine = s.job in self.jobs
-        self.progress.max = max(1, s.progress_total)
-        self.progress.value = min(s.progress, self.progress.max) if mine else 0
-        self.status.object = html.escape(s.status) if mine else ""
-        self.cancel.disabled = not s.running
-        self.run.disabled = s.running or (self._blocked is not None and bool(self._blocked()))
-        if self.busy_label:
-            self.run.label = self.busy_label if s.running and mine else self.label
+        with pn.io.hold():  # one message to the page, not one per widget
+            self.progress.max = max(1, s.progress_total)
+            self.progress.value = min(s.progress, self.progress.max) if mine else 0
+            self.status.object = html.escape(s.status) if mine else ""
+            self.cancel.disabled = not s.running
+            self.run.disabled = s.running or (self._blocked is not None and bool(self._blocked()))
+            if self.busy_label:
+                self.run.label = self.busy_label if s.running and mine else self.label
 
     def __panel__(self):
         return pn.Column(pn.Row(self.run, self.cancel, sizing_mode="stretch_width"), self.progress, self.status,
