@@ -141,8 +141,8 @@ def serve(*, port: int = 5006, show: bool = False, address: str = "localhost", i
 
 def preload(loaded, *, controls_dir: Path | None = None, duet_dir: Path | None = None) -> None:
     """Load the control models and the duet model on the base model, and import what a generation needs, before
-    the first page (each is cached per server, so the first visitor's page builds as fast as the next ones). A missing or unusable folder is not an
-    error here: its tab says why."""
+    the first page (each is cached per server, so the first visitor's page builds as fast as the next ones). A
+    missing or unusable folder is not an error here: its tab says why."""
     from app.controlling import control_models
     from app.dueting import duet_model
     from engine.paths import CONTROL_DIR, DUET_DIR
