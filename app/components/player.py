@@ -50,7 +50,9 @@ export function render({ model, el }) {
   const canvas = document.createElement("canvas");
   canvas.width = 480; canvas.height = 360;
   canvas.className = "moattn-player-canvas";
-  const ctx = canvas.getContext("2d");
+  // a CPU-backed canvas: a frame is one drawImage of a decoded bitmap, which costs next to nothing on the CPU,
+  // while a GPU canvas under SwiftShader's emulated GL cost playback 2-3 fps on a loaded 2-core box
+  const ctx = canvas.getContext("2d", {willReadFrequently: true});
   ctx.fillStyle = "#eef2f7"; ctx.fillRect(0, 0, canvas.width, canvas.height);
   ctx.fillStyle = "#667"; ctx.font = "16px sans-serif";
   ctx.fillText("no motion yet: type a prompt and press Generate", 40, 180);
