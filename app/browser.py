@@ -238,6 +238,13 @@ def generate(page, prompt: str, *, timeout_ms: float = 120000) -> dict:
     return {"click_to_first_frame_ms": first - click, "stats": stats}
 
 
+def wait_new_motion(page, key_before: int, *, timeout_ms: float = 180000) -> None:
+    """Wait until the viewer shows another motion than ``key_before`` (a tab's run finished) and all its frames
+    have arrived."""
+    page.wait_for_function(f"window.moattnPlayer.motion_key !== {int(key_before)}", timeout=60000)
+    wait_all_frames(page, timeout_ms=timeout_ms)
+
+
 def wait_all_frames(page, timeout_ms: float = 120000) -> None:
     page.wait_for_function("window.moattnPlayer.n_frames > 0 && window.moattnPlayer.loaded >= window.moattnPlayer.n_frames",
                            timeout=timeout_ms)

@@ -40,8 +40,7 @@ def test_compose_two_intervals(browser, server_url, screens):
         page.locator(".compose-length", has_text="100 frames (5.0 s)").wait_for(timeout=10000)
         page.locator(".compose-run button").click()
         page.locator(".compose-result .compose-frames", has_text="100 frames").wait_for(timeout=180000)
-        page.wait_for_function(f"window.moattnPlayer.motion_key !== {key_before}", timeout=60000)
-        br.wait_all_frames(page, timeout_ms=180000)
+        br.wait_new_motion(page, key_before)
         result = page.locator(".compose-result .compose-box").inner_text()
         assert "transitions (handshake 20 frames): 40–59" in result, result
         wall = float(re.search(r"wall time ([\d.]+) s", result).group(1))

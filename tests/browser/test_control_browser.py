@@ -59,8 +59,7 @@ def test_draw_a_root_path_and_follow_it(browser, server_url, screens):
         off = float(re.search(r"frames > 0.5 m off\s+([\d.]+) %", text).group(1))
         assert mean < 0.1 and off == 0.0, text
         assert "inpainting" in text
-        page.wait_for_function(f"window.moattnPlayer.motion_key !== {key_before}", timeout=60000)
-        br.wait_all_frames(page, timeout_ms=180000)
+        br.wait_new_motion(page, key_before)
         page.wait_for_timeout(800)
         (screens / "control_tab.png").write_bytes(page.screenshot(full_page=True))
         view = page.locator(".skeleton-view canvas").screenshot()

@@ -47,8 +47,7 @@ def test_duet_tab_makes_and_plays_two_people(browser, server_url, screens):
         page.locator(".duet-readout .duet-box", has_text="person b from person a").wait_for(timeout=180000)
         # the prompt read as a handshake: contact guidance names its span
         page.locator(".duet-readout .duet-box", has_text="handshake: right hands").wait_for(timeout=5000)
-        page.wait_for_function(f"window.moattnPlayer.motion_key !== {key}", timeout=60000)
-        br.wait_all_frames(page, timeout_ms=180000)
+        br.wait_new_motion(page, key)
         assert page.evaluate("window.moattnPlayer.n_frames") == 60
         page.wait_for_timeout(500)
         (screens / "duet_tab.png").write_bytes(page.screenshot(full_page=True))
@@ -73,8 +72,7 @@ def test_duet_tab_makes_and_plays_two_people(browser, server_url, screens):
         expect(page.locator(".duet-run button")).to_be_enabled(timeout=60000)
         page.locator(".duet-run button").click()
         page.locator(".duet-readout .duet-box", has_text="first 20 given").wait_for(timeout=180000)
-        page.wait_for_function(f"window.moattnPlayer.motion_key !== {key}", timeout=60000)
-        br.wait_all_frames(page, timeout_ms=180000)
+        br.wait_new_motion(page, key)
         assert page.evaluate("window.moattnPlayer.n_frames") == 80
         page.wait_for_timeout(500)
         (screens / "duet_completion.png").write_bytes(page.locator(".skeleton-view canvas").screenshot())

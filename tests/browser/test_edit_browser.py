@@ -37,8 +37,7 @@ def test_emphasis_from_the_edit_tab(browser, server_url, screens):
         page.locator(".edit-run button").click()
         # progress, then the result: both motions in the viewer, every frame delivered
         page.locator(".edit-result", has_text="emphasise 'jumps' +0.70").wait_for(timeout=180000)
-        page.wait_for_function(f"window.moattnPlayer.motion_key !== {key_before}", timeout=60000)
-        br.wait_all_frames(page, timeout_ms=180000)
+        br.wait_new_motion(page, key_before)
         page.wait_for_timeout(800)
         _save = lambda name, png: (screens / name).write_bytes(png)  # noqa: E731
         _save("edit_tab_emphasis.png", page.screenshot(full_page=True))

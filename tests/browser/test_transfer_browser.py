@@ -38,8 +38,7 @@ def test_transfer_from_two_prompts(browser, server_url, screens):
         page.locator(".transfer-run button").click()
         page.locator(".transfer-result", has_text="a person walks forward → a person jumps twice").wait_for(
             timeout=180000)
-        page.wait_for_function(f"window.moattnPlayer.motion_key !== {key_before}", timeout=60000)
-        br.wait_all_frames(page, timeout_ms=180000)
+        br.wait_new_motion(page, key_before)
         page.wait_for_timeout(800)
         save("transfer_tab.png", page.screenshot(full_page=True))
         canvas = page.locator(".skeleton-view canvas").screenshot()
@@ -101,8 +100,7 @@ def test_transfer_from_two_prompts(browser, server_url, screens):
         page.locator(".transfer-run button").click()
         page.locator(".transfer-result", has_text="+ 1 more").wait_for(timeout=180000)
         page.locator(".transfer-result", has_text="out 2: 80 frames").wait_for(timeout=5000)
-        page.wait_for_function(f"window.moattnPlayer.motion_key !== {key_before}", timeout=60000)
-        br.wait_all_frames(page, timeout_ms=180000)
+        br.wait_new_motion(page, key_before)
         page.wait_for_timeout(800)
         page.locator(".transfer-analysed", has_text="follower 2").wait_for(timeout=5000)  # pick whose analysis
         page.locator(".transfer-analysed").scroll_into_view_if_needed()
