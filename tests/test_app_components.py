@@ -2,6 +2,7 @@
 the attention explorer, the frame renderer and the exports (a tiny model trained for the session)."""
 from __future__ import annotations
 
+import asyncio
 import io
 import json
 import time
@@ -273,6 +274,29 @@ def test_viewer_renders_frames_progressively_and_compares(studio, real_joints):
     s.follow = False
     viewer.reset.clicks += 1
     assert r.wait_until_done(120) and r.motion_key == key and not r.errors
+
+
+def test_an_export_button_shows_a_spinner_until_its_file_is_ready(studio, monkeypatch):
+    from app.views import files
+
+    button = studio.exports.buttons["gif"]
+    seen = []
+
+    def export(item, fmt, *, selection=None):
+        seen.append((fmt, button.loading))
+        return b"GIF89a..."
+
+    monkeypatch.setattr(files, "export_bytes", export)
+    data = asyncio.run(button.callback())
+    assert data.read() == b"GIF89a..." and seen == [("gif", True)] and not button.loading
+
+    def broken(item, fmt, *, selection=None):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(files, "export_bytes", broken)
+    with pytest.raises(RuntimeError):
+        asyncio.run(button.callback())
+    assert not button.loading and "disk full" in studio.state.notices[-1][1]
 
 
 def test_exports_give_valid_files(studio, real_joints, tmp_path):

@@ -191,11 +191,15 @@ class ExportPanel(pn.viewable.Viewer):
                 self.state.error("nothing to export yet: generate or import a motion first")
                 raise ValueError("nothing to export")
             selection = self.state.selection()
+            button = self.buttons[fmt]
+            button.loading = True  # a GIF or MP4 takes seconds: the button shows a spinner until the file is ready
             try:
                 data = await asyncio.to_thread(export_bytes, item, fmt, selection=selection)
             except Exception as exc:
                 self.state.error(f"export {EXPORTS[fmt]} failed: {exc}")
                 raise
+            finally:
+                button.loading = False
             return io.BytesIO(data)
 
         return callback
