@@ -3,6 +3,7 @@ the attention explorer, the frame renderer and the exports (a tiny model trained
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import io
 import json
 import time
@@ -276,6 +277,13 @@ def test_viewer_renders_frames_progressively_and_compares(studio, real_joints):
     assert r.wait_until_done(120) and r.motion_key == key and not r.errors
 
 
+def _run_async(coro):
+    """Run a coroutine to its end on its own event loop (a worker thread: the browser tests' Playwright keeps a
+    loop running on this one)."""
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        return pool.submit(asyncio.run, coro).result()
+
+
 def test_an_export_button_shows_a_spinner_until_its_file_is_ready(studio, monkeypatch):
     from app.views import files
 
@@ -287,7 +295,7 @@ def test_an_export_button_shows_a_spinner_until_its_file_is_ready(studio, monkey
         return b"GIF89a..."
 
     monkeypatch.setattr(files, "export_bytes", export)
-    data = asyncio.run(button.callback())
+    data = _run_async(button.callback())
     assert data.read() == b"GIF89a..." and seen == [("gif", True)] and not button.loading
 
     def broken(item, fmt, *, selection=None):
@@ -295,7 +303,7 @@ def test_an_export_button_shows_a_spinner_until_its_file_is_ready(studio, monkey
 
     monkeypatch.setattr(files, "export_bytes", broken)
     with pytest.raises(RuntimeError):
-        asyncio.run(button.callback())
+        _run_async(button.callback())
     assert not button.loading and "disk full" in studio.state.notices[-1][1]
 
 
