@@ -269,8 +269,16 @@ def measure_playback(page, seconds: float = 3.0) -> dict:
     return {"playback_fps": fps, "frames_drawn": b[0] - a[0], "seconds": elapsed, "skipped": b[2] - a[2]}
 
 
-#: BokehJS's UIGestures.press_threshold (ms): a button held this long before the pointer moves is a press, not a drag
+#: BokehJS's default UIGestures.press_threshold (ms): a button held this long before the pointer moves is a press,
+#: not a drag (the studio raises it: app.views.control_canvas.allow_hold_then_draw)
 BOKEH_PRESS_MS = 300
+
+
+def press_threshold(page) -> float:
+    """The page's BokehJS press threshold (ms); Bokeh's default where it cannot be read."""
+    return float(page.evaluate(
+        "(() => { try { return Bokeh.require('core/ui_gestures').UIGestures.press_threshold; }"
+        f" catch (e) {{ return {BOKEH_PRESS_MS}; }} }})()"))
 
 
 def stable_box(locator, *, timeout_ms: float = 10000, interval_ms: float = 150) -> dict:
@@ -302,26 +310,29 @@ def _gesture(locator, act, gap, *, attempts: int) -> dict:
     """
     page = locator.page
     box = stable_box(locator)
+    threshold = press_threshold(page)
     gaps = []
     for _ in range(attempts):
         act(box)
         ptr = page.evaluate("({...window.moattnTest.pointer})")
         gaps.append(gap(ptr))
-        if gaps[-1] < BOKEH_PRESS_MS * 0.8:
+        if gaps[-1] < threshold * 0.8:
             break
         page.wait_for_timeout(400)
     return {"box": box, "gaps_ms": gaps}
 
 
-def drag(locator, path: list[tuple[float, float]], *, attempts: int = 3) -> dict:
-    """Drag the mouse along ``path`` (fractions of the element's box, x right, y down) as one stroke; a stroke that
-    Bokeh may have taken for a press is drawn again (``_gesture``)."""
+def drag(locator, path: list[tuple[float, float]], *, hold_ms: float = 0, attempts: int = 3) -> dict:
+    """Drag the mouse along ``path`` (fractions of the element's box, x right, y down) as one stroke, the button
+    held still for ``hold_ms`` first; a stroke that Bokeh may have taken for a press is drawn again (``_gesture``)."""
     page = locator.page
 
     def act(box):
         page.mouse.move(*_at(box, *path[0]))
         page.wait_for_timeout(100)
         page.mouse.down()
+        if hold_ms:
+            page.wait_for_timeout(hold_ms)
         for u, v in path[1:]:
             page.mouse.move(*_at(box, u, v))
         page.mouse.up()

@@ -11,6 +11,7 @@ from app.theme import Fast as OfflineFast
 from app.views.attention import AttentionExplorer
 from app.views.compose import ComposeTab
 from app.views.control import ControlTab
+from app.views.control_canvas import allow_hold_then_draw
 from app.views.duet import DuetTab
 from app.views.controls import GenerateControls
 from app.views.edit import EditTab
@@ -104,8 +105,10 @@ def create_app(*, model_dir: Path | None = MODEL_DIR, initial: Path | None = Non
     # notices raised while building the page (e.g. no model) are shown once the page is up
     for level, text in list(studio.state.notices):
         pn.state.onload(lambda level=level, text=text: studio.state._notify(level, text))
-    if doc is not None and doc.session_context is not None:
-        doc.on_session_destroyed(lambda _ctx: studio.close())
+    if doc is not None:
+        allow_hold_then_draw(doc)
+        if doc.session_context is not None:
+            doc.on_session_destroyed(lambda _ctx: studio.close())
     page = studio.template()
     page._studio = studio  # reachable for debugging
     return page

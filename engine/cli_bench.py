@@ -128,7 +128,9 @@ def run_edits(args: argparse.Namespace) -> int:
           f"{', '.join(map(str, result['emphasis']['layers']))})")
     r = result["replacement"]
     print(f"replacement timing IoU: {r['iou']:.2f} (same noise, no replacement: {r['iou_without_replacement']:.2f}; "
-          f"{r['pairs']} pairs timed, {r['pairs_without_walk']} whose reference does not walk)")
+          f"{r['pairs']} draws timed (prompt pairs x seeds), {r['pairs_without_walk']} whose reference does not walk)")
+    for pair, ious in r["per_pair"].items():
+        print(f"  {pair}: IoU {', '.join(f'{v:.2f}' for v in ious)}")
     print(f"shift order accuracy: {result['shift_order_acc']:.2f}")
     e = result["example_based"]
     print(f"example-based: FID {e['fid']:.3f} diversity {e['diversity']:.3f} | perturbed noise: FID "

@@ -33,7 +33,7 @@ def test_measurements():
 
 def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     config = EditBenchConfig(counting_samples=2, emphasis_prompts=("a person jumps",), emphasis_weights=(-0.4, 0.0, 0.4),
-                             emphasis_seeds=1, pairs=2, shift_prompts=2, examples=1, outputs_per_example=4, steps=3,
+                             emphasis_seeds=1, pairs=2, replacement_seeds=2, shift_prompts=2, examples=1, outputs_per_example=4, steps=3,
                              seconds=3.0, reference_samples=32)
     result = bench_edits(tiny_model, tiny_evaluator, config, log=lambda line: None)
     assert set(result) >= {"counting", "emphasis_spearman", "replacement_iou", "shift_order_acc", "example_based", "fid"}
@@ -41,6 +41,7 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     assert 0.0 <= result["counting"]["attention"] <= 1.0 and 0.0 <= result["counting"]["baseline"] <= 1.0
     assert -1.0 <= result["emphasis_spearman"] <= 1.0
     r = result["replacement"]
-    assert r["pairs"] + r["pairs_without_walk"] == 2
+    assert r["pairs"] + r["pairs_without_walk"] == 4  # 2 prompt pairs x 2 seeds
+    assert sum(len(v) for v in r["per_pair"].values()) == r["pairs"]
     assert 0.0 <= result["replacement_iou"] <= 1.0 if r["pairs"] else np.isnan(result["replacement_iou"])
     assert result["example_based"]["samples"] == 4

@@ -7,16 +7,36 @@
   the rest pose for scale; the wrist path on the plane ``wrist_depth`` in front of the body.
 
 Both write to ``ControlSettings`` (a stroke is thinned to points) and redraw when it changes.
+
+``allow_hold_then_draw(doc)``: BokehJS takes a mouse button held still for 300 ms for a "press" and then ignores
+the drag that follows, so a stroke begun after a pause was silently lost; the page's press threshold is raised
+(the studio uses no press gestures).
 """
 from __future__ import annotations
 
 import numpy as np
 import panel as pn
-from bokeh.models import ColumnDataSource, FreehandDrawTool, PointDrawTool, Range1d, SingleIntervalTicker
+from bokeh.models import ColumnDataSource, CustomJS, FreehandDrawTool, PointDrawTool, Range1d, SingleIntervalTicker
 from bokeh.plotting import figure
 
 from app.controlling import DEFAULT_ROOT, ROOT_COLOR, WRIST_COLOR, ControlSettings
 from app.views.guard import SyncGuard
+
+
+PRESS_THRESHOLD_MS = 60_000  # a finite delay: setTimeout fires at once for one over 2**31 - 1 ms
+
+_HOLD_THEN_DRAW_JS = f"""
+try {{
+  Bokeh.require("core/ui_gestures").UIGestures.press_threshold = {PRESS_THRESHOLD_MS};
+}} catch (e) {{
+  console.warn("moattn: cannot raise BokehJS's press threshold; a stroke begun after a pause may be lost", e);
+}}
+"""
+
+
+def allow_hold_then_draw(doc) -> None:
+    """Once the page is up, a drag begun after holding the button still draws its stroke (see the module doc)."""
+    doc.js_on_event("document_ready", CustomJS(code=_HOLD_THEN_DRAW_JS))
 
 
 class PathCanvas:

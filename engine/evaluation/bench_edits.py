@@ -51,6 +51,7 @@ class EditBenchConfig:
     emphasis_weights: tuple[float, ...] = (-0.4, -0.2, 0.0, 0.2, 0.4)
     emphasis_seeds: int = 3
     pairs: int = 7
+    replacement_seeds: int = 3
     shift_prompts: int = 7
     examples: int = 4
     outputs_per_example: int = 4
@@ -62,7 +63,7 @@ class EditBenchConfig:
     @classmethod
     def quick(cls) -> "EditBenchConfig":
         return cls(counting_samples=16, emphasis_prompts=("a person jumps", "a person kicks with the right leg"),
-                   emphasis_seeds=2, pairs=4, shift_prompts=4, examples=2, outputs_per_example=4, steps=20,
+                   emphasis_seeds=2, pairs=4, replacement_seeds=1, shift_prompts=4, examples=2, outputs_per_example=4, steps=20,
                    reference_samples=64)
 
 
@@ -190,27 +191,33 @@ def _pairs(loaded: LoadedModel, n: int) -> list[tuple[str, str]]:
 
 
 def bench_replacement(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> tuple[dict, list[np.ndarray]]:
+    """Each prompt pair with ``replacement_seeds`` noises (seed k + 100 j for pair k): one noise per pair
+    leaves the figure to a handful of draws."""
     frames = int(config.seconds * 20)
     sample = SampleConfig(steps=config.steps, guidance=config.guidance)
-    with_edit, without, outputs, no_walk = [], [], [], 0
+    with_edit, without, outputs, no_walk, per_pair = [], [], [], 0, {}
     for k, (ref, edit) in enumerate(_pairs(loaded, config.pairs)):
-        s = SampleConfig(**{**sample.__dict__, "seed": k})
-        out = edits.replace(loaded, ref, edit, ReplaceConfig(), frames=frames, sample=s)
-        outputs.append(out.after)
-        threshold = walk_threshold(out.before)
-        if threshold is None:
-            no_walk += 1
-            log(f"replace {ref!r} -> {edit!r}: the reference does not walk (peak root speed "
-                f"{root_speed(out.before).max():.2f} m/s); not timed")
-            continue
-        plain = generate(loaded, Request(prompts=[edit], frames=[frames], noise=out.generation.noise[1:2]), s).joints[0]
-        ref_walk = walking_interval(out.before, threshold)
-        with_edit.append(iou(ref_walk, walking_interval(out.after, threshold)))
-        without.append(iou(ref_walk, walking_interval(plain, threshold)))
-        log(f"replace {ref!r} -> {edit!r}: IoU {with_edit[-1]:.2f} (without replacement {without[-1]:.2f})")
+        for j in range(config.replacement_seeds):
+            s = SampleConfig(**{**sample.__dict__, "seed": k + 100 * j})
+            out = edits.replace(loaded, ref, edit, ReplaceConfig(), frames=frames, sample=s)
+            outputs.append(out.after)
+            threshold = walk_threshold(out.before)
+            if threshold is None:
+                no_walk += 1
+                log(f"replace {ref!r} -> {edit!r} seed {s.seed}: the reference does not walk (peak root speed "
+                    f"{root_speed(out.before).max():.2f} m/s); not timed")
+                continue
+            plain = generate(loaded, Request(prompts=[edit], frames=[frames], noise=out.generation.noise[1:2]),
+                             s).joints[0]
+            ref_walk = walking_interval(out.before, threshold)
+            with_edit.append(iou(ref_walk, walking_interval(out.after, threshold)))
+            without.append(iou(ref_walk, walking_interval(plain, threshold)))
+            per_pair.setdefault(f"{ref} -> {edit}", []).append(round(with_edit[-1], 3))
+            log(f"replace {ref!r} -> {edit!r} seed {s.seed}: IoU {with_edit[-1]:.2f} "
+                f"(without replacement {without[-1]:.2f})")
     return {"iou": float(np.mean(with_edit)) if with_edit else float("nan"),
             "iou_without_replacement": float(np.mean(without)) if without else float("nan"),
-            "pairs": len(with_edit), "pairs_without_walk": no_walk}, outputs
+            "pairs": len(with_edit), "pairs_without_walk": no_walk, "per_pair": per_pair}, outputs
 
 
 def bench_shift(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> tuple[dict, list[np.ndarray]]:

@@ -33,7 +33,9 @@ def test_draw_a_root_path_and_follow_it(browser, server_url, screens):
         canvas.scroll_into_view_if_needed()
         # a stroke from near the origin forward (up the screen), bending to the screen's left (the person's left)
         stroke = [(0.50 + 0.10 * np.sin(np.pi * t) * -1.5, 0.74 - 0.55 * t) for t in np.linspace(0, 1, 30)]
-        drawn = br.drag(canvas, stroke)
+        # begun the way a hand often begins: the button held still for 0.6 s first (over BokehJS's default 0.3 s
+        # press threshold, which used to swallow such a stroke)
+        drawn = br.drag(canvas, stroke, hold_ms=600)
         box = drawn["box"]
         assert box["width"] > 300 and box["height"] > 300, box
         info = page.locator(".control-root-info span", has_text=re.compile(r"\d+ points"))
