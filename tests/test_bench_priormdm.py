@@ -6,7 +6,7 @@ import json
 import numpy as np
 
 from engine.evaluation.bench_compose import (
-    ComposeBenchConfig, bench_compose, build_sequences, format_table, jerk, windows,
+    ComposeBenchConfig, bench_compose, build_sequences, format_table, interiors, jerk, windows,
 )
 from engine.evaluation.bench_control import ControlBenchConfig, bench_control, control_error
 from tests.test_eval_run import tiny_evaluator, tiny_model  # noqa: F401  (fixtures)
@@ -19,6 +19,7 @@ def test_jerk_and_windows():
     cubic[..., 1] = t[:, None] ** 3  # d³/dt³ = 6
     assert jerk(still) == 0.0 and abs(jerk(cubic) - 6.0) < 1e-6
     assert [len(w) for w in windows(np.zeros((100, 22, 3)), [5, 50, 98], 40)] == [41, 41, 41]
+    assert interiors([100, 180], 300) == [50, 140, 240]  # the middle of each of the three intervals
 
 
 def test_sequences_have_true_transitions():
@@ -44,9 +45,11 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
                             log=lambda line: None)
     for m in ("doubletake", "first_take", "naive"):
         assert np.isfinite(compose[m]["transition_fid"]) and compose[m]["jerk"] > 0
+        assert np.isfinite(compose[m]["interior_fid"])
     assert compose["seconds_60s"] > 0 and compose["long_motion_seconds"] == 13.0
     # the floor: true transitions of other sequences are not the same windows, so their FID is above 0
     assert compose["truth_redraw"]["transitions"] > 0 and compose["truth_redraw"]["transition_fid"] > 0
+    assert compose["truth_redraw"]["interior_fid"] > 0
     assert "the floor" in format_table(compose)
     control = bench_control(tiny_model, tiny_evaluator, ControlBenchConfig(motions=2, steps=2),
                             models={"root": tiny_model, "left_wrist": tiny_model}, log=lambda line: None)
