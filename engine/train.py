@@ -70,6 +70,13 @@ class TrainConfig:
 _RUNTIME_FIELDS = ("steps", "log_every", "ckpt_every", "snapshot_every", "threads", "bf16")
 
 
+def kept_from_checkpoint(given: dict, saved: dict) -> dict[str, tuple]:
+    """Hyper-parameters a continued base run (``--resume``, or ``--init-from`` without ``--control``) keeps from
+    its saved config although the call gave another value: name -> (given, kept). The caller says so."""
+    return {k: (v, saved[k]) for k, v in given.items()
+            if k not in (*_RUNTIME_FIELDS, "out", "model") and k in saved and saved[k] != v}
+
+
 def make_source(config: TrainConfig, *, split: str = "train") -> MotionSource:
     if config.data == "corpus":
         return CorpusSource(split=split, seed=config.seed)
