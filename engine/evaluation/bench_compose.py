@@ -128,6 +128,7 @@ def bench_compose(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Compo
     seqs = build_sequences(config)
     log(f"compose benchmark: {len(seqs)} sequences, {sum(len(s.boundaries) for s in seqs)} transitions")
     sample = SampleConfig(steps=config.steps, guidance=config.guidance, seed=config.seed)
+
     def embed(wins: list[np.ndarray]) -> np.ndarray:
         return evaluator.motion_embeddings([joints_to_features(w) for w in wins])
 

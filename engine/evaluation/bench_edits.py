@@ -63,8 +63,8 @@ class EditBenchConfig:
     @classmethod
     def quick(cls) -> "EditBenchConfig":
         return cls(counting_samples=16, emphasis_prompts=("a person jumps", "a person kicks with the right leg"),
-                   emphasis_seeds=2, pairs=4, replacement_seeds=1, shift_prompts=4, examples=2, outputs_per_example=4, steps=20,
-                   reference_samples=64)
+                   emphasis_seeds=2, pairs=4, replacement_seeds=1, shift_prompts=4, examples=2, outputs_per_example=4,
+                   steps=20, reference_samples=64)
 
 
 # ----------------------------------------------------------------------------- measurements on joints
