@@ -78,39 +78,13 @@ def run(args: argparse.Namespace) -> int:
         raise SystemExit(f"--{foreign[0].replace('_', '-')} applies to --commdm only")
     from engine.train import train
 
-    _warn_kept(args, base_given)
     model = ModelConfig(**{f.name: getattr(args, f"model_{f.name}") for f in fields(ModelConfig)
                            if hasattr(args, f"model_{f.name}")})
     config = base_type(model=model, **base_given)
-    result = train(config, resume=args.resume, progress=not args.no_progress, init_from=args.init_from)
+    result = train(config, resume=args.resume, progress=not args.no_progress, init_from=args.init_from,
+                   given=tuple(base_given))
     print(json.dumps(result))
     return 0
-
-
-def _warn_kept(args: argparse.Namespace, given: dict) -> None:
-    """Say which flags a continued base run does not apply (it keeps its saved hyper-parameters)."""
-    import sys
-    from pathlib import Path
-
-    from engine.checkpoint import read_config
-    from engine.train import TrainConfig, kept_from_checkpoint
-
-    if given.get("control"):
-        return  # a control fine-tune takes this call's hyper-parameters
-    out = Path(given.get("out") or TrainConfig().out)
-    if args.resume and (out / "train_state.pt").exists():
-        folder = out
-    elif args.init_from is not None:
-        folder = Path(args.init_from)
-    else:
-        return
-    try:
-        saved = read_config(folder)["train"]
-    except (OSError, ValueError, KeyError):
-        return  # train() reports an unusable folder itself
-    for name, (want, kept) in kept_from_checkpoint(given, saved).items():
-        print(f"--{name.replace('_', '-')} {want} is not applied: a continued run keeps its saved {name} ({kept})",
-              file=sys.stderr)
 
 
 def _run_commdm(args: argparse.Namespace, given: dict, unused: list[str]) -> int:

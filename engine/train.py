@@ -10,6 +10,7 @@ import json
 import math
 import os
 import signal
+import sys
 import time
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
@@ -72,7 +73,7 @@ _RUNTIME_FIELDS = ("steps", "log_every", "ckpt_every", "snapshot_every", "thread
 
 def kept_from_checkpoint(given: dict, saved: dict) -> dict[str, tuple]:
     """Hyper-parameters a continued base run (``--resume``, or ``--init-from`` without ``--control``) keeps from
-    its saved config although the call gave another value: name -> (given, kept). The caller says so."""
+    its saved config although the call gave another value: name -> (given, kept)."""
     return {k: (v, saved[k]) for k, v in given.items()
             if k not in (*_RUNTIME_FIELDS, "out", "model") and k in saved and saved[k] != v}
 
@@ -125,7 +126,9 @@ def _state_from_model_folder(folder: Path, batch_size: int) -> tuple[dict, dict]
 
 
 def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, source: MotionSource | None = None,
-          init_from: str | Path | None = None) -> dict:
+          init_from: str | Path | None = None, given: tuple[str, ...] = ()) -> dict:
+    """``given``: the config fields the caller set explicitly (the CLI's flags); a continued base run says which of
+    them it does not apply."""
     distributed = int(os.environ.get("WORLD_SIZE", "1")) > 1
     if distributed:
         dist.init_process_group("gloo")
@@ -162,6 +165,10 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
             state.update(step=0, next_index=0)
         else:
             # the run's hyper-parameters come from the checkpoint; how to run it now comes from the call
+            kept = kept_from_checkpoint({k: getattr(config, k) for k in given}, saved["train"])
+            for name, (want, value) in kept.items() if rank == 0 else ():
+                print(f"--{name.replace('_', '-')} {want} is not applied: a continued run keeps its saved {name} "
+                      f"({value})", file=sys.stderr)
             runtime = {k: getattr(config, k) for k in _RUNTIME_FIELDS}
             config = TrainConfig.from_json({**saved["train"], **runtime, "out": str(out)})
         tokenizer = Tokenizer(saved["vocabulary"])

@@ -33,8 +33,8 @@ def test_measurements():
 
 def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     config = EditBenchConfig(counting_samples=2, emphasis_prompts=("a person jumps",), emphasis_weights=(-0.4, 0.0, 0.4),
-                             emphasis_seeds=1, pairs=2, replacement_seeds=2, shift_prompts=2, examples=1, outputs_per_example=4, steps=3,
-                             seconds=3.0, reference_samples=32)
+                             emphasis_seeds=1, pairs=2, replacement_seeds=2, shift_prompts=2, examples=1,
+                             outputs_per_example=4, steps=3, seconds=3.0, reference_samples=32)
     result = bench_edits(tiny_model, tiny_evaluator, config, log=lambda line: None)
     assert set(result) >= {"counting", "emphasis_spearman", "replacement_iou", "shift_order_acc", "example_based", "fid"}
     assert result["counting"]["samples"] == 2

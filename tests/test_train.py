@@ -128,10 +128,7 @@ def test_continue_from_a_shipped_model_folder(tmp_path):
 
 
 def test_a_continued_run_says_which_flags_it_does_not_apply(tmp_path, capsys):
-    import argparse
-
     from engine.cli_export import export_model
-    from engine.cli_train import _warn_kept
     from engine.train import kept_from_checkpoint
 
     assert kept_from_checkpoint({"lr": 1e-4, "steps": 30, "seed": 0}, {"lr": 2e-4, "steps": 20, "seed": 0}) == {
@@ -139,9 +136,14 @@ def test_a_continued_run_says_which_flags_it_does_not_apply(tmp_path, capsys):
     train(config(tmp_path, steps=4), source=ToySource(), progress=False)
     shipped = export_model(tmp_path / "run", tmp_path / "shipped", command="test", reports=[])
     saved_lr = config(tmp_path).lr
-    given = {"lr": saved_lr / 2, "steps": 8, "out": str(tmp_path / "next")}
-    _warn_kept(argparse.Namespace(resume=False, init_from=shipped), given)
+    capsys.readouterr()
+    result = train(config(tmp_path, out=str(tmp_path / "next"), steps=6, lr=saved_lr / 2), source=ToySource(),
+                   progress=False, init_from=shipped, given=("lr", "steps", "out"))
     err = capsys.readouterr().err
     assert f"--lr {saved_lr / 2} is not applied" in err and f"({saved_lr})" in err and "--steps" not in err
-    _warn_kept(argparse.Namespace(resume=False, init_from=shipped), {**given, "control": "root"})
-    assert capsys.readouterr().err == ""  # a control fine-tune applies the call's hyper-parameters
+    assert json.loads((tmp_path / "next" / "config.json").read_text())["train"]["lr"] == saved_lr
+    assert result["step"] == 6
+    # a control fine-tune applies the call's hyper-parameters: nothing to say
+    train(config(tmp_path, out=str(tmp_path / "ctl"), steps=2, lr=saved_lr / 2, control="root"), source=ToySource(),
+          progress=False, init_from=shipped, given=("lr",))
+    assert "is not applied" not in capsys.readouterr().err

@@ -153,7 +153,8 @@ def bench_compose(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Compo
             a, b = cut(*_run(loaded, s, method, sample))
             wins += a
             inside += b
-        result[method] = {"transition_fid": fid(embed(wins), true_emb), "jerk": float(np.mean([jerk(w) for w in wins])),
+        result[method] = {"transition_fid": fid(embed(wins), true_emb),
+                          "jerk": float(np.mean([jerk(w) for w in wins])),
                           "interior_fid": fid(embed(inside), true_inside_emb)}
         log(f"  {method}: transition FID {result[method]['transition_fid']:.3f}, jerk {result[method]['jerk']:.1f}, "
             f"interior FID {result[method]['interior_fid']:.3f} ({time.time() - t0:.0f} s)")
