@@ -113,29 +113,12 @@ def run_edits(args: argparse.Namespace) -> int:
     if args.calibrate:
         return run_calibration(args)
     from engine.checkpoint import load_model
-    from engine.evaluation.bench_edits import EditBenchConfig, bench_edits
+    from engine.evaluation.bench_edits import EditBenchConfig, bench_edits, format_table
     from engine.evaluation.evaluator import load_evaluator
 
     config = EditBenchConfig.quick() if args.quick else EditBenchConfig()
     result = bench_edits(load_model(args.model), load_evaluator(args.evaluator), config, log=_log)
-    if args.json:
-        print(json.dumps(result, indent=2, default=float))
-        return 0
-    c = result["counting"]
-    print(f"counting exact match: attention {c['attention']:.2f}  root-height baseline {c['baseline']:.2f}  "
-          f"({c['samples']} motions)")
-    print(f"emphasis Spearman (weight vs amplitude): {result['emphasis_spearman']:.2f} (layers "
-          f"{', '.join(map(str, result['emphasis']['layers']))})")
-    r = result["replacement"]
-    print(f"replacement timing IoU: {r['iou']:.2f} (same noise, no replacement: {r['iou_without_replacement']:.2f}; "
-          f"{r['pairs']} draws timed (prompt pairs x seeds), {r['pairs_without_walk']} whose reference does not walk)")
-    for pair, ious in r["per_pair"].items():
-        print(f"  {pair}: IoU {', '.join(f'{v:.2f}' for v in ious)}")
-    print(f"shift order accuracy: {result['shift_order_acc']:.2f}")
-    e = result["example_based"]
-    print(f"example-based: FID {e['fid']:.3f} diversity {e['diversity']:.3f} | perturbed noise: FID "
-          f"{e['perturbed_noise_fid']:.3f} diversity {e['perturbed_noise_diversity']:.3f}")
-    print("FID per edit: " + ", ".join(f"{k} {v:.3f}" for k, v in result["fid"].items() if v is not None))
+    print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0
 
 

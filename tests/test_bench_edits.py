@@ -1,10 +1,12 @@
 """The edits benchmark: its measurements on known joints, and one tiny end-to-end run."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 
-from engine.evaluation.bench_edits import (EditBenchConfig, amplitude, bench_edits, iou, root_speed, walk_threshold,
-                                           walking_interval)
+from engine.evaluation.bench_edits import (EditBenchConfig, amplitude, bench_edits, format_table, iou, root_speed,
+                                           walk_threshold, walking_interval)
 from tests.test_eval_run import tiny_evaluator, tiny_model  # noqa: F401  (fixtures)
 
 
@@ -45,3 +47,8 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     assert sum(len(v) for v in r["per_pair"].values()) == r["pairs"]
     assert 0.0 <= result["replacement_iou"] <= 1.0 if r["pairs"] else np.isnan(result["replacement_iou"])
     assert result["example_based"]["samples"] == 4
+    # the report reads the same from the result and from its saved JSON
+    table = format_table(json.loads(json.dumps(result, default=float)))
+    assert table == format_table(result)
+    assert f"({result['counting']['samples']} motions)" in table
+    assert sum(line.startswith("  a person walks forward then") for line in table.splitlines()) == len(r["per_pair"])

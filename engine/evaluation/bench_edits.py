@@ -295,3 +295,24 @@ def bench_edits(loaded: LoadedModel, evaluator: LoadedEvaluator, config: EditBen
                 "example_based": example["fid"]},
         "settings": {**config.__dict__, "seconds_taken": round(time.perf_counter() - t0, 1)},
     }
+
+
+def format_table(result: dict) -> str:
+    """The human-readable report of a :func:`bench_edits` result (also of a saved ``--json``)."""
+    c, r, e = result["counting"], result["replacement"], result["example_based"]
+    lines = [
+        f"counting exact match: attention {c['attention']:.2f}  root-height baseline {c['baseline']:.2f}  "
+        f"({c['samples']} motions)",
+        f"emphasis Spearman (weight vs amplitude): {result['emphasis_spearman']:.2f} (layers "
+        f"{', '.join(map(str, result['emphasis']['layers']))})",
+        f"replacement timing IoU: {r['iou']:.2f} (same noise, no replacement: {r['iou_without_replacement']:.2f}; "
+        f"{r['pairs']} draws timed (prompt pairs x seeds), {r['pairs_without_walk']} whose reference does not walk)",
+    ]
+    lines += [f"  {pair}: IoU {', '.join(f'{v:.2f}' for v in ious)}" for pair, ious in r["per_pair"].items()]
+    lines += [
+        f"shift order accuracy: {result['shift_order_acc']:.2f}",
+        f"example-based: FID {e['fid']:.3f} diversity {e['diversity']:.3f} | perturbed noise: FID "
+        f"{e['perturbed_noise_fid']:.3f} diversity {e['perturbed_noise_diversity']:.3f}",
+        "FID per edit: " + ", ".join(f"{k} {v:.3f}" for k, v in result["fid"].items() if v is not None),
+    ]
+    return "\n".join(lines)
