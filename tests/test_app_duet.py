@@ -150,6 +150,40 @@ def _walker(x: float) -> np.ndarray:
     return j
 
 
+def test_a_duet_folder_with_its_own_prior_works_beside_a_newer_studio_model(tiny_model_dir, tiny_duet_dir, tmp_path):
+    """The studio's base moved on (other weights); the duet folder ships the base its block was trained on."""
+    import shutil
+
+    import torch
+
+    newer = tmp_path / "newer"
+    shutil.copytree(tiny_model_dir, newer)
+    weights = torch.load(newer / "weights.pt", weights_only=True)
+    name = next(k for k, v in weights.items() if v.is_floating_point())
+    weights[name] = weights[name] * 0.5
+    torch.save(weights, newer / "weights.pt")
+    duet_dir = tmp_path / "duet"
+    shutil.copytree(tiny_duet_dir, duet_dir)
+    shutil.copytree(tiny_model_dir, duet_dir / "prior")
+    st = Studio(model_dir=newer, initial=None, duet_dir=duet_dir)
+    try:
+        st.state.param.update(steps=4, seed=1)
+        assert "runs on the base model it was trained on" in st.duet.model_note.object
+        st.duet.prompt.value = "two people give each other a high five"
+        st.duet.seconds.value = 2.0
+        assert _run(st) and not [n for n in st.state.notices if n[0] == "error"], st.state.notices
+        assert st.duet.settings.result is not None and st.duet.settings.result.n_frames == 40
+    finally:
+        st.close()
+
+    plain = Studio(model_dir=tiny_model_dir, initial=None, duet_dir=duet_dir)
+    try:  # on the base it was trained on, nothing to say
+        assert "ComMDM block" in plain.duet.model_note.object
+        assert "runs on the base model" not in plain.duet.model_note.object
+    finally:
+        plain.close()
+
+
 def test_no_duet_model_is_said_once_and_refused(tiny_model_dir, tmp_path):
     st = Studio(model_dir=tiny_model_dir, initial=None, duet_dir=tmp_path / "none")
     try:

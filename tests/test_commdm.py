@@ -170,6 +170,29 @@ def test_a_duet_model_refuses_another_prior(tiny_duet_dir):
         load_duet(tiny_duet_dir, other)
 
 
+def test_a_duet_folder_runs_on_the_prior_it_ships(tiny_duet_dir, tiny_model_dir, tmp_path):
+    """Given a newer base model, a duet folder with its own prior/ runs on that copy; a wrong copy is refused."""
+    import shutil
+
+    from engine.methods.commdm import fingerprint
+    from engine.methods.duet import PRIOR_FOLDER, load_duet
+
+    folder = tmp_path / "duet"
+    shutil.copytree(tiny_duet_dir, folder)
+    shutil.copytree(tiny_model_dir, folder / PRIOR_FOLDER)
+    other = random_corpus_model(layers=2)
+    model = load_duet(folder, other)
+    assert model.prior is not other
+    assert fingerprint(model.prior) == json.loads((folder / "config.json").read_text())["prior"]
+
+    weights = torch.load(folder / PRIOR_FOLDER / "weights.pt", weights_only=True)
+    name = next(k for k, v in weights.items() if v.is_floating_point())
+    weights[name] = weights[name] + 1
+    torch.save(weights, folder / PRIOR_FOLDER / "weights.pt")
+    with pytest.raises(ValueError, match="is not the base model the duet block"):
+        load_duet(folder, other)
+
+
 def test_text_to_duet(duet_model):
     from engine.generate import SampleConfig
     from engine.methods.duet import text_to_duet

@@ -126,9 +126,11 @@ class DuetTab(pn.viewable.Viewer):
             self.model_note.object = f'<span class="bad">{html.escape(problem)}</span>'
             return
         c = model.config
+        own = (f' It runs on the base model it was trained on (step {c.get("prior_step", "?")}, shipped with it), '
+               f'not on the studio\'s.' if model.prior is not s.model else "")
         self.model_note.object = (f'<span class="note">ComMDM block after layer {model.denoiser.after} of '
                                   f'{model.prior.model.num_layers}, trained {c.get("step", "?")} steps on '
-                                  f'{c.get("samples", "?")} two-person samples.</span>')
+                                  f'{c.get("samples", "?")} two-person samples.{html.escape(own)}</span>')
 
     def _on_result(self, *_):
         r = self.settings.result

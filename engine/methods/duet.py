@@ -2,7 +2,8 @@
 
 A duet model folder holds ``config.json`` (the block's config, the new words, the prior's
 fingerprint, the training mean placement, how it was trained) and ``weights.pt`` (fp16: the block
-and the new word rows only). It runs only on the prior it was trained on.
+and the new word rows only). It runs only on the prior it was trained on; a folder may ship that prior
+in ``prior/`` (a model folder), which it then runs on when it is given another base model (a newer one).
 """
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ import numpy as np
 import torch
 
 from engine.attention.context import WordIndex
-from engine.checkpoint import TRAIN_STATE, WEIGHTS, LoadedModel, load_train_state, read_config
+from engine.checkpoint import TRAIN_STATE, WEIGHTS, LoadedModel, load_model, load_train_state, read_config
 from engine.diffusion import ClassifierFreeGuidance, CosineSchedule, StepState, ddim
 from engine.generate import FPS, SampleConfig, frames_for
 from engine.methods.commdm import (PLACE_DIMS, ComConfig, DuetDenoiser, Pose, PriorTwice, duet_roles,
@@ -26,6 +27,7 @@ from engine.representation import features_to_joints, joints_to_features
 from engine.text import TokenizedPrompt, Tokenizer
 
 PREFIX_SECONDS, COMPLETE_SECONDS = 1.0, 3.0
+PRIOR_FOLDER = "prior"  # a duet folder's own copy of the base model its block was trained on
 
 
 @dataclass
@@ -73,9 +75,7 @@ def load_duet(folder: str | Path, prior: LoadedModel, *, prefer: str = "weights"
     config = read_config(folder)
     if config.get("kind") != "commdm":
         raise ValueError(f"{folder} is not a ComMDM duet model")
-    if config["prior"] != fingerprint(prior):
-        raise ValueError(f"the duet model in {folder} was trained on another base model "
-                         f"(step {config.get('prior_step', '?')}); retrain it with `moattn train --commdm`")
+    prior = _own_prior(folder, config, prior)
     model = new_duet(prior, config["words"], config=ComConfig.from_json(config["com"]),
                      mean_place=Pose.of_vector(config["mean_place"]))
     if prefer == "ema" and (folder / TRAIN_STATE).exists():
@@ -93,6 +93,20 @@ def load_duet(folder: str | Path, prior: LoadedModel, *, prefer: str = "weights"
         p.requires_grad_(False)
     model.config, model.folder = config, folder
     return model
+
+
+def _own_prior(folder: Path, config: dict, given: LoadedModel) -> LoadedModel:
+    """``given`` when the block was trained on it, else the copy of its prior that ``folder`` ships."""
+    if config["prior"] == fingerprint(given):
+        return given
+    shipped = folder / PRIOR_FOLDER
+    if (shipped / WEIGHTS).exists():
+        own = load_model(shipped)
+        if config["prior"] == fingerprint(own):
+            return own
+        raise ValueError(f"{shipped} is not the base model the duet block in {folder} was trained on")
+    raise ValueError(f"the duet model in {folder} was trained on another base model "
+                     f"(step {config.get('prior_step', '?')}); retrain it with `moattn train --commdm`")
 
 
 # ----------------------------------------------------------------------------- sampling
