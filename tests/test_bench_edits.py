@@ -5,8 +5,8 @@ import json
 
 import numpy as np
 
-from engine.evaluation.bench_edits import (EditBenchConfig, amplitude, bench_edits, format_table, iou, root_speed,
-                                           walk_threshold, walking_interval)
+from engine.evaluation.bench_edits import (EditBenchConfig, amplitude, bench_edits, format_table, iou, nearer_first,
+                                           root_speed, walk_threshold, walking_interval)
 from tests.test_eval_run import tiny_evaluator, tiny_model  # noqa: F401  (fixtures)
 
 
@@ -33,6 +33,18 @@ def test_measurements():
     assert walk_threshold(slow) is None
 
 
+def test_nearer_first_compares_the_two_captions(tiny_evaluator):  # noqa: F811
+    from engine.synth import Corpus
+
+    corpus = Corpus(split="test")
+    motions = [corpus.sample(i, with_features=False).joints for i in range(2)]
+    a, b = ["a person jumps"] * 2, ["a person walks forward"] * 2
+    forward, backward = nearer_first(tiny_evaluator, motions, a, b), nearer_first(tiny_evaluator, motions, b, a)
+    assert forward.dtype == bool and forward.shape == (2,)
+    assert not (forward & backward).any()  # never nearer both
+    assert not nearer_first(tiny_evaluator, motions, a, a).any()  # a caption is not nearer than itself
+
+
 def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     config = EditBenchConfig(counting_samples=2, emphasis_prompts=("a person jumps",), emphasis_weights=(-0.4, 0.0, 0.4),
                              emphasis_seeds=1, pairs=2, replacement_seeds=2, shift_prompts=2, examples=1,
@@ -46,9 +58,11 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     assert r["pairs"] + r["pairs_without_walk"] == 4  # 2 prompt pairs x 2 seeds
     assert sum(len(v) for v in r["per_pair"].values()) == r["pairs"]
     assert 0.0 <= result["replacement_iou"] <= 1.0 if r["pairs"] else np.isnan(result["replacement_iou"])
+    assert 0.0 <= r["edit_recognized"] <= 1.0 and 0.0 <= r["edit_recognized_without_replacement"] <= 1.0
     assert result["example_based"]["samples"] == 4
     # the report reads the same from the result and from its saved JSON
     table = format_table(json.loads(json.dumps(result, default=float)))
     assert table == format_table(result)
     assert f"({result['counting']['samples']} motions)" in table
+    assert f"evaluator): {r['edit_recognized']:.2f}" in table
     assert sum(line.startswith("  a person walks forward then") for line in table.splitlines()) == len(r["per_pair"])

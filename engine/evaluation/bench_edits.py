@@ -12,7 +12,9 @@ Figures (JSON keys):
   in-place replacement, beside the same edited prompt sampled from the same noise without it; a frame
   walks when its root speed exceeds half the reference's peak speed (the same threshold for all three
   motions), and a pair whose reference never reaches 0.3 m/s has no walk to time and is only counted
-  (``replacement.pairs_without_walk``);
+  (``replacement.pairs_without_walk``); ``replacement.edit_recognized``: share of all edited motions that the
+  evaluator places nearer the edited prompt than the reference prompt (did the new verb land at all?), beside
+  the same for the edited prompt sampled without replacement (``edit_recognized_without_replacement``);
 - shift_order_acc: share of shifted motions whose activity matches the rolled reference better than
   the unshifted one;
 - example_based: FID (vs held-out corpus motions) and diversity of example-based outputs beside
@@ -190,34 +192,54 @@ def _pairs(loaded: LoadedModel, n: int) -> list[tuple[str, str]]:
     return pairs[:n]
 
 
-def bench_replacement(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> tuple[dict, list[np.ndarray]]:
+def nearer_first(evaluator: LoadedEvaluator, motions: list[np.ndarray], first: list[str],
+                 second: list[str]) -> np.ndarray:
+    """Per motion (joints): is its evaluator embedding nearer the ``first`` caption than the ``second``? (bool)"""
+    m = evaluator.motion_embeddings([joints_to_features(j) for j in motions])
+    a, b = evaluator.text_embeddings(list(first)), evaluator.text_embeddings(list(second))
+    return np.linalg.norm(m - a, axis=-1) < np.linalg.norm(m - b, axis=-1)
+
+
+def bench_replacement(loaded: LoadedModel, evaluator: LoadedEvaluator, config: EditBenchConfig, *,
+                      log=print) -> tuple[dict, list[np.ndarray]]:
     """Each prompt pair with ``replacement_seeds`` noises (seed k + 100 j for pair k): one noise per pair
     leaves the figure to a handful of draws."""
     frames = int(config.seconds * 20)
     sample = SampleConfig(steps=config.steps, guidance=config.guidance)
     with_edit, without, outputs, no_walk, per_pair = [], [], [], 0, {}
+    plains, refs, edited = [], [], []
     for k, (ref, edit) in enumerate(_pairs(loaded, config.pairs)):
         for j in range(config.replacement_seeds):
             s = SampleConfig(**{**sample.__dict__, "seed": k + 100 * j})
             out = edits.replace(loaded, ref, edit, ReplaceConfig(), frames=frames, sample=s)
             outputs.append(out.after)
+            plain = generate(loaded, Request(prompts=[edit], frames=[frames], noise=out.generation.noise[1:2]),
+                             s).joints[0]
+            plains.append(plain)
+            refs.append(ref)
+            edited.append(edit)
             threshold = walk_threshold(out.before)
             if threshold is None:
                 no_walk += 1
                 log(f"replace {ref!r} -> {edit!r} seed {s.seed}: the reference does not walk (peak root speed "
                     f"{root_speed(out.before).max():.2f} m/s); not timed")
                 continue
-            plain = generate(loaded, Request(prompts=[edit], frames=[frames], noise=out.generation.noise[1:2]),
-                             s).joints[0]
             ref_walk = walking_interval(out.before, threshold)
             with_edit.append(iou(ref_walk, walking_interval(out.after, threshold)))
             without.append(iou(ref_walk, walking_interval(plain, threshold)))
             per_pair.setdefault(f"{ref} -> {edit}", []).append(round(with_edit[-1], 3))
             log(f"replace {ref!r} -> {edit!r} seed {s.seed}: IoU {with_edit[-1]:.2f} "
                 f"(without replacement {without[-1]:.2f})")
+    recognized = nearer_first(evaluator, outputs, edited, refs) if outputs else np.zeros(0, bool)
+    recognized_plain = nearer_first(evaluator, plains, edited, refs) if plains else np.zeros(0, bool)
+    log(f"replacement: {recognized.sum()}/{len(recognized)} edited motions nearer the edited prompt than the "
+        f"reference's (without replacement {recognized_plain.sum()}/{len(recognized_plain)})")
     return {"iou": float(np.mean(with_edit)) if with_edit else float("nan"),
             "iou_without_replacement": float(np.mean(without)) if without else float("nan"),
-            "pairs": len(with_edit), "pairs_without_walk": no_walk, "per_pair": per_pair}, outputs
+            "pairs": len(with_edit), "pairs_without_walk": no_walk, "per_pair": per_pair,
+            "edit_recognized": float(recognized.mean()) if len(recognized) else float("nan"),
+            "edit_recognized_without_replacement": float(recognized_plain.mean()) if len(recognized_plain)
+            else float("nan")}, outputs
 
 
 def bench_shift(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> tuple[dict, list[np.ndarray]]:
@@ -272,7 +294,7 @@ def bench_edits(loaded: LoadedModel, evaluator: LoadedEvaluator, config: EditBen
     reference = evaluator.motion_embeddings(load_split("test", count=config.reference_samples).features)
     counting = bench_counting(loaded, config, log=log)
     emphasis, emph_out = bench_emphasis(loaded, config, log=log)
-    replacement, repl_out = bench_replacement(loaded, config, log=log)
+    replacement, repl_out = bench_replacement(loaded, evaluator, config, log=log)
     shifting, shift_out = bench_shift(loaded, config, log=log)
     example = bench_example(loaded, evaluator, reference, config, log=log)
 
@@ -308,6 +330,9 @@ def format_table(result: dict) -> str:
         f"replacement timing IoU: {r['iou']:.2f} (same noise, no replacement: {r['iou_without_replacement']:.2f}; "
         f"{r['pairs']} draws timed (prompt pairs x seeds), {r['pairs_without_walk']} whose reference does not walk)",
     ]
+    if "edit_recognized" in r:  # results saved before this figure existed lack it
+        lines.append(f"  edited motions nearer the edited prompt than the reference's (evaluator): "
+                     f"{r['edit_recognized']:.2f} (without replacement {r['edit_recognized_without_replacement']:.2f})")
     lines += [f"  {pair}: IoU {', '.join(f'{v:.2f}' for v in ious)}" for pair, ious in r["per_pair"].items()]
     lines += [
         f"shift order accuracy: {result['shift_order_acc']:.2f}",
