@@ -20,6 +20,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--hard", type=float, default=0.85, help="second take: M_hard (handshake)")
     p.add_argument("--soft", type=float, default=0.1, help="second take: M_soft (context)")
     p.add_argument("--ramp", type=int, default=10, help="second take: b, ramp frames")
+    p.add_argument("--second-take-text", action="store_true",
+                   help="second take: denoise each transition with 'A, then B' (default: without text, as the "
+                        "authors' code)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--steps", type=int, default=50)
     p.add_argument("--guidance", type=float, default=2.5)
@@ -34,7 +37,7 @@ def config_from_args(args: argparse.Namespace):
     from engine.methods.doubletake import DoubleTakeConfig, SecondTake
 
     take = None if args.first_take_only else SecondTake(renoise=args.renoise, hard=args.hard, soft=args.soft,
-                                                          ramp=args.ramp)
+                                                          ramp=args.ramp, text=args.second_take_text)
     return DoubleTakeConfig(handshake=int(round(args.handshake * 20)), second_take=take)
 
 

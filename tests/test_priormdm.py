@@ -17,7 +17,8 @@ from engine.methods.control import (
     Control, DiffusionBlending, KnownFeatures, control_dims, controlled, normalized_weights,
 )
 from engine.methods.doubletake import (
-    DoubleTakeConfig, Handshake, Interval, SecondTake, allowance, check_intervals, compose, offsets, unfold,
+    DoubleTakeConfig, Handshake, Interval, SecondTake, allowance, check_intervals, compose, offsets,
+    second_take, transition_prompts, unfold,
 )
 from engine.methods.paths import RootPath, WristPath, path_error, root_controls, to_world
 from engine.representation import SLICES, features_to_joints
@@ -81,6 +82,26 @@ def test_compose_makes_one_continuous_long_motion(loaded):
     # the second take only rewrites the handshakes and their ramps
     same = np.abs(r.features - r.first_take).max(axis=1) < 1e-5
     assert same[:25].all() and same[115:].all() and not same[40:60].all()
+
+
+def test_a_second_take_with_text_denoises_each_sandwich_with_both_prompts(loaded, monkeypatch):
+    import engine.methods.doubletake as dt
+
+    ivs = [Interval("a person walks forward.", 3.0), Interval("a person jumps", 3.0), Interval("a person runs", 3.0)]
+    assert transition_prompts(ivs) == ["a person walks forward, then a person jumps",
+                                       "a person jumps, then a person runs"]
+    seen = []
+    real = dt.build_condition
+    monkeypatch.setattr(dt, "build_condition", lambda ld, request: (seen.append(list(request.prompts)), real(ld, request))[1])
+    sample = SampleConfig(steps=4, guidance=2.0)
+    plain = compose(loaded, ivs, DoubleTakeConfig(second_take=SecondTake(context=10)), sample=sample)
+    texted = compose(loaded, ivs, DoubleTakeConfig(second_take=SecondTake(context=10, text=True)), sample=sample)
+    assert seen == [[None, None], transition_prompts(ivs)]  # the sandwiches' prompts (the first take builds its own)
+    np.testing.assert_array_equal(plain.first_take, texted.first_take)
+    assert not np.allclose(plain.features[40:60], texted.features[40:60])  # the text reaches the handshakes
+    first = torch.zeros(140, 263)
+    with pytest.raises(ValueError, match="one prompt per transition"):
+        second_take(loaded, first, [(40, 60), (80, 100)], SecondTake(text=True), sample=sample, prompts=["a person jumps"])
 
 
 # ----------------------------------------------------------------------------- control
@@ -167,6 +188,12 @@ def test_cli_compose_and_control(tiny_model_dir, tmp_path, capsys):
                  str(tiny_model_dir), "--out", str(out)]) == 0
     report = json.loads(capsys.readouterr().out)
     assert np.load(out).shape[0] == report["frames"] == 80 and report["transitions"] == [[40, 60]]
+    plain = np.load(out)
+    assert main(["compose", "a person walks forward:3", "a person jumps:2", "--steps", "3", "--model",
+                 str(tiny_model_dir), "--out", str(out), "--second-take-text"]) == 0
+    capsys.readouterr()
+    texted = np.load(out)
+    assert np.allclose(texted[:20], plain[:20]) and not np.allclose(texted[40:60], plain[40:60])
     path = tmp_path / "root.json"
     path.write_text(json.dumps({"points": [[0, 0], [0, 2], [1, 3]]}))
     assert main(["control", "--prompt", "a person walks", "--root", str(path), "--inpaint", "--seconds", "4",

@@ -53,7 +53,8 @@ class SecondTake:
     soft: float = 0.1  # how much the context frames may change
     ramp: int = 10  # b: frames of linear ramp between hard and soft
     context: int = 30
-    text: bool = False  # the authors' code denoises sandwiches without text
+    # the authors' code denoises sandwiches without text; True: each with "A, then B" (:func:`transition_prompts`)
+    text: bool = False
 
     def __post_init__(self) -> None:
         if not 0.0 < self.renoise <= 1.0:
@@ -106,6 +107,14 @@ class SoftInpaint:
         x0 = self.denoiser(x, t, cond, step=step, controller=controller)
         k = self.keep[..., None].to(x0.dtype)
         return k * self.known + (1 - k) * x0
+
+
+TRANSITION_JOIN = ", then "
+
+
+def transition_prompts(intervals: Sequence[Interval]) -> list[str]:
+    """The text of each transition's sandwich when the second take uses text: "A, then B" (the corpus's own join)."""
+    return [f"{a.prompt.strip().rstrip('.')}{TRANSITION_JOIN}{b.prompt.strip()}" for a, b in zip(intervals, intervals[1:])]
 
 
 def offsets(lengths: Sequence[int], h: int) -> list[int]:
@@ -175,7 +184,9 @@ def compose(loaded: LoadedModel, intervals: Sequence[Interval], config: DoubleTa
     transitions = [(s, s + h) for s in starts[1:]] if h > 0 else []
     result = first
     if config.second_take is not None and transitions:
-        result = second_take(loaded, first, transitions, config.second_take, sample=sample, on_step=on_step)
+        prompts = transition_prompts(intervals) if config.second_take.text else None
+        result = second_take(loaded, first, transitions, config.second_take, sample=sample, on_step=on_step,
+                             prompts=prompts)
     feats = loaded.normalizer.denormalize(result.numpy())
     return Composed(features=feats, joints=features_to_joints(feats), intervals=list(intervals), starts=starts,
                     transitions=transitions, first_take=loaded.normalizer.denormalize(first.numpy()),
@@ -184,7 +195,12 @@ def compose(loaded: LoadedModel, intervals: Sequence[Interval], config: DoubleTa
 
 def second_take(loaded: LoadedModel, first: torch.Tensor, transitions: Sequence[tuple[int, int]], take: SecondTake, *,
                 sample: SampleConfig, on_step=None, prompts: Sequence[str | None] | None = None) -> torch.Tensor:
-    """Re-noise each transition sandwich of the unfolded first take and denoise it with soft masks."""
+    """Re-noise each transition sandwich of the unfolded first take and denoise it with soft masks.
+
+    ``prompts``: one per transition, used (with the sample's guidance) when ``take.text``; otherwise unconditional.
+    """
+    if take.text and (prompts is None or len(prompts) != len(transitions)):
+        raise ValueError(f"a second take with text needs one prompt per transition ({len(transitions)})")
     total = first.shape[0]
     limit = loaded.model.config.max_frames
     windows = []
@@ -202,7 +218,7 @@ def second_take(loaded: LoadedModel, first: torch.Tensor, transitions: Sequence[
         m = allowance(hi - lo, hs, take)
         keep[i, : hi - lo] = 1 - m
         allow.append(m)
-    texts = list(prompts) if (take.text and prompts is not None) else [None] * len(windows)
+    texts = list(prompts) if take.text else [None] * len(windows)
     request = Request(prompts=texts, frames=[hi - lo for lo, hi, _ in windows])
     cond, _ = build_condition(loaded, request)
     schedule = CosineSchedule()
