@@ -52,6 +52,20 @@ def test_calibration_measures_every_layer_and_is_stored(tiny_model_dir, tmp_path
     assert calibrated_layers(load_model(folder).config) is None
 
 
+def test_layers_too_weak_alone_may_qualify_together(tiny_model_dir, monkeypatch):
+    import engine.evaluation.calibrate_edits as cal
+
+    loaded = load_model(tiny_model_dir)
+    assert loaded.model.num_layers >= 2
+    table = {(0,): 0.2, (1,): 0.1, (0, 1): 0.5}
+    monkeypatch.setattr(cal, "response", lambda _loaded, layers, _config: table.get(tuple(layers), -1.0))
+    result = calibrate_emphasis(loaded, CalibrationConfig(**{**TINY.__dict__, "threshold": 0.3}), log=lambda _: None)
+    assert result["layers"] == [0, 1] and result["spearman"] == 0.5  # no single layer reaches 0.3, the pair does
+    table[(0, 1)] = 0.25
+    assert calibrate_emphasis(loaded, CalibrationConfig(**{**TINY.__dict__, "threshold": 0.3}),
+                              log=lambda _: None)["layers"] == []
+
+
 def test_calibration_refuses_a_word_the_model_lacks(tiny_model_dir):
     loaded = load_model(tiny_model_dir)
     bad = CalibrationConfig(**{**TINY.__dict__, "prompts": (("a person jumps", "flies"),)})

@@ -61,7 +61,8 @@ def calibrate_emphasis(loaded: LoadedModel, config: CalibrationConfig = Calibrat
 
     Every layer is measured alone; the best one starts the set, and the layer whose addition raises
     the set's response most is added while it raises it by more than ``min_gain``. No layer is kept
-    when even the best single one responds below ``threshold`` (emphasis then acts in all layers).
+    when the final set responds below ``threshold`` (emphasis then acts in all layers): layers too weak
+    alone may still qualify together.
     """
     t0 = time.perf_counter()
     per_layer: dict[int, float] = {}
@@ -71,7 +72,7 @@ def calibrate_emphasis(loaded: LoadedModel, config: CalibrationConfig = Calibrat
     best = max(per_layer, key=per_layer.get)
     chosen, score = [best], per_layer[best]
     history = [{"layers": list(chosen), "spearman": round(score, 3)}]
-    while score >= config.threshold and len(chosen) < len(per_layer):
+    while len(chosen) < len(per_layer):
         trials = {layer: response(loaded, tuple(sorted(chosen + [layer])), config)
                   for layer in per_layer if layer not in chosen}
         for layer, rho in trials.items():
