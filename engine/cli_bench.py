@@ -52,7 +52,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                             "--duet: held-out duets per interaction (default 3, quick 1)")
     edits.add_argument("--ood-pairs", type=int, default=None, help="--transfer: held-out pairs")
     edits.add_argument("--seeds", type=int, default=None, help="--duet: seeds per held-out duet (default 1)")
-    edits.add_argument("--steps", type=int, default=50, help="--inversion: DDIM steps")
+    edits.add_argument("--steps", type=int, default=None,
+                       help="sampling steps for every benchmark but --app (default: the benchmark's preset, 50; "
+                            "--quick: its own)")
     edits.add_argument("files", nargs="*", type=Path, help="--inversion: real motions (.bvh/.npy) to invert as well")
     p.set_defaults(run=run)
 
@@ -82,6 +84,14 @@ def run(args: argparse.Namespace) -> int:
     if args.transfer:
         return run_transfer(args)
     return run_inversion(args)
+
+
+def preset(cls, args: argparse.Namespace, **overrides):
+    """The benchmark config ``cls`` (``cls.quick()`` under --quick) with the given fields replaced where they are
+    not None, and ``--steps`` where given."""
+    config = cls.quick() if args.quick else cls()
+    fields = {k: v for k, v in {**overrides, "steps": args.steps}.items() if v is not None}
+    return replace(config, **fields)
 
 
 def _log(line: str) -> None:
@@ -116,7 +126,7 @@ def run_edits(args: argparse.Namespace) -> int:
     from engine.evaluation.bench_edits import EditBenchConfig, bench_edits, format_table
     from engine.evaluation.evaluator import load_evaluator
 
-    config = EditBenchConfig.quick() if args.quick else EditBenchConfig()
+    config = preset(EditBenchConfig, args)
     result = bench_edits(load_model(args.model), load_evaluator(args.evaluator), config, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0
@@ -127,13 +137,7 @@ def run_transfer(args: argparse.Namespace) -> int:
     from engine.evaluation.bench_transfer import TransferBenchConfig, bench_transfer, format_table
     from engine.evaluation.evaluator import load_evaluator
 
-    config = TransferBenchConfig.quick() if args.quick else TransferBenchConfig()
-    if args.samples is not None:
-        config = replace(config, pairs=args.samples)
-    if args.ood_pairs is not None:
-        config = replace(config, ood_pairs=args.ood_pairs)
-    if args.steps != 50 or not args.quick:
-        config = replace(config, steps=args.steps)
+    config = preset(TransferBenchConfig, args, pairs=args.samples, ood_pairs=args.ood_pairs)
     result = bench_transfer(load_model(args.model), load_evaluator(args.evaluator), config, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0
@@ -148,17 +152,13 @@ def run_priormdm(args: argparse.Namespace) -> int:
     if args.compose:
         from engine.evaluation.bench_compose import ComposeBenchConfig, bench_compose, format_table
 
-        config = ComposeBenchConfig.quick() if args.quick else ComposeBenchConfig()
-        if args.samples is not None:
-            config = replace(config, sequences=args.samples)
+        config = preset(ComposeBenchConfig, args, sequences=args.samples)
         result["compose"] = bench_compose(loaded, evaluator, config, log=_log)
         tables.append(format_table(result["compose"]))
     if args.control:
         from engine.evaluation.bench_control import ControlBenchConfig, bench_control, format_table
 
-        config = ControlBenchConfig.quick() if args.quick else ControlBenchConfig()
-        if args.samples is not None:
-            config = replace(config, motions=args.samples)
+        config = preset(ControlBenchConfig, args, motions=args.samples)
         result["control"] = bench_control(loaded, evaluator, config, log=_log)
         tables.append(format_table(result["control"]))
     print(json.dumps(result, indent=2, default=float) if args.json else "\n\n".join(tables))
@@ -169,15 +169,9 @@ def run_duet(args: argparse.Namespace) -> int:
     from engine.evaluation.bench_duet import DuetBenchConfig, bench_duet, format_table
     from engine.train_commdm import load_trained
 
-    config = DuetBenchConfig.quick() if args.quick else DuetBenchConfig()
-    if args.samples is not None:
-        config = replace(config, per_interaction=args.samples)
-    if args.steps != 50:
-        config = replace(config, steps=args.steps)
-    if args.seeds is not None:
-        if args.seeds < 1:
-            raise ValueError("--seeds must be at least 1")
-        config = replace(config, seeds=args.seeds)
+    if args.seeds is not None and args.seeds < 1:
+        raise ValueError("--seeds must be at least 1")
+    config = preset(DuetBenchConfig, args, per_interaction=args.samples, seeds=args.seeds)
     result = bench_duet(load_trained(args.duet_model, args.model), config, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0
@@ -192,19 +186,20 @@ def run_inversion(args: argparse.Namespace) -> int:
     from engine.synth import Corpus
 
     loaded = load_model(args.model)
+    steps = args.steps or 50
     count = args.samples or (6 if args.quick else 16)
     corpus = Corpus(split="test")
     rows = []
     for i in range(count):
         s = corpus.sample(20_000 + i, with_features=False)
         for refine in (0, 2):
-            r = roundtrip_error(loaded, s.joints, InversionConfig(prompt=s.captions[0], steps=args.steps, refine=refine))
+            r = roundtrip_error(loaded, s.joints, InversionConfig(prompt=s.captions[0], steps=steps, refine=refine))
             rows.append({"source": f"corpus test {20_000 + i}", "refine": refine, **r})
             _log(f"{rows[-1]}")
     for path in args.files:
         joints = load_motion(path)[: loaded.model.config.max_frames + 1]
         for refine in (0, 2):
-            r = roundtrip_error(loaded, joints, InversionConfig(prompt="", steps=args.steps, refine=refine))
+            r = roundtrip_error(loaded, joints, InversionConfig(prompt="", steps=steps, refine=refine))
             rows.append({"source": str(path), "refine": refine, **r})
             _log(f"{rows[-1]}")
 
@@ -214,7 +209,7 @@ def run_inversion(args: argparse.Namespace) -> int:
                 "max_m": float(np.max([r["max_m"] for r in sel])) if sel else None, "motions": len(sel)}
 
     result = {"corpus": {"plain_ddim": summary(0, True), "fixed_point": summary(2, True)},
-              "files": [r for r in rows if not r["source"].startswith("corpus")], "steps": args.steps}
+              "files": [r for r in rows if not r["source"].startswith("corpus")], "steps": steps}
     if args.json:
         print(json.dumps(result, indent=2))
     else:

@@ -1,6 +1,7 @@
 """The edits benchmark: its measurements on known joints, and one tiny end-to-end run."""
 from __future__ import annotations
 
+import argparse
 import json
 
 import numpy as np
@@ -66,3 +67,20 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     assert f"({result['counting']['samples']} motions)" in table
     assert f"evaluator): {r['edit_recognized']:.2f}" in table
     assert sum(line.startswith("  a person walks forward then") for line in table.splitlines()) == len(r["per_pair"])
+    assert table.splitlines()[-1].startswith("3 sampling steps, guidance 2.5, 3.0-s motions")
+
+
+def test_bench_presets_take_the_steps_flag():
+    from engine.cli_bench import preset
+    from engine.evaluation.bench_transfer import TransferBenchConfig
+
+    def args(**kw):
+        return argparse.Namespace(**{"quick": False, "steps": None, **kw})
+
+    assert preset(EditBenchConfig, args()) == EditBenchConfig()
+    assert preset(EditBenchConfig, args(quick=True)) == EditBenchConfig.quick()
+    assert preset(EditBenchConfig, args(steps=10)).steps == 10
+    assert preset(EditBenchConfig, args(quick=True, steps=50)).steps == 50  # given, it wins over the quick preset
+    quick = preset(TransferBenchConfig, args(quick=True), pairs=3, ood_pairs=None)
+    assert (quick.pairs, quick.ood_pairs, quick.steps) == (3, TransferBenchConfig.quick().ood_pairs,
+                                                           TransferBenchConfig.quick().steps)

@@ -340,4 +340,8 @@ def format_table(result: dict) -> str:
         f"{e['perturbed_noise_fid']:.3f} diversity {e['perturbed_noise_diversity']:.3f}",
         "FID per edit: " + ", ".join(f"{k} {v:.3f}" for k, v in result["fid"].items() if v is not None),
     ]
+    settings = result.get("settings", {})
+    if "steps" in settings:
+        lines.append(f"{settings['steps']} sampling steps, guidance {settings['guidance']}, {settings['seconds']}-s motions, "
+                     f"{settings['seconds_taken']:.0f} s")
     return "\n".join(lines)
