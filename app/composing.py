@@ -45,6 +45,7 @@ class ComposeSummary:
     handshake: int  # frames
     second_take: bool
     seconds_taken: float  # wall time
+    second_take_text: bool = False  # the second take denoised each transition with "A, then B"
 
 
 class ComposeSettings(param.Parameterized):
@@ -53,6 +54,8 @@ class ComposeSettings(param.Parameterized):
     intervals = param.List(default=[], item_type=IntervalRow, doc="the timeline, in order")
     handshake = param.Number(default=1.0, bounds=(0.0, 3.0), doc="handshake (shared frames) in seconds")
     second_take = param.Boolean(default=True, doc="re-denoise each transition with soft masks (the second take)")
+    second_take_text = param.Boolean(default=False, doc="the second take denoises each transition with 'A, then B' "
+                                                        "(default: without text, as the authors' code)")
     result = param.Parameter(default=None, doc="ComposeSummary of the last composition")
 
     def __init__(self, *, tokenizer: Callable[[], object] | None = None, **params):
@@ -129,7 +132,7 @@ def prepare(state, settings: ComposeSettings) -> ComposeJob:
             raise ValueError(f"interval {i + 1}: type what the person does")
         loaded.tokenizer.encode(row.prompt)  # unknown words: a PromptError (ValueError) naming them
     h = settings.handshake_frames
-    take = SecondTake() if settings.second_take else None
+    take = SecondTake(text=settings.second_take_text) if settings.second_take else None
     config = DoubleTakeConfig(handshake=h, second_take=take)
     intervals = [Interval(row.prompt.strip(), float(row.seconds)) for row in rows]
     lengths = check_intervals(intervals, h)
@@ -191,7 +194,8 @@ def finish(state, settings: ComposeSettings, job: ComposeJob, result) -> None:
     summary = ComposeSummary(name="", prompts=[iv.prompt for iv in job.intervals], starts=list(result.starts),
                              ends=[min(e, n) for e in ends], transitions=[tuple(t) for t in result.transitions],
                              n_frames=n, handshake=job.config.handshake,
-                             second_take=job.config.second_take is not None, seconds_taken=result.seconds)
+                             second_take=job.config.second_take is not None, seconds_taken=result.seconds,
+                             second_take_text=job.config.second_take is not None and job.config.second_take.text)
     item = MotionItem(name=state._unique_name(title), joints=np.asarray(result.joints, dtype=np.float32),
                       source="generated", prompt=" then ".join(iv.prompt for iv in job.intervals),
                       info={"compose": summary})

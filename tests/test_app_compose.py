@@ -129,6 +129,25 @@ def test_one_interval_and_first_take_only(studio):
     assert s.progress_total == 6
 
 
+def test_second_take_with_text(studio):
+    from app.composing import prepare
+
+    s, tab = studio.state, studio.compose
+    c = tab.settings
+    c.intervals = [IntervalRow("a person walks forward", 2.0), IntervalRow("a person jumps", 2.0)]
+    assert not tab.second_take_text.disabled and prepare(s, c).config.second_take.text is False
+    tab.second_take_text.value = True
+    assert c.second_take_text and prepare(s, c).config.second_take.text is True
+    assert tab.generate() and s.wait(300), s.notices[-1:]
+    assert c.result.second_take and c.result.second_take_text and "second take (with text)" in tab.result.object
+    tab.second_take.value = False  # no second take: its text switch greys out, and no text is claimed
+    assert tab.second_take_text.disabled and prepare(s, c).config.second_take is None
+    assert tab.generate() and s.wait(300), s.notices[-1:]
+    assert not c.result.second_take_text and "first take only" in tab.result.object
+    tab.second_take.value = True
+    assert not tab.second_take_text.disabled
+
+
 def test_cancel(studio):
     s, tab = studio.state, studio.compose
     s.steps = 400

@@ -20,8 +20,8 @@ from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown, on_text
 
 HELP = ("Each interval is generated as its own clip; consecutive clips share a **handshake** (the end of one is the "
         "start of the next), so the long motion lasts the sum of the intervals minus one handshake per transition. "
-        "The **second take** re-denoises every transition with soft masks. Seed, steps and guidance come from the "
-        "sidebar.")
+        "The **second take** re-denoises every transition with soft masks, without text as in the authors' code, or "
+        "*with text* (\"A, then B\"). Seed, steps and guidance come from the sidebar.")
 
 
 class IntervalRowView:
@@ -65,8 +65,12 @@ class ComposeTab(pn.viewable.Viewer):
                                                 css_classes=["compose-handshake"], sizing_mode="stretch_width")
         self.second_take = pn.widgets.Checkbox(label="second take (re-denoise the transitions)", value=c.second_take,
                                                css_classes=["compose-second-take"])
+        self.second_take_text = pn.widgets.Checkbox(label="with text ('A, then B')", value=c.second_take_text,
+                                                    disabled=not c.second_take, css_classes=["compose-second-take-text"])
         self.handshake.param.watch(lambda e: setattr(c, "handshake", e.new), "value")
         self.second_take.param.watch(lambda e: setattr(c, "second_take", e.new), "value")
+        self.second_take_text.param.watch(lambda e: setattr(c, "second_take_text", e.new), "value")
+        c.param.watch(lambda e: setattr(self.second_take_text, "disabled", not e.new), "second_take")
         self.length = pn.pane.Markdown("", css_classes=["compose-length"], margin=(0, 10))
         self.bar = JobBar(state=self.state, jobs=["composition"], label="Generate long motion", prefix="compose",
                           on_run=self.generate)
@@ -142,7 +146,8 @@ class ComposeTab(pn.viewable.Viewer):
             self.strip_src.data, self.hand_src.data = _empty_intervals(), _empty_transitions()
             self.jumps.objects = []
             return
-        take = "first + second take" if r.second_take else "first take only"
+        take = ("first + second take" + (" (with text)" if r.second_take_text else "")) if r.second_take \
+            else "first take only"
         spans = ", ".join(f"{a}–{b - 1}" for a, b in r.transitions) or "none"
         self.result.object = (
             f'<div class="compose-box"><b>{html.escape(r.name)}</b><br>'
@@ -214,7 +219,7 @@ class ComposeTab(pn.viewable.Viewer):
         return pn.Column(
             pn.pane.Markdown(HELP, styles={"font-size": "12px", "color": "#444"}, margin=(0, 10)),
             "#### Timeline", self.rows_box, self.add, self.length,
-            pn.Row(self.handshake, self.second_take, sizing_mode="stretch_width"),
+            pn.Row(self.handshake, self.second_take, self.second_take_text, sizing_mode="stretch_width"),
             self.bar, self.result, self.strip_pane, self.jumps,
             css_classes=["compose-tab"], sizing_mode="stretch_width")
 
