@@ -60,6 +60,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    given_steps(args)  # a bad --steps fails before any model loads
     if args.seeds is not None and not args.duet:
         raise ValueError("--seeds goes with --duet")
     if (args.calibrate or args.write) and not args.edits:
@@ -86,11 +87,18 @@ def run(args: argparse.Namespace) -> int:
     return run_inversion(args)
 
 
+def given_steps(args: argparse.Namespace) -> int | None:
+    """``--steps`` when given, else None; out of range: a ValueError."""
+    if args.steps is not None and not 1 <= args.steps <= 1000:
+        raise ValueError(f"--steps must be between 1 and 1000, got {args.steps}")
+    return args.steps
+
+
 def preset(cls, args: argparse.Namespace, **overrides):
     """The benchmark config ``cls`` (``cls.quick()`` under --quick) with the given fields replaced where they are
     not None, and ``--steps`` where given."""
     config = cls.quick() if args.quick else cls()
-    fields = {k: v for k, v in {**overrides, "steps": args.steps}.items() if v is not None}
+    fields = {k: v for k, v in {**overrides, "steps": given_steps(args)}.items() if v is not None}
     return replace(config, **fields)
 
 
@@ -186,7 +194,7 @@ def run_inversion(args: argparse.Namespace) -> int:
     from engine.synth import Corpus
 
     loaded = load_model(args.model)
-    steps = args.steps or 50
+    steps = given_steps(args) or 50
     count = args.samples or (6 if args.quick else 16)
     corpus = Corpus(split="test")
     rows = []

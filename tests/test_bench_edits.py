@@ -84,3 +84,10 @@ def test_bench_presets_take_the_steps_flag():
     quick = preset(TransferBenchConfig, args(quick=True), pairs=3, ood_pairs=None)
     assert (quick.pairs, quick.ood_pairs, quick.steps) == (3, TransferBenchConfig.quick().ood_pairs,
                                                            TransferBenchConfig.quick().steps)
+
+
+def test_bench_refuses_bad_steps_before_loading_anything(capsys):
+    from engine.cli import main
+
+    assert main(["bench", "--edits", "--steps", "0", "--model", "/nonexistent"]) == 2
+    assert "--steps must be between 1 and 1000, got 0" in capsys.readouterr().err
