@@ -244,6 +244,26 @@ def test_word_choice_and_alignment_helpers():
     assert not alignment(None, "a person jumps", "a person jumps")[0]
 
 
+def test_layers_that_do_not_exist_are_refused(tiny_model_dir, tmp_path, capsys):
+    from engine.checkpoint import load_model
+    from engine.cli import main
+    from engine.generate import SampleConfig
+    from engine.methods.edit_options import run_edit
+
+    loaded = load_model(tiny_model_dir)
+    n = loaded.model.num_layers
+    options = EditOptions(kind="emphasize", prompt="a person jumps", word="jumps", layers=(0, n))
+    with pytest.raises(ValueError, match=rf"layers \[{n}\] do not exist: the model has layers 0..{n - 1}"):
+        run_edit(loaded, options, frames=20, sample=SampleConfig(steps=2))
+    out = tmp_path / "e.npy"
+    assert main(["edit", "emphasize", "a person jumps", "--word", "jumps", "--layers", str(n + 3), "--steps", "2",
+                 "--seconds", "1", "--model", str(tiny_model_dir), "--out", str(out)]) == 2
+    assert "do not exist" in capsys.readouterr().err and not out.exists()
+    assert main(["edit", "emphasize", "a person jumps", "--word", "jumps", "--layers", str(n - 1), "--steps", "2",
+                 "--seconds", "1", "--model", str(tiny_model_dir), "--out", str(out)]) == 0
+    assert out.exists()
+
+
 def test_cli_and_tab_share_the_option_mapping():
     from engine.cli_edit import add_parser, options_from_args
 

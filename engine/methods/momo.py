@@ -68,12 +68,9 @@ class TransferConfig:
 
     def window(self, n_layers: int) -> Window:
         layers = tuple(range(1, n_layers)) if self.layers is None else tuple(self.layers)
-        bad = [l for l in layers if not 0 <= l < n_layers]
-        if bad:
-            raise ValueError(f"layers {bad} do not exist: the model has layers 0..{n_layers - 1}")
         if not layers:
             raise ValueError("mixed attention needs at least one layer")
-        return Window(self.start, self.end, layers=layers)
+        return Window(self.start, self.end, layers=layers).check_layers(n_layers)
 
 
 @dataclass(frozen=True)

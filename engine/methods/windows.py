@@ -21,6 +21,13 @@ class Window:
         if not 0.0 <= self.start <= self.end <= 1.0:
             raise ValueError(f"a step window needs 0 <= start <= end <= 1, got ({self.start}, {self.end})")
 
+    def check_layers(self, n_layers: int) -> "Window":
+        """This window, after checking that its layers exist in a model of ``n_layers`` layers (a ValueError if not)."""
+        bad = [layer for layer in self.layers or () if not 0 <= layer < n_layers]
+        if bad:
+            raise ValueError(f"layers {bad} do not exist: the model has layers 0..{n_layers - 1}")
+        return self
+
     def bind(self, num_steps: int) -> "BoundWindow":
         if num_steps < 1:
             raise ValueError("num_steps must be >= 1")
