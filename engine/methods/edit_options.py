@@ -134,12 +134,10 @@ def run_edit(loaded, options: EditOptions, *, frames: int, sample, record: bool 
              on_step: Callable | None = None):
     """Build the config and run the edit -> ``edits.EditOutput`` (``on_step(StepState)`` after every step)."""
     from engine.methods import edits
-    from engine.methods.windows import Window
 
     o, kind = options, options.kind
-    if o.layers:
-        Window(layers=tuple(o.layers)).check_layers(loaded.model.num_layers)
     cfg = build_config(o, frames=frames, model_config=loaded.config)
+    cfg.window.check_layers(loaded.model.num_layers)  # the user's layers, or the calibrated ones
     common = dict(frames=frames, sample=sample, record=record, on_step=on_step)
     if kind in ("emphasize", "erase"):
         return edits.reweight(loaded, _need(o.prompt, "a prompt", kind), cfg, **common)
