@@ -2,11 +2,16 @@
 
 --app        the studio in Chromium against a real server (app/bench.py)
 --edits      MotionCLR edits against corpus ground truth (engine/evaluation/bench_edits.py)
---inversion  DDIM inversion round trip in metres on corpus motions and given files
+--inversion  DDIM inversion round trip (m) and the inverted noise's std on corpus motions, the shared real
+             motions (../shared/data/real/) and given files (engine/evaluation/bench_inversion.py)
 --transfer   MoMo leader -> follower transfer against corpus ground truth, with baselines
 --compose    DoubleTake transitions vs first take only vs naive concatenation, and a 60-s motion's time
 --control    control models and DiffusionBlending vs inpainting on true paths (with --compose: one run)
 --duet       ComMDM vs the prior run twice on held-out duets: prefix completion and text-to-duet
+--adherence  does a generated motion do what its prompt says? detectors validated on corpus labels first,
+             then the model and the ground truth on prompts people type (engine/evaluation/bench_adherence.py)
+--sampling   seconds for a 6-s motion at 10/20/50 DDIM steps and DDPM 1000, with adherence and FID per
+             setting, and the attention-recording overhead (engine/evaluation/bench_sampling.py)
 """
 from __future__ import annotations
 
@@ -26,10 +31,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     mode = p.add_mutually_exclusive_group()
     mode.add_argument("--app", action="store_true", help="click -> first frame, playback fps, layer switch in Chromium")
     mode.add_argument("--edits", action="store_true", help="score the MotionCLR edits against corpus ground truth")
-    mode.add_argument("--inversion", action="store_true", help="inversion round-trip error (m)")
+    mode.add_argument("--inversion", action="store_true",
+                      help="inversion round-trip error (m) and noise std: corpus, shared real files, given files")
     mode.add_argument("--transfer", action="store_true", help="MoMo transfer vs ground truth and baselines")
     mode.add_argument("--compose", action="store_true", help="DoubleTake vs first take vs naive concatenation")
     mode.add_argument("--duet", action="store_true", help="ComMDM vs the prior twice on held-out two-person duets")
+    mode.add_argument("--adherence", action="store_true",
+                      help="prompt adherence (action, count, side, direction, order) of the model and the ground truth")
+    mode.add_argument("--sampling", action="store_true",
+                      help="sampling speed per step count with adherence and FID, and attention-recording overhead")
     p.add_argument("--control", action="store_true", help="control models and blending vs inpainting (PriorMDM)")
     p.add_argument("--model", type=Path, default=MODEL_DIR, help=f"model folder (default {MODEL_DIR})")
     p.add_argument("--duet-model", type=Path, default=DUET_DIR, help=f"--duet: the ComMDM block (default {DUET_DIR})")
@@ -51,20 +61,31 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        help="--inversion: corpus test motions (default 16, quick 6); --transfer: in-distribution pairs; "
                             "--duet: held-out duets per interaction (default 3, quick 1)")
     edits.add_argument("--ood-pairs", type=int, default=None, help="--transfer: held-out pairs")
-    edits.add_argument("--seeds", type=int, default=None, help="--duet: seeds per held-out duet (default 1)")
+    edits.add_argument("--seeds", type=int, default=None,
+                       help="--duet: seeds per held-out duet (default 1); --adherence: seeds per prompt (default 4, "
+                            "quick 2)")
+    edits.add_argument("--prompts", type=Path, default=None,
+                       help="--adherence / --sampling: a file of prompts, one per line (default: the shipped set of "
+                            "prompts people type)")
     edits.add_argument("--steps", type=int, default=None,
                        help="sampling steps for every benchmark but --app (default: the benchmark's preset, 50; "
                             "--quick: its own)")
+    edits.add_argument("--no-real-data", action="store_true",
+                       help="--inversion: skip the motion files of the shared real-data folder (../shared/data/real/)")
     edits.add_argument("files", nargs="*", type=Path, help="--inversion: real motions (.bvh/.npy) to invert as well")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     given_steps(args)  # a bad --steps fails before any model loads
-    if args.seeds is not None and not args.duet:
-        raise ValueError("--seeds goes with --duet")
+    if args.seeds is not None and not (args.duet or args.adherence or args.sampling):
+        raise ValueError("--seeds goes with --duet, --adherence or --sampling")
+    if args.prompts is not None and not (args.adherence or args.sampling):
+        raise ValueError("--prompts goes with --adherence or --sampling")
     if (args.calibrate or args.write) and not args.edits:
         raise ValueError("--calibrate and --write go with --edits")
+    if args.no_real_data and not args.inversion:
+        raise ValueError("--no-real-data goes with --inversion")
     if args.write and not args.calibrate:
         raise ValueError("--write stores a calibration: add --calibrate")
     if args.compose or args.control:
@@ -73,9 +94,13 @@ def run(args: argparse.Namespace) -> int:
         return run_priormdm(args)
     if args.duet:
         return run_duet(args)
+    if args.adherence:
+        return run_adherence(args)
+    if args.sampling:
+        return run_sampling(args)
     if not (args.app or args.edits or args.inversion or args.transfer):
         raise ValueError("choose a benchmark: --app, --edits, --inversion, --transfer, --compose and/or --control, "
-                         "--duet")
+                         "--duet, --adherence, --sampling")
     if args.app:
         from app.bench import run_app_bench
 
@@ -173,6 +198,30 @@ def run_priormdm(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_adherence(args: argparse.Namespace) -> int:
+    from engine.checkpoint import load_model
+    from engine.evaluation.bench_adherence import AdherenceBenchConfig, bench_adherence, format_table, read_prompts
+
+    config = preset(AdherenceBenchConfig, args, seeds=args.seeds)  # bad settings fail before the model loads
+    prompts = read_prompts(args.prompts) if args.prompts is not None else None
+    result = bench_adherence(load_model(args.model), config, prompts=prompts, log=_log)
+    print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
+    return 0
+
+
+def run_sampling(args: argparse.Namespace) -> int:
+    from engine.checkpoint import load_model
+    from engine.evaluation.bench_sampling import SamplingBenchConfig, bench_sampling, format_table
+    from engine.evaluation.bench_adherence import read_prompts
+    from engine.evaluation.evaluator import load_evaluator
+
+    config = preset(SamplingBenchConfig, args, seeds=args.seeds)
+    prompts = read_prompts(args.prompts) if args.prompts is not None else None
+    result = bench_sampling(load_model(args.model), load_evaluator(args.evaluator), config, prompts=prompts, log=_log)
+    print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
+    return 0
+
+
 def run_duet(args: argparse.Namespace) -> int:
     from engine.evaluation.bench_duet import DuetBenchConfig, bench_duet, format_table
     from engine.train_commdm import load_trained
@@ -186,44 +235,12 @@ def run_duet(args: argparse.Namespace) -> int:
 
 
 def run_inversion(args: argparse.Namespace) -> int:
-    import numpy as np
-
     from engine.checkpoint import load_model
-    from engine.io import load_motion
-    from engine.methods.inversion import InversionConfig, roundtrip_error
-    from engine.synth import Corpus
+    from engine.evaluation.bench_inversion import InversionBenchConfig, bench_inversion, format_table
 
-    loaded = load_model(args.model)
-    steps = given_steps(args) or 50
-    count = args.samples or (6 if args.quick else 16)
-    corpus = Corpus(split="test")
-    rows = []
-    for i in range(count):
-        s = corpus.sample(20_000 + i, with_features=False)
-        for refine in (0, 2):
-            r = roundtrip_error(loaded, s.joints, InversionConfig(prompt=s.captions[0], steps=steps, refine=refine))
-            rows.append({"source": f"corpus test {20_000 + i}", "refine": refine, **r})
-            _log(f"{rows[-1]}")
-    for path in args.files:
-        joints = load_motion(path)[: loaded.model.config.max_frames + 1]
-        for refine in (0, 2):
-            r = roundtrip_error(loaded, joints, InversionConfig(prompt="", steps=steps, refine=refine))
-            rows.append({"source": str(path), "refine": refine, **r})
-            _log(f"{rows[-1]}")
-
-    def summary(refine: int, corpus_only: bool) -> dict:
-        sel = [r for r in rows if r["refine"] == refine and r["source"].startswith("corpus") == corpus_only]
-        return {"mean_m": float(np.mean([r["mean_m"] for r in sel])) if sel else None,
-                "max_m": float(np.max([r["max_m"] for r in sel])) if sel else None, "motions": len(sel)}
-
-    result = {"corpus": {"plain_ddim": summary(0, True), "fixed_point": summary(2, True)},
-              "files": [r for r in rows if not r["source"].startswith("corpus")], "steps": steps}
-    if args.json:
-        print(json.dumps(result, indent=2))
-    else:
-        for name, s in result["corpus"].items():
-            print(f"corpus ({s['motions']} test motions), {name}: mean {s['mean_m'] * 100:.2f} cm, max {s['max_m'] * 100:.2f} cm")
-        for r in result["files"]:
-            kind = "fixed_point" if r["refine"] else "plain_ddim"
-            print(f"{r['source']} ({r['frames']} frames), {kind}: mean {r['mean_m'] * 100:.2f} cm, max {r['max_m'] * 100:.2f} cm")
+    config = preset(InversionBenchConfig, args, motions=args.samples)
+    if args.no_real_data:
+        config = replace(config, real_data=None)
+    result = bench_inversion(load_model(args.model), config, args.files, log=_log)
+    print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0

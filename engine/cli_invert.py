@@ -5,19 +5,22 @@ import argparse
 import json
 from pathlib import Path
 
+from engine.cli_io import add_window_args, load_window
 from engine.paths import MODEL_DIR
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("invert", help="DDIM-invert a motion (BVH/.npy) to noise and measure the round trip",
                        description="Motion -> noise -> motion with the model; prints the joint error in metres.")
-    p.add_argument("input", type=Path, help=".bvh or .npy motion (at most 9.8 s)")
+    p.add_argument("input", type=Path, help=".bvh or .npy motion (at most the model's 9.8 s: pick a longer file's "
+                   "window with --start/--seconds)")
     p.add_argument("--model", type=Path, default=MODEL_DIR)
     p.add_argument("--prompt", default="", help="a caption of the motion (default: unconditional)")
     p.add_argument("--steps", type=int, default=50)
     p.add_argument("--refine", type=int, default=2, help="fixed-point iterations per inversion step (0 = plain DDIM)")
     p.add_argument("--out", type=Path, default=None, help="save the noise as .npy (1, T, 263)")
     p.add_argument("--json", action="store_true")
+    add_window_args(p, what="the part of the input to invert")
     p.set_defaults(run=run)
 
 
@@ -25,19 +28,23 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from engine.checkpoint import load_model
-    from engine.io import load_motion
+    from engine.io.window import seconds_of
     from engine.methods.inversion import InversionConfig, invert, roundtrip_error
 
-    loaded = load_model(args.model)
-    joints = load_motion(args.input)
     config = InversionConfig(prompt=args.prompt, steps=args.steps, refine=args.refine)
-    report = {"input": str(args.input), **roundtrip_error(loaded, joints, config), "steps": args.steps,
-              "refine": args.refine, "prompt": args.prompt}
+    loaded = load_model(args.model)
+    joints = load_window(args.input, args, max_frames=loaded.model.config.max_frames)
+    report = {"input": str(args.input), "start_s": args.start or 0.0, "seconds": seconds_of(len(joints)),
+              **roundtrip_error(loaded, joints, config), "steps": args.steps, "refine": args.refine,
+              "prompt": args.prompt}
     if args.out is not None:
         np.save(args.out, invert(loaded, joints, config).noise.numpy(), allow_pickle=False)
     if args.json:
         print(json.dumps(report, indent=2))
     else:
-        print(f"{args.input}: {report['frames']} frames, round-trip error mean {report['mean_m'] * 100:.2f} cm, "
-              f"max {report['max_m'] * 100:.2f} cm (steps {args.steps}, refine {args.refine})")
+        window = "" if args.start is None and args.seconds is None else \
+            f" from {report['start_s']:g} s"
+        print(f"{args.input}: {report['seconds']:.1f} s{window}, {report['frames']} frames, round-trip error mean "
+              f"{report['mean_m'] * 100:.2f} cm, max {report['max_m'] * 100:.2f} cm, noise std "
+              f"{report['noise_std']:.3f} (pure noise: 1; steps {args.steps}, refine {args.refine})")
     return 0

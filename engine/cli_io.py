@@ -15,6 +15,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     convert.add_argument("output", type=Path, help="output .npy or .bvh")
     convert.add_argument("--to", choices=("joints", "vecs"), default="joints",
                          help="what an .npy output holds (default: joints)")
+    add_window_args(convert, what="the part of the input to write")
     convert.set_defaults(run=run_convert)
 
     render = sub.add_parser(
@@ -28,12 +29,30 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     render.set_defaults(run=run_render)
 
 
-def run_convert(args: argparse.Namespace) -> int:
-    from engine.io import load_motion, save_motion
+def add_window_args(p: argparse.ArgumentParser, *, what: str) -> None:
+    """``--start`` / ``--seconds``: the window of a longer motion file (engine.io.window holds the rule)."""
+    p.add_argument("--start", type=float, default=None, metavar="SECONDS",
+                   help=f"{what}: starts this many seconds into the file (default 0)")
+    p.add_argument("--seconds", type=float, default=None, metavar="SECONDS",
+                   help=f"{what}: this many seconds from --start (default: to the end)")
 
-    joints = load_motion(args.input)
+
+def load_window(path: Path, args: argparse.Namespace, *, max_frames: int | None = None):
+    """Joints (T, 22, 3) of ``path`` in the window ``args.start`` / ``args.seconds``; with ``max_frames`` (a model's
+    limit) a longer window, or a longer file given without one, is refused with a hint naming the flags."""
+    from engine.io import load_motion, pick_window
+
+    return pick_window(load_motion(path), start=args.start, seconds=args.seconds, max_frames=max_frames,
+                       name=Path(path).name)
+
+
+def run_convert(args: argparse.Namespace) -> int:
+    from engine.generate import FPS
+    from engine.io import save_motion
+
+    joints = load_window(args.input, args)
     save_motion(joints, args.output, to=args.to)
-    print(f"wrote {args.output} ({len(joints)} frames at 20 fps)")
+    print(f"wrote {args.output} ({len(joints)} frames at {FPS} fps)")
     return 0
 
 

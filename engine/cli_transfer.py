@@ -15,7 +15,12 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="a follower: a prompt or a .bvh/.npy motion (repeat for several followers)")
     p.add_argument("--follower-prompt", action="append", default=None,
                    help="describes an imported follower (repeat in the order of --follower)")
-    p.add_argument("--seconds", type=float, default=5.0, help="length of generated leaders/followers")
+    p.add_argument("--seconds", type=float, default=None,
+                   help="length of generated leaders/followers (default 5); with --start also the window cut from "
+                        "leader/follower files (default: to the end, at most the model's 9.8 s)")
+    p.add_argument("--start", type=float, default=None, metavar="SECONDS",
+                   help="cut leader/follower files to a window starting this many seconds in (its length: --seconds); "
+                        "without it a file is taken whole")
     p.add_argument("--layers", type=int, nargs=2, default=None, metavar=("FIRST", "LAST"),
                    help="mixed layers, inclusive 0-based range (default: every layer but the first)")
     p.add_argument("--step-window", type=float, nargs=2, default=(0.1, 0.9), metavar=("START", "END"),
@@ -52,18 +57,29 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     a.set_defaults(run=run_analyze)
 
 
-def sources(args: argparse.Namespace):
-    """The leader and followers as ``Source``s: prompts stay prompts, .bvh/.npy files are loaded."""
+GENERATED_SECONDS = 5.0  # a prompt's leader/follower without --seconds
+
+
+def sources(args: argparse.Namespace, *, max_frames: int | None = None):
+    """The leader and followers as ``Source``s: prompts stay prompts, .bvh/.npy files are loaded (in the window
+    --start/--seconds when --start is given; checked against the model's ``max_frames``)."""
     from engine.methods.momo import Source
 
     def one(text: str, prompt: str | None) -> Source:
         path = Path(text)
         if path.suffix.lower() in (".bvh", ".npy"):
-            from engine.io import load_motion
+            from engine.io import load_motion, pick_window
 
-            return Source(joints=load_motion(path), prompt=prompt, name=path.name)
-        return Source(prompt=text, seconds=args.seconds)
+            windowed = args.start is not None
+            joints = pick_window(load_motion(path), start=args.start, seconds=args.seconds if windowed else None,
+                                 max_frames=max_frames, name=path.name,
+                                 hint="pick a window with --start and --seconds (without --start a file is taken whole)")
+            return Source(joints=joints, prompt=prompt, name=path.name)
+        return Source(prompt=text, seconds=GENERATED_SECONDS if args.seconds is None else args.seconds)
 
+    if args.start is not None and not any(Path(t).suffix.lower() in (".bvh", ".npy")
+                                          for t in (args.leader, *args.follower)):
+        raise ValueError("--start cuts a window of a leader/follower file: give one (.bvh/.npy)")
     prompts = list(args.follower_prompt or [])
     if len(prompts) > len(args.follower):
         raise ValueError("more --follower-prompt than --follower")
@@ -90,8 +106,8 @@ def _run(args: argparse.Namespace, *, record: bool):
     from engine.analysis.qk import qk_record
     from engine.methods.momo import transfer
 
-    leader, followers = sources(args)
     loaded = load_model(args.model)
+    leader, followers = sources(args, max_frames=loaded.model.config.max_frames)
     sample = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed)
     result = transfer(loaded, leader, followers, config_from_args(args), sample=sample,
                       record=qk_record() if record else None)

@@ -10,3 +10,6 @@ MODEL_DIR = ASSETS / "model"
 EVALUATOR_DIR = ASSETS / "evaluator"
 CONTROL_DIR = ASSETS / "control"  # one fine-tuned model folder per control: root, left_wrist, right_wrist
 DUET_DIR = ASSETS / "duet"  # the ComMDM block (and new word rows) trained on MODEL_DIR
+# the shared reference motions (real BVH and HumanML3D files, read in place, never copied into the project):
+# the inversion benchmark inverts every motion file there, the tests read them (tests/conftest.py)
+REAL_DATA_DIR = PROJECT_ROOT.parent / "shared" / "data" / "real"

@@ -6,8 +6,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-PROJECT_ROOT = Path(__file__).resolve().parents[1]
-REAL_DATA = PROJECT_ROOT.parent / "shared" / "data" / "real"
+from engine.paths import PROJECT_ROOT, REAL_DATA_DIR
+
+REAL_DATA = REAL_DATA_DIR  # the one definition lives in engine.paths (the inversion benchmark reads it too)
 
 
 def real_file(name: str) -> Path:

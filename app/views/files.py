@@ -46,6 +46,23 @@ def import_bytes(data: bytes, filename: str):
     return joints
 
 
+WINDOW_FIELDS = ("Start", "Seconds")  # the import's window fields, as the window's messages name them
+
+
+def import_window(data: bytes, filename: str, *, start: float | None = None, seconds: float | None = None,
+                  max_frames: int | None = None):
+    """An upload's joints in the window ``start`` / ``seconds`` (seconds; None: from the beginning / to the end)
+    and the whole file's length in frames. With ``max_frames`` (the model's limit) a longer window, or a longer
+    file with no window, is refused with a one-line hint naming the Start/Seconds fields (engine.io.window)."""
+    from engine.io import pick_window
+
+    joints = import_bytes(data, filename)
+    if seconds is None and start is not None and float(start) == 0.0:
+        start = None  # no window asked for: a file over the limit gets the "pick a window" hint
+    return pick_window(joints, start=start, seconds=seconds, max_frames=max_frames, name=filename,
+                       flags=WINDOW_FIELDS), len(joints)
+
+
 def slug(text: str, limit: int = 40) -> str:
     s = re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_")
     return (s[:limit].rstrip("_") or "motion")
@@ -143,29 +160,72 @@ def export_bytes(item: MotionItem, fmt: str, *, selection: dict | None = None) -
 
 
 class ImportPanel(pn.viewable.Viewer):
+    """Upload a motion file; Start / Seconds pick the window of a file longer than the model's limit (the Seconds
+    field's bound is that limit), and "Import window" re-reads the last upload with another window."""
+
     state = param.ClassSelector(class_=StudioState)
 
     def __init__(self, **params):
+        from engine.generate import FPS
+        from engine.io import model_seconds
+
         super().__init__(**params)
+        self.max_frames = self._max_frames()
+        self.limit_s = model_seconds(self.max_frames)
         self._input = pn.widgets.FileInput(accept=".bvh,.npy", multiple=False, css_classes=["import-input"],
                                            sizing_mode="stretch_width")
+        self.start = pn.widgets.FloatInput(label="Start (s)", value=0.0, start=0.0, step=0.5, width=100,
+                                           css_classes=["import-start"])
+        self.seconds = pn.widgets.FloatInput(label="Seconds", value=None, start=2 / FPS, end=self.limit_s, step=0.5,
+                                             placeholder="to the end", width=100, css_classes=["import-seconds"])
+        self.again = pn.widgets.Button(label="Import window", disabled=True, width=120, margin=(24, 5, 5, 5),
+                                       css_classes=["import-again"])
+        self._upload: tuple[bytes, str] | None = None
         self._input.param.watch(self._on_upload, "value")
+        self.again.on_click(lambda *_: self.import_upload())
+
+    def _max_frames(self) -> int:
+        """The model's limit (its config's max_frames); the default model's when none is loaded."""
+        if self.state.has_model:
+            return int(self.state.model.model.config.max_frames)
+        from engine.model import ModelConfig
+
+        return ModelConfig().max_frames
 
     def _on_upload(self, event):
         if not event.new:
             return
-        name = self._input.filename or "upload"
+        self._upload = (event.new, self._input.filename or "upload")
+        self.again.disabled = False
+        self.import_upload()
+
+    def import_upload(self) -> bool:
+        """Import the last upload in the window Start / Seconds; False (and a one-line message) if refused."""
+        from engine.io.window import seconds_of
+
+        if self._upload is None:
+            self.state.error("upload a .bvh or .npy file first")
+            return False
+        data, name = self._upload
+        start, seconds = self.start.value, self.seconds.value
         try:
-            joints = import_bytes(event.new, name)
-            self.state.show_motion(joints, title=f"imported: {name}")
-        except Exception as exc:  # any parse problem is the user's file, not a crash
+            joints, total = import_window(data, name, start=start, seconds=seconds, max_frames=self.max_frames)
+            cut = len(joints) < total
+            begin = float(start or 0.0)
+            title = f"imported: {name}" + (f" [{begin:g}–{begin + seconds_of(len(joints)):g} s]" if cut else "")
+            self.state.show_motion(joints, title=title)
+        except Exception as exc:  # any parse or window problem is the user's input, not a crash
             self.state.error(f"Could not import {name}: {exc}")
-            return
-        self.state.info(f"imported {name}: {len(joints)} frames ({len(joints) / 20:.1f} s)")
+            return False
+        window = f" from {begin:g} s of its {seconds_of(total):.1f} s" if cut else ""
+        self.state.info(f"imported {name}: {len(joints)} frames ({seconds_of(len(joints)):.1f} s){window}")
+        return True
 
     def __panel__(self):
         return pn.Column("#### Import", "BVH, joints (T,22,3) or HumanML3D vectors (T,263) as .npy "
-                         f"(up to {MAX_UPLOAD_BYTES // 2**20} MB)", self._input, sizing_mode="stretch_width")
+                         f"(up to {MAX_UPLOAD_BYTES // 2**20} MB); a file over the model's {self.limit_s:.1f} s: "
+                         "pick its window (Start, Seconds)", self._input,
+                         pn.Row(self.start, self.seconds, self.again), sizing_mode="stretch_width")
 
 
 class ExportPanel(pn.viewable.Viewer):

@@ -16,6 +16,23 @@ data below it, so the ratio to the first take is only meaningful while the first
 ``interior_fid`` (per method, and ``truth_redraw.interior_fid``) is the same FID on 2-s windows centred
 inside the intervals, away from any transition, against the true sequences' interior windows: how far the
 model's own motion is from real at this window size, which a transition cannot be expected to beat.
+
+Restated physical figures of the transition windows, against the truth's same windows (the true long motions'
+windows centred on their true transitions, where each method's transitions are placed): ``foot_skate``
+(``metrics.foot_skate``: share of grounded foot frame pairs that slide; ``compose.ground_truth_foot_skate``
+beside it), ``jerk_vs_truth`` = ``jerk`` / ``ground_truth_jerk`` and ``foot_skate_vs_truth`` = ``foot_skate`` /
+``ground_truth_foot_skate`` (None when the truth's windows do not skate at all). 1 is the truth's own
+smoothness / footing; a seam shows as a jerk or skate ratio above it.
+
+Adherence per interval (``compose.<method>.adherence``, ``compose.ground_truth_adherence`` beside it): the
+2-s evaluator FID does not see whether a seam ate the actions on either side of it, so each interval of a
+composed motion is cut out at the transition centres (all its own frames, half of each adjacent transition
+included; the naive concatenation's intervals are its samples) and ``engine.evaluation.adherence.check_motion``
+reads it against ``engine.intent.parse_intent`` of the interval's prompt (all checks, no reliability filter: the
+truth's shares, read by the same detectors, are the yardstick). Figures: ``action`` (share of the intervals whose
+action detector answers that match), ``count`` (the same for the count, where the prompt states one and the
+detector is trusted), ``action_and_count`` (share of the checked intervals whose action matches and whose count
+does not fail), with the numbers of intervals each share is over. The truth is cut at its true boundaries.
 """
 from __future__ import annotations
 
@@ -26,7 +43,7 @@ import numpy as np
 
 from engine.checkpoint import LoadedModel
 from engine.evaluation.evaluator import LoadedEvaluator
-from engine.evaluation.metrics import fid
+from engine.evaluation.metrics import fid, foot_skate, jerk
 from engine.generate import FPS, SampleConfig
 from engine.methods.doubletake import DoubleTakeConfig, Interval, compose
 from engine.representation import joints_to_features
@@ -102,10 +119,36 @@ def interiors(centres: list[int], frames: int) -> list[int]:
     return [(a + b) // 2 for a, b in zip(edges[:-1], edges[1:])]
 
 
-def jerk(window: np.ndarray) -> float:
-    """Mean magnitude of the third time derivative of joint positions (m/s³)."""
-    d3 = np.diff(window, n=3, axis=0) * FPS**3
-    return float(np.linalg.norm(d3, axis=-1).mean())
+def interval_crops(joints: np.ndarray, centres: list[int]) -> list[np.ndarray]:
+    """Each interval's frames of a composed motion: cut at the transition centres (so with half of each transition)."""
+    edges = [0, *centres, len(joints)]
+    return [joints[a:b] for a, b in zip(edges[:-1], edges[1:])]
+
+
+def adherence_shares(verdicts: list[dict]) -> dict:
+    """Shares of ``check_motion`` verdicts (one per interval) that match; None where no interval was checked."""
+    out: dict = {"intervals": len(verdicts)}
+    for key in ("action", "count"):
+        checked = [bool(v[key]) for v in verdicts if v.get(key) is not None]
+        out[key] = float(np.mean(checked)) if checked else None
+        out[f"{key}_checked"] = len(checked)
+    both = [bool(v["action"]) and v.get("count") is not False for v in verdicts if v.get("action") is not None]
+    out["action_and_count"] = float(np.mean(both)) if both else None
+    return out
+
+
+def interval_adherence(crops: list[np.ndarray], prompts: list[str]) -> dict:
+    """:func:`adherence_shares` of the adherence detectors run on each interval's crop with its own prompt."""
+    from engine.evaluation.adherence import check_motion
+    from engine.intent import parse_intent
+
+    intents = {p: parse_intent(p) for p in set(prompts)}
+    return adherence_shares([check_motion(c, intents[p]) for c, p in zip(crops, prompts)])
+
+
+def _ratio(value: float, truth: float) -> float | None:
+    """``value / truth``; None where the truth's figure is 0 (no scale to compare with)."""
+    return value / truth if truth > 0 else None
 
 
 def _run(loaded, seq: ComposeCase, method: str, sample: SampleConfig) -> tuple[np.ndarray, list[int]]:
@@ -140,7 +183,11 @@ def bench_compose(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Compo
     true_windows, true_inside = (sum(part, []) for part in zip(*(cut(s.truth, s.boundaries) for s in seqs)))
     true_emb, true_inside_emb = embed(true_windows), embed(true_inside)
     result = {"sequences": len(seqs), "transitions": len(true_windows), "steps": config.steps,
-              "ground_truth_jerk": float(np.mean([jerk(w) for w in true_windows]))}
+              "ground_truth_jerk": float(np.mean([jerk(w) for w in true_windows])),
+              "ground_truth_foot_skate": float(np.mean([foot_skate(w) for w in true_windows]))}
+    prompts = [iv.prompt for s in seqs for iv in s.intervals]
+    result["ground_truth_adherence"] = interval_adherence(
+        [c for s in seqs for c in interval_crops(s.truth, s.boundaries)], prompts)
     redraw, redraw_inside = (sum(part, []) for part in zip(*(cut(s.truth, s.boundaries)
                                                             for s in build_sequences(config, seed=config.seed + 1))))
     result["truth_redraw"] = {"transition_fid": fid(embed(redraw), true_emb), "transitions": len(redraw),
@@ -148,14 +195,20 @@ def bench_compose(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Compo
     log(f"  truth (other sequences): transition FID {result['truth_redraw']['transition_fid']:.3f}, interior FID "
         f"{result['truth_redraw']['interior_fid']:.3f} (the floors)")
     for method in METHODS:
-        wins, inside = [], []
+        wins, inside, crops = [], [], []
         for s in seqs:
-            a, b = cut(*_run(loaded, s, method, sample))
+            joints, centres = _run(loaded, s, method, sample)
+            a, b = cut(joints, centres)
             wins += a
             inside += b
+            crops += interval_crops(joints, centres)
         result[method] = {"transition_fid": fid(embed(wins), true_emb),
                           "jerk": float(np.mean([jerk(w) for w in wins])),
-                          "interior_fid": fid(embed(inside), true_inside_emb)}
+                          "interior_fid": fid(embed(inside), true_inside_emb),
+                          "foot_skate": float(np.mean([foot_skate(w) for w in wins]))}
+        result[method]["jerk_vs_truth"] = _ratio(result[method]["jerk"], result["ground_truth_jerk"])
+        result[method]["foot_skate_vs_truth"] = _ratio(result[method]["foot_skate"], result["ground_truth_foot_skate"])
+        result[method]["adherence"] = interval_adherence(crops, prompts)
         log(f"  {method}: transition FID {result[method]['transition_fid']:.3f}, jerk {result[method]['jerk']:.1f}, "
             f"interior FID {result[method]['interior_fid']:.3f} ({time.time() - t0:.0f} s)")
     long = [Interval("a person walks forward", 5.0), Interval("a person jumps", 5.0),
@@ -177,6 +230,25 @@ def format_table(result: dict) -> str:
     truth = result["truth_redraw"]
     lines.append(f"{'truth':<12}{truth['transition_fid']:>16.3f}{result['ground_truth_jerk']:>12.1f}"
                  f"{truth['interior_fid']:>14.3f}   (FIDs: other true sequences, the floors)")
+    lines.append("")
+    lines.append("transition windows against the truth's same windows (ratio 1 = the truth's own):")
+    lines.append(f"{'method':<12}{'jerk / truth':>14}{'foot skate':>12}{'skate / truth':>15}")
+    ratio = lambda v, width: f"{'n/a':>{width}}" if v is None else f"{v:>{width}.2f}"  # noqa: E731
+    for m in METHODS:
+        r = result[m]
+        lines.append(f"{m:<12}{ratio(r['jerk_vs_truth'], 14)}{r['foot_skate']:>12.3f}"
+                     f"{ratio(r['foot_skate_vs_truth'], 15)}")
+    skate = result["ground_truth_foot_skate"]
+    lines.append(f"{'truth':<12}{ratio(1.0, 14)}{skate:>12.3f}{ratio(1.0 if skate > 0 else None, 15)}"
+                 "   (the true sequences' own windows)")
+    lines.append("")
+    lines.append("adherence per interval (cut at the transition centres; detectors on the interval's own prompt):")
+    lines.append(f"{'method':<12}{'action':>8}{'count':>8}{'action+count':>14}   intervals checked (action / count)")
+    share = lambda v, width: f"{'n/a':>{width}}" if v is None else f"{v:>{width}.2f}"  # noqa: E731
+    for name, a in [*((m, result[m]["adherence"]) for m in METHODS), ("truth", result["ground_truth_adherence"])]:
+        lines.append(f"{name:<12}{share(a['action'], 8)}{share(a['count'], 8)}{share(a['action_and_count'], 14)}"
+                     f"   {a['action_checked']} / {a['count_checked']} of {a['intervals']}")
+    lines.append("")
     lines.append("interior FID: 2-s windows inside the intervals, away from transitions (the model's own distance from "
                  "real motion at this window size)")
     lines.append(f"DoubleTake / first take transition FID: {result['ratio_vs_first_take']:.2f} (target <= 0.7); "

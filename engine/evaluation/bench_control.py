@@ -1,4 +1,4 @@
-"""`moattn bench --control`: control models and DiffusionBlending vs plain inpainting on true paths.
+"""`moattn bench --control`: control models and DiffusionBlending vs plain inpainting, on true and drawn paths.
 
 Held-out test-split motions give the prompts (their captions) and the true control signals:
 the root trajectory (feature dims 0-2) and each wrist's root-relative position. For each task
@@ -9,6 +9,23 @@ position: the root on the floor, the wrist relative to the root), ``off_0_5m`` (
 more than 0.5 m off), ``fid`` (evaluator, vs the held-out motions) and ``skate`` (foot skating).
 ``control.truth_redraw_fid`` is the floor of that FID: as many other held-out motions scored against the same
 ones (with a few dozen motions it is far from 0; a ratio of two FIDs near it is mostly noise).
+
+Beside the true paths, **paths a person would draw** (``engine.methods.drawn_paths``): root S-curves,
+circles and zig-zags at walking speed from the origin heading +Z, and letters written in the air
+with a wrist (the root + left wrist task pairs root path k with left-wrist letter k), each with a
+prompt a person would type for it (in the model's vocabulary). The same methods generate them;
+figures (JSON ``control.drawn.tasks.<task>.<method>``): ``error_m``, ``off_0_5m`` and ``skate`` as
+above (no FID: drawn paths have no reference motions), per path under ``per_path``.
+
+Adherence of the prompted action, on true and drawn paths alike: ``engine.evaluation.adherence.check_motion``
+reads each generated motion against ``engine.intent.parse_intent`` of its prompt (all checks, no reliability
+filter); ``action_match`` is the share of the motions whose intended actions are all detected
+(``adherence``: every attribute's share and count, ``adherence.score``). The detectors' yardsticks beside them:
+``control.truth_adherence`` (the held-out corpus motions with their own captions) and
+``control.drawn.prompt_truth_adherence.<task>`` (a corpus motion realising each drawn path's prompt).
+``control.drawn_vs_true_error.<task>.<method>`` is the drawn-path error over the true-path error: the
+premise of DiffusionBlending (fine-tuned models hold up on such paths where inpainting breaks down)
+shows as a small ratio for the control models and a large one for inpainting, or does not.
 """
 from __future__ import annotations
 
@@ -18,10 +35,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from engine.checkpoint import LoadedModel
+from engine.evaluation.adherence import check_motion, ground_truth_motion, score
 from engine.evaluation.evaluator import LoadedEvaluator
 from engine.evaluation.metrics import fid, foot_skate
 from engine.generate import FPS, SampleConfig
+from engine.intent import parse_intent
 from engine.methods.control import Control, control_dims, controlled, load_controls
+from engine.methods.drawn_paths import DrawnPath, drawn_letters, drawn_root_paths
+from engine.methods.paths import to_world
 from engine.representation import features_to_joints, joints_to_features
 
 TASKS = {"root": ("root",), "left_wrist": ("left_wrist",), "right_wrist": ("right_wrist",),
@@ -35,10 +56,74 @@ class ControlBenchConfig:
     guidance: float = 2.5
     seed: int = 0
     min_seconds: float = 3.0
+    drawn_paths: int = 9  # drawn root paths, and letters per wrist (0: true paths only)
 
     @classmethod
     def quick(cls) -> "ControlBenchConfig":
-        return cls(motions=8, steps=20)
+        return cls(motions=8, steps=20, drawn_paths=3)
+
+
+# prompts a person would type for the drawn paths (every word in the model's vocabulary)
+ROOT_PROMPTS = {"s_curve": "a person walks", "circle": "a person walks in a circle", "zigzag": "a person walks"}
+WRIST_PROMPTS = ("a person waves the {side} hand", "a person stands still")  # letters take them in turn
+BLEND_PROMPT = "{walk} while waving the left hand"
+
+
+@dataclass(frozen=True)
+class DrawnCase:
+    """One drawn-path generation: the prompt, the controls, and the targets the errors are measured against."""
+
+    name: str
+    prompt: str
+    seconds: float
+    controls: list[Control]
+    root_target: np.ndarray | None  # (T + 1, 2) root xz per pose (the path starts at the origin heading +Z)
+    root_frame: dict | None
+    wrist_targets: dict[str, np.ndarray]  # name -> (T, 3) ric values
+
+
+def drawn_cases(task: str, n: int, *, min_seconds: float = 3.0) -> list[DrawnCase]:
+    """The drawn paths of a task, ``n`` of them (``root+left_wrist``: root path k with left-wrist letter k)."""
+    names = TASKS[task]
+    roots = drawn_root_paths(n) if "root" in names else [None] * n
+    letters = {w: drawn_letters(n, w.split("_")[0]) for w in names if w != "root"}
+    out = []
+    for k in range(n):
+        parts: list[DrawnPath] = [p for p in [roots[k], *(letters[w][k] for w in letters)] if p is not None]
+        seconds = max(min_seconds, *(p.seconds for p in parts))
+        controls, root_target, frame, wrists = [], None, None, {}
+        for p in parts:
+            values, f = p.controls(seconds)
+            controls.append(Control(p.control, values))
+            if p.control == "root":
+                root_target, frame = np.asarray(f["target"]), f
+            else:
+                wrists[p.control] = values
+        if task == "root":
+            prompt = ROOT_PROMPTS[roots[k].shape]
+        elif task == "root+left_wrist":
+            prompt = BLEND_PROMPT.format(walk=ROOT_PROMPTS[roots[k].shape])
+        else:
+            prompt = WRIST_PROMPTS[k % len(WRIST_PROMPTS)].format(side=names[0].split("_")[0])
+        out.append(DrawnCase(name=" + ".join(p.name for p in parts), prompt=prompt, seconds=seconds,
+                             controls=controls, root_target=root_target, root_frame=frame, wrist_targets=wrists))
+    return out
+
+
+def drawn_errors(joints: np.ndarray, case: DrawnCase) -> np.ndarray:
+    """Per-frame distances (m) from the drawn targets: the root on the floor, each wrist in the body frame
+    (as :func:`control_error` measures them on true paths), concatenated."""
+    errors = []
+    if case.root_target is not None:
+        world = to_world(joints, case.root_frame)
+        n = min(len(world), len(case.root_target))
+        errors.append(np.linalg.norm(world[:n, 0, [0, 2]] - case.root_target[:n], axis=1))
+    if case.wrist_targets:
+        feats = joints_to_features(joints)
+        for name, target in case.wrist_targets.items():
+            n = min(len(feats), len(target))
+            errors.append(np.linalg.norm(feats[:n, control_dims(name)] - target[:n], axis=1))
+    return np.concatenate(errors)
 
 
 def control_error(joints: np.ndarray, truth: np.ndarray, name: str) -> np.ndarray:
@@ -57,6 +142,9 @@ def bench_control(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Contr
     from engine.paths import CONTROL_DIR
     from engine.synth import Corpus
 
+    if config.motions < 2:
+        raise ValueError(f"the control benchmark needs at least 2 held-out motions (an FID of one motion is undefined), "
+                         f"got {config.motions}")
     t0 = time.time()
     models = load_controls(CONTROL_DIR) if models is None else models
     corpus = Corpus(split="test", seed=config.seed)
@@ -75,15 +163,15 @@ def bench_control(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Contr
     floor = fid(evaluator.motion_embeddings([s.features for s in held_out(40000)]), truth_emb)
     log(f"  truth (other motions): FID {floor:.3f} (the floor)")
     sample = SampleConfig(steps=config.steps, guidance=config.guidance, seed=config.seed)
+    intents = [parse_intent(s.captions[0]) for s in items]
     result = {"motions": len(items), "steps": config.steps, "models": sorted(models), "tasks": {},
-              "truth_redraw_fid": floor}
+              "truth_redraw_fid": floor,
+              "truth_adherence": score(check_motion(s.joints, i) for s, i in zip(items, intents))}
     for task, names in TASKS.items():
-        methods = {"inpainting": None}
-        if all(n in models for n in names):
-            methods["blending" if len(names) > 1 else "fine_tuned"] = models
+        methods = task_methods(names, models)
         rows = {}
         for method, use in methods.items():
-            errors, feats, skates = {n: [] for n in names}, [], []
+            errors, feats, skates, verdicts = {n: [] for n in names}, [], [], []
             for k, s in enumerate(items):
                 seconds = (len(s.joints) - 1) / FPS
                 truth = features_to_joints(s.features)
@@ -95,12 +183,20 @@ def bench_control(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Contr
                     errors[n].append(control_error(joints, truth, n))
                 feats.append(joints_to_features(joints))
                 skates.append(foot_skate(joints))
+                verdicts.append(check_motion(joints, intents[k]))
             err = np.concatenate([e for n in names for e in errors[n]])
+            adherence = score(verdicts)
             rows[method] = {"error_m": float(err.mean()), "off_0_5m": float((err > 0.5).mean()),
-                            "fid": fid(evaluator.motion_embeddings(feats), truth_emb), "skate": float(np.mean(skates))}
+                            "fid": fid(evaluator.motion_embeddings(feats), truth_emb), "skate": float(np.mean(skates)),
+                            "action_match": adherence["action"], "adherence": adherence}
             log(f"  {task} / {method}: error {rows[method]['error_m']:.3f} m, FID {rows[method]['fid']:.3f} "
                 f"({time.time() - t0:.0f} s)")
         result["tasks"][task] = rows
+    if config.drawn_paths > 0:
+        result["drawn"] = bench_drawn(loaded, models, config, log=lambda line: log(f"{line} ({time.time() - t0:.0f} s)"))
+        result["drawn_vs_true_error"] = {
+            task: {m: r["error_m"] / max(result["tasks"][task][m]["error_m"], 1e-9) for m, r in rows.items()}
+            for task, rows in result["drawn"]["tasks"].items()}
     blend = result["tasks"]["root+left_wrist"]
     result["blending_fid_vs_inpainting"] = (blend["blending"]["fid"] / max(blend["inpainting"]["fid"], 1e-9)
                                             if "blending" in blend else None)
@@ -108,11 +204,70 @@ def bench_control(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Contr
     return result
 
 
+def task_methods(names: tuple[str, ...], models: dict) -> dict:
+    """method -> control models (None: plain inpainting with the base model)."""
+    methods = {"inpainting": None}
+    if all(n in models for n in names):
+        methods["blending" if len(names) > 1 else "fine_tuned"] = models
+    return methods
+
+
+def bench_drawn(loaded: LoadedModel, models: dict[str, LoadedModel], config: ControlBenchConfig, *, log=print) -> dict:
+    """Every task's methods on the drawn paths: error, share > 0.5 m off, foot skate; per path as well."""
+    out = {"paths": {}, "tasks": {}, "prompt_truth_adherence": {}}
+    for task, names in TASKS.items():
+        cases = drawn_cases(task, config.drawn_paths, min_seconds=config.min_seconds)
+        out["paths"][task] = [{"name": c.name, "prompt": c.prompt, "seconds": c.seconds} for c in cases]
+        intents = [parse_intent(c.prompt) for c in cases]
+        out["prompt_truth_adherence"][task] = score(check_motion(ground_truth_motion(i, config.seed + k), i)
+                                                    for k, i in enumerate(intents))
+        rows = {}
+        for method, use in task_methods(names, models).items():
+            per_path = []
+            for k, case in enumerate(cases):
+                gen = controlled(loaded, case.prompt, case.controls, seconds=case.seconds, models=use,
+                                 sample=SampleConfig(steps=config.steps, guidance=config.guidance, seed=config.seed + k))
+                joints = gen.joints[0]
+                err = drawn_errors(joints, case)
+                per_path.append({"path": case.name, "error_m": float(err.mean()), "off_0_5m": float((err > 0.5).mean()),
+                                 "skate": foot_skate(joints), "adherence": check_motion(joints, intents[k]), "_err": err})
+            err = np.concatenate([p.pop("_err") for p in per_path])
+            adherence = score(p["adherence"] for p in per_path)
+            rows[method] = {"paths": len(per_path), "error_m": float(err.mean()), "off_0_5m": float((err > 0.5).mean()),
+                            "skate": float(np.mean([p["skate"] for p in per_path])),
+                            "action_match": adherence["action"], "adherence": adherence, "per_path": per_path}
+            log(f"  drawn {task} / {method}: error {rows[method]['error_m']:.3f} m, skate {rows[method]['skate']:.3f}, "
+                f"action {_share(rows[method]['action_match'])}")
+        out["tasks"][task] = rows
+    return out
+
+
+def _share(value: float | None) -> str:
+    return "-" if value is None else f"{value:.2f}"
+
+
 def format_table(result: dict) -> str:
-    lines = [f"{'task':<18}{'method':<12}{'error m':>9}{'>0.5 m':>8}{'FID':>8}{'skate':>8}"]
+    drawn = result.get("drawn", {}).get("tasks", {})
+    lines = [f"{'task':<18}{'method':<12}{'paths':<7}{'error m':>9}{'>0.5 m':>8}{'FID':>8}{'skate':>8}{'action':>8}"]
     for task, rows in result["tasks"].items():
         for method, r in rows.items():
-            lines.append(f"{task:<18}{method:<12}{r['error_m']:>9.3f}{r['off_0_5m']:>8.3f}{r['fid']:>8.3f}{r['skate']:>8.3f}")
+            lines.append(f"{task:<18}{method:<12}{'true':<7}{r['error_m']:>9.3f}{r['off_0_5m']:>8.3f}{r['fid']:>8.3f}"
+                         f"{r['skate']:>8.3f}{_share(r['action_match']):>8}")
+            d = drawn.get(task, {}).get(method)
+            if d is not None:
+                lines.append(f"{'':<18}{'':<12}{'drawn':<7}{d['error_m']:>9.3f}{d['off_0_5m']:>8.3f}{'-':>8}"
+                             f"{d['skate']:>8.3f}{_share(d['action_match']):>8}")
+    lines.append("action: share of the motions whose prompted action is detected (engine.evaluation.adherence); "
+                 f"the truth's own: {_share(result['truth_adherence']['action'])} (held-out motions, their captions)"
+                 + ("" if not drawn else "; corpus motions of the drawn prompts: " + ", ".join(
+                     f"{task} {_share(a['action'])}" for task, a in result["drawn"]["prompt_truth_adherence"].items())))
+    if drawn:
+        ratios = result["drawn_vs_true_error"]
+        lines.append("drawn / true path error: " + "; ".join(
+            f"{task} " + ", ".join(f"{m} x{v:.2f}" for m, v in rows.items()) for task, rows in ratios.items()))
+        paths = result["drawn"]["paths"]
+        lines.append(f"drawn paths: root {', '.join(p['name'] for p in paths['root'])}; letters (left, right wrist) "
+                     f"{', '.join(p['name'].split('_')[1] for p in paths['left_wrist'])}")
     ratio = result["blending_fid_vs_inpainting"]
     lines.append("blending / inpainting FID (root + left wrist): " + ("n/a (no control models)" if ratio is None
                                                                        else f"{ratio:.2f} (target <= 0.5)"))

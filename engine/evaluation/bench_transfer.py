@@ -18,7 +18,31 @@ Figures per method (JSON keys, the paper's definitions):
   facing +Z (heading aligned);
 - ``gt_mpjpe_local``: the same on the pose alone: root-relative joints in each frame's heading
   frame (the representation's ric part), so a root path error does not count;
+- ``motif_mpjpe_local``: ``gt_mpjpe_local`` on the joints where the follower's motif lives only (the rule
+  below);
 - ``ood``: the same figures on the held-out subset.
+
+Restated figures (per row, ``ood`` rows against the ``ood`` rows of the references), the paper's figures put
+beside what they mean on this corpus:
+- ``gt_mpjpe_local_vs_leader_copy`` / ``gt_mpjpe_local_vs_nn_motion``: the row's ``gt_mpjpe_local`` divided by
+  the ``leader_copy`` reference's and by the ``nn_motion`` method's (below 1: nearer the truth's poses than the
+  trivial transfer / than copying follower frames);
+- ``foot_contact_to_truth`` / ``follower_loc_to_truth``: |row − truth| on ``foot_contact`` and ``follower_loc``.
+  The paper reads both as "higher is better", but the ground truth itself does not score 1 on them, so the
+  distance to what the truth scores is the figure that a perfect transfer drives to 0. ``momo_gen``'s two
+  figures are measured against its generated streams, the truth's against the pair's own: for it the
+  distance compares like with like only loosely.
+
+Motif-joint rule (``motif_region``), decided per pair from the corpus labels (``labels.motifs``): take the
+motifs the ground truth carries (its style and gestures); when it carries neither (``combine`` dropped the
+follower's because the leader's action cannot take them, e.g. a wave on a dance), take the follower's. A
+posture style (any style not in ``splits.ARM_STYLES``: crouched, old, happy, sad, robot, drunk, proud) bends
+the whole body: ``body``, all 21 root-relative joints (so ``motif_mpjpe_local`` equals ``gt_mpjpe_local`` on
+that pair). Otherwise an arm style (``ARM_STYLES``: zombie, chicken, hands_up, gorilla) or a gesture (wave,
+clap, raise_arms, punch, ... as an overlay or a segment) lives in the arms: ``arms``, the shoulders, elbows
+and wrists of both sides (named in ``engine.skeleton.JOINT_NAMES``; both sides, as the other arm's swing is
+changed by a one-sided gesture too). A pair with no motif at all (not drawn by :func:`build_pairs`) counts the
+whole body. The JSON's ``motif_regions`` lists the region per pair.
 
 Methods: ``momo`` (leader's root trajectory kept, the default), ``momo_paper_root`` (the paper's
 root-rotation copy only), ``momo_feet`` (the default plus the leader's footwork kept, an option
@@ -48,12 +72,43 @@ from engine.generate import SampleConfig
 from engine.methods.momo import Source, TransferConfig, canonical, prepare, transfer, transfer_streams
 from engine.methods.momo_baselines import inpaint_upper_body, latent_nn, motion_space_nn
 from engine.representation import SLICES, foot_contacts, joints_to_features
+from engine.skeleton import JOINT_NAMES, NUM_JOINTS
+from engine.synth.splits import ARM_STYLES
 
 LEADER_ACTIONS = ("walk", "run", "jog", "jump", "jump_forward", "dance", "side_step", "walk_backward", "hop")
 FOLLOWER_ACTIONS = ("walk", "run", "jog", "dance", "jump", "side_step")
 METHODS = ("momo", "momo_paper_root", "momo_feet", "momo_gen", "nn_motion", "nn_latent", "inpaint_upper")
 REFERENCES = ("truth", "leader_copy")
 KEYS = ("fid", "r_precision_top3", "foot_contact", "follower_rot", "follower_loc", "gt_mpjpe", "gt_mpjpe_local")
+# the restated figures (second table): the motif-joint error per pair, the rest derived from the rows
+RESTATED = ("gt_mpjpe_local_vs_leader_copy", "gt_mpjpe_local_vs_nn_motion", "foot_contact_to_truth",
+            "follower_loc_to_truth", "motif_mpjpe_local")
+# skeleton joint indices of each motif region (the ric part holds joints 1..21: joint j is its row j - 1)
+MOTIF_JOINTS = {
+    "arms": tuple(j for j, name in enumerate(JOINT_NAMES) if name.endswith(("shoulder", "elbow", "wrist"))),
+    "body": tuple(range(1, NUM_JOINTS)),
+}
+
+
+def _carries_motif(motifs: dict) -> bool:
+    return motifs.get("style", "none") != "none" or bool(motifs.get("gestures"))
+
+
+def motif_region(truth_motifs: dict, follower_motifs: dict | None = None) -> str:
+    """``"arms"`` or ``"body"``: where the follower's motif lives (the module docstring's rule).
+
+    ``truth_motifs`` / ``follower_motifs``: ``labels.motifs`` of the ground truth and of the follower (only
+    ``style`` and ``gestures`` are read).
+    """
+    motifs = truth_motifs
+    if not _carries_motif(motifs) and follower_motifs is not None:
+        motifs = follower_motifs
+    style = motifs.get("style", "none")
+    if style != "none" and style not in ARM_STYLES:
+        return "body"
+    if style in ARM_STYLES or motifs.get("gestures"):
+        return "arms"
+    return "body"
 
 
 @dataclass(frozen=True)
@@ -86,6 +141,10 @@ class Pair:
             joints = canonical(getattr(self, role).joints)
             out[role] = (joints, joints_to_features(joints))
         return out
+
+    @cached_property
+    def motif_region(self) -> str:
+        return motif_region(self.truth.labels.motifs, self.follower.labels.motifs)
 
 
 def _single(program) -> bool:
@@ -159,8 +218,10 @@ def measure(out: np.ndarray, pair: Pair, *, streams: tuple[np.ndarray, np.ndarra
     fo = joints_to_features(out)
     rot, ric = SLICES["rot6d"], SLICES["ric"]
     k = min(len(fo), len(ft))
-    local = np.linalg.norm((fo[:k, ric] - ft[:k, ric]).reshape(k, -1, 3), axis=-1).mean()
-    return {"gt_mpjpe": mpjpe, "gt_mpjpe_local": float(local), "foot_contact": contact,
+    local = np.linalg.norm((fo[:k, ric] - ft[:k, ric]).reshape(k, -1, 3), axis=-1)  # (k, 21): joints 1..21
+    motif = local[:, [j - 1 for j in MOTIF_JOINTS[pair.motif_region]]]
+    return {"gt_mpjpe": mpjpe, "gt_mpjpe_local": float(local.mean()), "motif_mpjpe_local": float(motif.mean()),
+            "foot_contact": contact,
             "follower_rot": _nearest_is_follower(fo[:, rot], fl[:, rot], ff[:, rot]),
             "follower_loc": _nearest_is_follower(fo[:, ric], fl[:, ric], ff[:, ric])}
 
@@ -177,11 +238,19 @@ def _summary(rows: list[dict], outputs: list[np.ndarray], captions: list[str], e
     feats = [joints_to_features(j) for j in outputs]
     emb = evaluator.motion_embeddings(feats)
     text = evaluator.text_embeddings(captions)
-    out = {k: float(np.mean([r[k] for r in rows])) for k in KEYS if k in rows[0]}
+    out = {k: float(np.mean([r[k] for r in rows])) for k in (*KEYS, "motif_mpjpe_local") if k in rows[0]}
     out["fid"] = fid(emb, truth_emb) if len(emb) >= 2 else float("nan")  # a covariance needs two motions
     out["r_precision_top3"] = _r_precision_top3(text, emb, distractors)
     out["n"] = len(rows)
-    return {k: out[k] for k in (*KEYS, "n")}
+    return {k: out[k] for k in (*KEYS, "motif_mpjpe_local", "n")}
+
+
+def restate(row: dict, *, leader_copy: dict, nn_motion: dict, truth: dict) -> None:
+    """Add the restated figures to one summary row (in place), from the same subset's reference rows."""
+    row["gt_mpjpe_local_vs_leader_copy"] = row["gt_mpjpe_local"] / max(leader_copy["gt_mpjpe_local"], 1e-9)
+    row["gt_mpjpe_local_vs_nn_motion"] = row["gt_mpjpe_local"] / max(nn_motion["gt_mpjpe_local"], 1e-9)
+    row["foot_contact_to_truth"] = abs(row["foot_contact"] - truth["foot_contact"])
+    row["follower_loc_to_truth"] = abs(row["follower_loc"] - truth["follower_loc"])
 
 
 def bench_transfer(loaded: LoadedModel, evaluator: LoadedEvaluator, config: TransferBenchConfig = TransferBenchConfig(),
@@ -243,7 +312,13 @@ def bench_transfer(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Tran
         summary = _summary(r_in, o_in, c_in, evaluator, truth_emb[~ood], distractors)
         summary["ood"] = _summary(r_ood, o_ood, c_ood, evaluator, truth_emb[ood], distractors) if r_ood else None
         result["methods" if m in METHODS else "reference"][m] = summary
-    momo, nn = result["methods"]["momo"], result["methods"]["nn_motion"]
+    copy, nn, truth = result["reference"]["leader_copy"], result["methods"]["nn_motion"], result["reference"]["truth"]
+    for row in (*result["methods"].values(), *result["reference"].values()):
+        restate(row, leader_copy=copy, nn_motion=nn, truth=truth)
+        if row["ood"] is not None:
+            restate(row["ood"], leader_copy=copy["ood"], nn_motion=nn["ood"], truth=truth["ood"])
+    result["motif_regions"] = [p.motif_region for p in pairs]
+    momo = result["methods"]["momo"]
     truth = result["reference"]["truth"]
     result["targets"] = {
         "gt_mpjpe_vs_nn_motion": momo["gt_mpjpe"] / max(nn["gt_mpjpe"], 1e-9),
@@ -269,6 +344,20 @@ def format_table(result: dict) -> str:
             if r is None:
                 continue
             lines.append(f"{name:<20}" + "".join(f"{r[k]:>17.3f}" for k in KEYS))
+    if all(k in row for _, row in rows for k in RESTATED):  # results of older runs lack the restated figures
+        lines.append("")
+        lines.append("restated: gt_mpjpe_local as a ratio to leader_copy's / nn_motion's, |foot_contact - truth's|, "
+                     "|follower_loc - truth's|, and motif-joint error (m, pose only)")
+        names = ("mpjpe_loc/copy", "mpjpe_loc/nn", "|foot - truth|", "|loc - truth|", "motif_mpjpe_loc")
+        head2 = f"{'method':<20}" + "".join(f"{k:>17}" for k in names)
+        lines += [head2, "-" * len(head2)]
+        for m, row in rows:
+            for name, r in ((m, row), (f"  {m} ood", row.get("ood"))):
+                if r is not None:
+                    lines.append(f"{name:<20}" + "".join(f"{r[k]:>17.3f}" for k in RESTATED))
+        regions = result.get("motif_regions", [])
+        lines.append(f"motif joints per pair: {regions.count('arms')} arms (shoulders, elbows, wrists), "
+                     f"{regions.count('body')} whole body (posture styles)")
     t = result["targets"]
     lines.append("")
     lines.append(f"momo gt_mpjpe / nn_motion: {t['gt_mpjpe_vs_nn_motion']:.2f} (target <= 0.5); foot_contact "

@@ -88,6 +88,12 @@ def foot_skate(joints: np.ndarray, *, height: float = 0.05, speed: float = 0.025
     return float((slide[low] > speed).mean())
 
 
+def jerk(joints: np.ndarray, *, fps: float = FPS) -> float:
+    """Mean magnitude of the third time derivative of joint positions (m/s³); joints (T, 22, 3)."""
+    d3 = np.diff(joints, n=3, axis=0) * fps**3
+    return float(np.linalg.norm(d3, axis=-1).mean())
+
+
 def penetration_cm(joints: np.ndarray) -> float:
     """Mean over frames of how far the lowest joint is below the floor (y = 0), in cm."""
     return float(np.maximum(-joints[..., 1].min(-1), 0.0).mean() * 100)

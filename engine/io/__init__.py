@@ -5,6 +5,8 @@
   joints) and always returns joints (T, 22, 3) float32 in metres.
 - :func:`save_motion` writes joints as ``.npy`` (joints, or features with ``to="vecs"``) or
   as ``.bvh``.
+- :func:`pick_window` keeps the window ``start`` / ``seconds`` of a longer motion (``engine.io.window``: the
+  one rule for the CLI's ``--start`` / ``--seconds``, the app's import and the model's length limit).
 
 Errors are :class:`MotionIOError` (a ``ValueError``); BVH problems are :class:`BVHError`.
 """
@@ -19,6 +21,7 @@ import numpy as np
 from engine.io.bvh import BVHData, BVHImport, format_bvh, import_bvh, load_bvh, read_bvh, save_bvh
 from engine.io.errors import DEFAULT_MAX_BYTES, BVHError, MotionIOError
 from engine.io.npy import classify_motion_array, load_npy, save_npy
+from engine.io.window import model_seconds, pick_window, window_slice
 from engine.representation import features_to_joints, joints_to_features
 
 SUPPORTED_SUFFIXES: tuple[str, ...] = (".bvh", ".npy")
@@ -77,6 +80,6 @@ def save_motion(
 
 __all__ = [
     "BVHData", "BVHError", "BVHImport", "DEFAULT_MAX_BYTES", "MotionIOError", "SUPPORTED_SUFFIXES",
-    "format_bvh", "import_bvh", "load_bvh", "load_motion", "load_npy", "read_bvh", "save_bvh",
-    "save_motion", "save_npy",
+    "format_bvh", "import_bvh", "load_bvh", "load_motion", "load_npy", "model_seconds", "pick_window", "read_bvh",
+    "save_bvh", "save_motion", "save_npy", "window_slice",
 ]

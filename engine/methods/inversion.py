@@ -10,6 +10,7 @@ from engine.attention.context import BatchRoles, WordIndex
 from engine.checkpoint import LoadedModel
 from engine.diffusion import ClassifierFreeGuidance, CosineSchedule, ddim, ddim_invert, final
 from engine.diffusion.sampler import CLEAN
+from engine.io.window import pick_window
 from engine.model.denoiser import Condition
 from engine.representation import features_to_joints, joints_to_features
 
@@ -50,10 +51,7 @@ def motion_condition(loaded: LoadedModel, prompt: str, frames: int, *, role: str
 
 
 def invert(loaded: LoadedModel, joints: np.ndarray, config: InversionConfig = InversionConfig()) -> Inverted:
-    max_frames = loaded.model.config.max_frames
-    if len(joints) - 1 > max_frames:
-        raise ValueError(f"the motion has {len(joints)} frames; the model takes at most {max_frames + 1} "
-                         f"({(max_frames + 1) / 20:.1f} s): trim it first")
+    pick_window(joints, max_frames=loaded.model.config.max_frames)  # a motion over the model's limit: one-line hint
     features = joints_to_features(joints)
     x0 = torch.from_numpy(loaded.normalizer.normalize(features)).float()[None]
     cond = motion_condition(loaded, config.prompt, x0.shape[1])
@@ -76,7 +74,8 @@ def reconstruct(loaded: LoadedModel, inverted: Inverted, config: InversionConfig
 
 def roundtrip_error(loaded: LoadedModel, joints: np.ndarray, config: InversionConfig = InversionConfig()) -> dict:
     """Mean and max joint position error (m) of motion -> noise -> motion, against the input's own
-    feature decoding (so the representation's rounding is not counted)."""
+    feature decoding (so the representation's rounding is not counted), and the standard deviation of the
+    inverted noise (``noise_std``; the Gaussian noise the model samples from has 1)."""
     inverted = invert(loaded, joints, config)
     target = features_to_joints(inverted.features)
     back = reconstruct(loaded, inverted, config)

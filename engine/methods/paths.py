@@ -4,7 +4,8 @@ A root path is 2-D floor points (x, z in metres, world frame, Y up) with optiona
 character walks along it facing its direction of travel, starting at the first point. Its
 control features (root rotation velocity and XZ linear velocity) are computed by running a
 rigid rest-pose body along the path through the representation itself, so the conventions are
-the model's by construction. A wrist path is 3-D points in the body frame (x to the person's
+the model's by construction (one extraction quirk that throws a full circle off its path is undone,
+see :func:`_onto_path`). A wrist path is 3-D points in the body frame (x to the person's
 left, y height above the floor, z forward: the representation's root-relative "ric" frame).
 """
 from __future__ import annotations
@@ -14,7 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from engine.generate import FPS
-from engine.representation import joints_to_features
+from engine.representation import canonicalize, hml_inverse_kinematics, joints_to_features
+from engine.rotations import qinv, qmul
 from engine.skeleton import Skeleton
 
 MAX_ROOT_SPEED = 4.5  # m/s: a fast run
@@ -113,8 +115,25 @@ def root_controls(path: RootPath, seconds: float) -> tuple[np.ndarray, dict]:
     """
     xz = path.frames(seconds)
     yaw = headings(xz)
-    feats = joints_to_features(body_along(xz, yaw))
-    return feats[:, :3], {"origin": xz[0].tolist(), "yaw": float(yaw[0]), "target": xz}
+    body = body_along(xz, yaw)
+    values = _onto_path(joints_to_features(body)[:, :3].astype(np.float64), canonicalize(body))
+    return values, {"origin": xz[0].tolist(), "yaw": float(yaw[0]), "target": xz}
+
+
+def _onto_path(values: np.ndarray, body: np.ndarray) -> np.ndarray:
+    """Root features (T, 3) of the canonical ``body`` (T + 1, 22, 3), made to decode onto its root path.
+
+    HumanML3D's extraction (kept as it is for the reference data) stores the turn per frame as the asin
+    of the relative quaternion's y part, with no sign fix: on the frame where the heading passes 180
+    degrees from the start, the quaternion's double cover flips that frame's turn, so a drawn circle
+    decoded about 0.1 rad off its heading from there on and up to 0.3 m off the path. Here the turn takes
+    the sign of the quaternion's w; ``features_to_joints`` then puts the root on every pose of the path.
+    """
+    q = hml_inverse_kinematics(body)[:, 0]  # (T + 1, 4) w, x, y, z: the representation's own (smoothed) heading
+    rel = qmul(q[1:], qinv(q[:-1]))
+    values = values.copy()
+    values[:, 0] = np.arcsin(np.clip(np.where(rel[:, 0] < 0, -rel[:, 2], rel[:, 2]), -1.0, 1.0))
+    return values
 
 
 def to_world(joints: np.ndarray, frame: dict) -> np.ndarray:

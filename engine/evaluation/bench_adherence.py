@@ -1,0 +1,187 @@
+"""`moattn bench --adherence`: does a generated motion do what its prompt says?
+
+1. **Detector validation** (first table): the checks of ``engine.evaluation.adherence`` run on
+   corpus test motions against their labels. A check under 95 % agreement is listed as
+   unreliable and left out of both rows below (never tuned to the model).
+2. **Adherence**: every prompt (the default set, ``data/adherence_prompts.txt``, is written the way
+   people type, not in the caption grammar) is parsed to its intent, sampled with ``seeds``
+   seeds, and every motion is checked. The **ground-truth row** scores corpus motions realising
+   the same intents (stated attributes as stated, the rest drawn as the corpus draws them).
+   Model motions get the ground truth's length for the same prompt and seed, so a count has
+   room to happen.
+
+A prompt the model refuses (unknown words) counts as failing every stated attribute: that is
+what its user sees. A prompt the parser cannot fully place is listed under ``unparsed``.
+"""
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from engine.evaluation.adherence import (ATTRIBUTES, check_motion, ground_truth_motion, reliability, score,
+                                         validate)
+from engine.generate import SampleConfig
+from engine.intent import Intent, parse_intent
+
+PROMPTS_FILE = Path(__file__).with_name("data") / "adherence_prompts.txt"
+TOTALS = ("action", "count", "side", "direction", "order")
+
+
+def read_prompts(path: Path = PROMPTS_FILE) -> list[str]:
+    """Prompts of a file, one per line; blank lines and '#' comments skipped."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"cannot read the prompts file {path}: {exc}") from None
+    prompts = [line.split("#", 1)[0].strip() for line in text.splitlines()]
+    prompts = [p for p in prompts if p]
+    if not prompts:
+        raise ValueError(f"the prompts file {path} holds no prompts")
+    return prompts
+
+
+@dataclass(frozen=True)
+class AdherenceBenchConfig:
+    seeds: int = 4
+    steps: int = SampleConfig().steps
+    guidance: float = SampleConfig().guidance
+    validation_motions: int = 500
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.seeds < 1:
+            raise ValueError("--seeds must be at least 1")
+        if self.validation_motions < 1:
+            raise ValueError("the validation needs at least one corpus motion")
+
+    @classmethod
+    def quick(cls) -> "AdherenceBenchConfig":
+        return cls(seeds=2, steps=20, validation_motions=500)
+
+
+def _refused(loaded, prompt: str) -> list[str]:
+    return loaded.tokenizer.unknown_words(prompt) if loaded is not None else []
+
+
+def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: AdherenceBenchConfig) -> list[np.ndarray]:
+    """One motion per seed, each with the given number of joint frames."""
+    from engine.generate import Request, generate
+
+    out = []
+    for k, n in enumerate(lengths):
+        frames = min(n - 1, loaded.model.config.max_frames)
+        gen = generate(loaded, Request(prompts=[prompt], frames=[frames]),
+                       SampleConfig(steps=config.steps, guidance=config.guidance, seed=config.seed + k))
+        out.append(gen.joints[0])
+    return out
+
+
+def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(), *,
+                    prompts: Sequence[str] | None = None, log: Callable[[str], None] = lambda s: None) -> dict:
+    """The validation table, the model's and the ground truth's adherence, per prompt and in total.
+    ``loaded`` None scores the ground truth only."""
+    t0 = time.perf_counter()
+    prompts = list(prompts) if prompts is not None else read_prompts()
+    log(f"validating the detectors on {config.validation_motions} corpus test motions")
+    validation = validate(motions=config.validation_motions, log=log)
+    reliable = reliability(validation)
+    per_prompt, model_rows, truth_rows, unparsed, refused = [], [], [], [], []
+    for i, prompt in enumerate(prompts):
+        intent: Intent = parse_intent(prompt)
+        if not intent.complete:
+            unparsed.append({"prompt": prompt, "unplaced": list(intent.unplaced), "intent": intent.describe()})
+        if not intent.segments:
+            continue
+        truths = [ground_truth_motion(intent, config.seed + 1000 * i + k) for k in range(config.seeds)]
+        truth_checks = [check_motion(j, intent, reliable=reliable) for j in truths]
+        truth_rows += truth_checks
+        row = {"prompt": prompt, "intent": intent.describe(), "ground_truth": _shares(truth_checks)}
+        if loaded is not None:
+            unknown = _refused(loaded, prompt)
+            if unknown:
+                refused.append({"prompt": prompt, "unknown": unknown})
+                model_checks = [{a: (False if v is not None else None) for a, v in c.items()} for c in truth_checks]
+            else:
+                motions = _model_motions(loaded, prompt, [len(j) for j in truths], config)
+                model_checks = [check_motion(j, intent, reliable=reliable) for j in motions]
+                row["counts"] = _counts(motions, intent)
+            model_rows += model_checks
+            row["model"] = _shares(model_checks)
+        per_prompt.append(row)
+        log(f"[{i + 1}/{len(prompts)}] {prompt!r}: " + ", ".join(
+            f"{a} {v:.2f}" for a, v in row.get("model", row["ground_truth"]).items() if v is not None))
+    unreliable = sorted(k for k, ok in validation["reliable"].items() if not ok)
+    return {"validation": validation["agreement"], "validation_detail": validation["per_action"],
+            "validation_absent": validation["absent"], "unreliable": unreliable,
+            "model": score(model_rows) if loaded is not None else None, "ground_truth": score(truth_rows),
+            "unparsed": unparsed, "refused": refused, "per_prompt": per_prompt,
+            "settings": {"seeds": config.seeds, "steps": config.steps, "guidance": config.guidance,
+                         "prompts": len(prompts), "validation_motions": config.validation_motions},
+            "seconds": time.perf_counter() - t0}
+
+
+def _shares(checks: list[dict]) -> dict:
+    """Per attribute, the share of seeds that match (None: not stated or not scored)."""
+    out = {}
+    for attr in ATTRIBUTES:
+        vals = [c[attr] for c in checks if c[attr] is not None]
+        out[attr] = float(np.mean(vals)) if vals else None
+    return out
+
+
+def _counts(motions: list[np.ndarray], intent: Intent) -> dict:
+    """Detected events per counted action and seed (what a user would count by eye)."""
+    from engine.analysis.detectors import MotionSignals, detect
+
+    out: dict[str, list[int]] = {}
+    for seg in intent.segments:
+        if seg.count is not None:
+            out[seg.action] = [len(detect(MotionSignals(j), seg.action)) for j in motions]
+    return out
+
+
+def _fmt(v) -> str:
+    return "   -" if v is None else f"{v:4.2f}"
+
+
+def format_table(result: dict) -> str:
+    lines = ["detector validation (agreement with corpus labels):"]
+    for attr, v in result["validation"].items():
+        lines.append(f"  {attr:<14} {_fmt(v)}")
+    detail = result.get("validation_detail", {})
+    if result.get("unreliable"):
+        lines.append("  unreliable (< 0.95, left out of the scores): " + ", ".join(
+            f"{k} {detail[k]['agreement']:.2f}" if k in detail else k for k in result["unreliable"]))
+    lines.append("")
+    head = f"{'':<16}" + "".join(f"{a:>11}" for a in TOTALS)
+    lines += ["adherence (share of motions whose stated attribute matches; n in brackets):", head]
+    for name in ("model", "ground_truth"):
+        row = result.get(name)
+        if row is None:
+            continue
+        lines.append(f"{name:<16}" + "".join(f"{_fmt(row[a]):>6} ({row[a + '_n']:>3})" for a in TOTALS))
+    lines.append("")
+    lines.append(f"{'prompt':<52} " + " ".join(f"{a[:5]:>5}" for a in TOTALS) + "   (model / truth)")
+    for row in result["per_prompt"]:
+        model = row.get("model") or {}
+        truth = row["ground_truth"]
+        cells = []
+        for a in TOTALS:
+            m, t = model.get(a), truth.get(a)
+            cells.append(f"{_fmt(m).strip():>4}/{_fmt(t).strip():<4}" if (m, t) != (None, None) else f"{'':>9}")
+        extra = f"  counts {row['counts']}" if row.get("counts") else ""
+        lines.append(f"{row['prompt'][:52]:<52} " + " ".join(cells) + extra)
+    if result["unparsed"]:
+        lines.append("not fully parsed: " + "; ".join(f"{u['prompt']!r} ({', '.join(u['unplaced'])})"
+                                                       for u in result["unparsed"]))
+    if result["refused"]:
+        lines.append("refused by the model (unknown words; scored as failures): " + "; ".join(
+            f"{r['prompt']!r} ({', '.join(r['unknown'])})" for r in result["refused"]))
+    s = result["settings"]
+    lines.append(f"{s['prompts']} prompts x {s['seeds']} seeds, {s['steps']} steps, guidance {s['guidance']}; "
+                 f"validation on {s['validation_motions']} corpus test motions; {result['seconds']:.0f} s")
+    return "\n".join(lines)
