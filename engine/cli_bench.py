@@ -6,7 +6,7 @@
              motions (../shared/data/real/) and given files (engine/evaluation/bench_inversion.py)
 --transfer   MoMo leader -> follower transfer against corpus ground truth, with baselines
 --compose    DoubleTake transitions vs first take only vs naive concatenation, and a 60-s motion's time
---control    control models and DiffusionBlending vs inpainting on true paths (with --compose: one run)
+--control    control models and DiffusionBlending vs inpainting on true and drawn paths (with --compose: one run)
 --duet       ComMDM vs the prior run twice on held-out duets: prefix completion and text-to-duet
 --adherence  does a generated motion do what its prompt says? detectors validated on corpus labels first,
              then the model and the ground truth on prompts people type (engine/evaluation/bench_adherence.py)
@@ -64,6 +64,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     edits.add_argument("--seeds", type=int, default=None,
                        help="--duet: seeds per held-out duet (default 1); --adherence: seeds per prompt (default 4, "
                             "quick 2)")
+    edits.add_argument("--drawn", type=int, default=None,
+                       help="--control: drawn paths per control (default 9, quick 3; 0: true paths only)")
     edits.add_argument("--prompts", type=Path, default=None,
                        help="--adherence / --sampling: a file of prompts, one per line (default: the shipped set of "
                             "prompts people type)")
@@ -80,6 +82,10 @@ def run(args: argparse.Namespace) -> int:
     given_steps(args)  # a bad --steps fails before any model loads
     if args.seeds is not None and not (args.duet or args.adherence or args.sampling):
         raise ValueError("--seeds goes with --duet, --adherence or --sampling")
+    if args.drawn is not None and not args.control:
+        raise ValueError("--drawn goes with --control")
+    if args.drawn is not None and args.drawn < 0:
+        raise ValueError("--drawn must be 0 or more")
     if args.prompts is not None and not (args.adherence or args.sampling):
         raise ValueError("--prompts goes with --adherence or --sampling")
     if (args.calibrate or args.write) and not args.edits:
@@ -191,7 +197,7 @@ def run_priormdm(args: argparse.Namespace) -> int:
     if args.control:
         from engine.evaluation.bench_control import ControlBenchConfig, bench_control, format_table
 
-        config = preset(ControlBenchConfig, args, motions=args.samples)
+        config = preset(ControlBenchConfig, args, motions=args.samples, drawn_paths=args.drawn)
         result["control"] = bench_control(loaded, evaluator, config, log=_log)
         tables.append(format_table(result["control"]))
     print(json.dumps(result, indent=2, default=float) if args.json else "\n\n".join(tables))

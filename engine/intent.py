@@ -281,6 +281,7 @@ def _is_direction_turn(tokens: list[str], i: int) -> bool:
 
 
 def _parse_clause(tokens: list[str], used: list[bool], style: list[str]) -> IntentSegment | None:
+    """The segment a clause asks for, marking the tokens it places in ``used`` and any style in ``style``."""
     # the action: first action phrase (longest match), with the corpus's disambiguations
     action = None
     for k in range(len(tokens)):
@@ -293,8 +294,7 @@ def _parse_clause(tokens: list[str], used: list[bool], style: list[str]) -> Inte
     if action is None:
         return None
     rest = [t for t, u in zip(tokens, used) if not u]
-    if action in ("walk", "run", "jog") and any(t in ("backward", "backwards", "back") for t in rest) \
-            and action == "walk":
+    if action == "walk" and any(t in ("backward", "backwards", "back") for t in rest):
         action = "walk_backward"
     if action == "walk" and "sideways" in rest:
         action = "side_step"

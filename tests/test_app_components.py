@@ -360,3 +360,19 @@ def test_preload_loads_the_control_and_duet_models_once_per_server(tiny_model_di
     st = Studio(model_dir=tiny_model_dir, initial=None, controls_dir=controls, duet_dir=duet_dir)
     st.close()
     assert calls == ["control"]
+
+
+def test_generate_box_shows_the_parsed_intent(tiny_model_dir):
+    st = Studio(model_dir=tiny_model_dir, initial=None)
+    try:
+        s = st.state
+        s.prompt = "a woman waves the left hand twice, then walks forward"
+        line = st.controls.intent.object
+        assert "asked for: wave (left side, ×2) → walk (forward)" in line and "intent-full" in line
+        s.prompt = "a person staggers"  # a verb the lexicon does not have: said, not hidden
+        assert "not understood: staggers" in st.controls.intent.object
+        assert "intent-partial" in st.controls.intent.object
+        s.prompt = ""
+        assert st.controls.intent.object == ""
+    finally:
+        st.close()

@@ -24,6 +24,9 @@ def _walked(p):
 
 @pytest.mark.parametrize("n", [1, 3, 7])
 def test_root_paths_walk_from_the_origin_at_walking_speed(n):
+    from engine.synth.primitives.locomotion import GAITS
+
+    assert WALK_SPEED == GAITS["walk"].speed  # the corpus walk
     paths = drawn_root_paths(n)
     assert len(paths) == n and len({p.name for p in paths}) == n
     assert [p.shape for p in paths[:3]] == ["s_curve", "circle", "zigzag"][:n]
@@ -127,7 +130,6 @@ def test_drawn_wrist_paths_reach_the_control_features():
     joints = features_to_joints(feats)
     wrist = joints[:, JOINT_INDEX["right_wrist"]]
     assert np.abs(wrist - values).max() < 1e-4  # x left, y height above the floor, z forward
-    assert WALK_SPEED == 1.3
 
 
 @pytest.mark.parametrize("turn", ["left", "right"])

@@ -8,6 +8,7 @@ import param
 
 from app.attention_record import estimate_bytes
 from app.state import StudioState
+from engine.intent import parse_intent
 
 
 class GenerateControls(pn.viewable.Viewer):
@@ -24,6 +25,9 @@ class GenerateControls(pn.viewable.Viewer):
         self.words = pn.pane.HTML("", css_classes=["prompt-words"], sizing_mode="stretch_width", margin=(0, 10),
                                  stylesheets=[_CSS])
         self.suggestion_row = pn.FlexBox(css_classes=["suggestions"], sizing_mode="stretch_width")
+        # what the prompt asks for, as the adherence benchmark reads it (engine.intent)
+        self.intent = pn.pane.HTML("", css_classes=["prompt-intent"], sizing_mode="stretch_width", margin=(0, 10),
+                                   stylesheets=[_CSS])
         self.seconds = pn.widgets.FloatInput(label="Seconds", value=s.seconds, step=0.5, width=90,
                                              css_classes=["seconds-input"])
         self.seed = pn.widgets.IntInput(label="Seed", value=s.seed, start=0, width=90, css_classes=["seed-input"])
@@ -81,6 +85,7 @@ class GenerateControls(pn.viewable.Viewer):
         # the button state goes first so that it is never behind the highlighted words
         self.generate.disabled = bool(unknown) or s.running
         self.words.object = word_chips(s.prompt_words, s.unknown_words)
+        self.intent.object = intent_line(s.prompt)
         buttons = []
         for word in s.unknown_words:
             for suggestion in s.suggestions.get(word, [])[:3]:
@@ -133,7 +138,7 @@ class GenerateControls(pn.viewable.Viewer):
                            sizing_mode="stretch_width")
         vocab = pn.Card(self.vocab, title="Vocabulary", collapsed=True, sizing_mode="stretch_width")
         return pn.Column(
-            self.prompt, self.words, self.suggestion_row, settings, advanced,
+            self.prompt, self.words, self.intent, self.suggestion_row, settings, advanced,
             pn.Row(self.generate, self.cancel, sizing_mode="stretch_width"),
             self.progress, self.status, self.model_info, vocab,
             sizing_mode="stretch_width", css_classes=["generate-controls"],
@@ -151,7 +156,18 @@ def word_chips(words: list[str], unknown: list[str]) -> str:
     return f'<div class="prompt-chips">{" ".join(parts)}</div>{note}'
 
 
+def intent_line(prompt: str) -> str:
+    """The parsed intent of a prompt: what the model is asked for ("wave (left side, ×2) → walk")."""
+    if not prompt.strip():
+        return ""
+    intent = parse_intent(prompt)
+    cls = "intent-partial" if not intent.complete else "intent-full"
+    return f'<div class="{cls}" title="what this prompt asks for">asked for: {html.escape(intent.describe())}</div>'
+
+
 WORD_CSS = _CSS = """
+.intent-full, .intent-partial { font-size: 12px; color: #335; margin-top: 2px; }
+.intent-partial { color: #8a5a00; }
 .word-unknown { background: #ffd6d6; color: #a00; border-bottom: 2px wavy #d00; padding: 0 3px; border-radius: 3px; }
 .word-known { background: #e7f0ff; padding: 0 3px; border-radius: 3px; }
 .unknown-note { color: #a00; font-size: 12px; margin-top: 2px; }

@@ -215,21 +215,17 @@ def detect_jumps(m: MotionSignals, kind: str) -> list[Detected]:
     flights = [f for f in _jump_flights(m) if f["kind"] == kind]
     if kind in ("jump", "jump_forward"):
         flights = [f for f in flights if f["crouch"] > 0.08 and f["together"]]
-    if kind == "jack":
-        return _jacks(m, flights)
-    action = {"jump": "jump", "jump_forward": "jump_forward", "hop": "hop"}[kind]
+    action = kind
     return [Detected(action, f["apex"], f["side"]) for f in flights]
 
 
-def _jacks(m: MotionSignals, flights: list[dict]) -> list[Detected]:
-    """A jumping jack per arms-overhead peak among jack flights (two hops per repetition)."""
-    if not flights:
-        return []
+def jack_peaks(m: MotionSignals) -> list[int]:
+    """Frames where both arms are overhead while the feet are wide apart: the open position of a jumping jack
+    (read from the pose, so a tired jack whose hops barely leave the floor still counts)."""
     arms = np.minimum(m.wrist("left")[:, 1], m.wrist("right")[:, 1])
-    lo = max(0, flights[0]["start"] - int(0.5 * m.fps))
-    hi = min(m.T, flights[-1]["end"] + int(0.5 * m.fps))
-    peaks = _peaks(arms[lo:hi], height=0.3, prominence=0.4) + lo
-    return [Detected("jumping_jacks", int(p)) for p in peaks]
+    width = np.abs(m.body(m.j("left_ankle") - m.j("right_ankle"))[:, 0])
+    wide = width > np.median(width) + 0.12
+    return [int(p) for p in _peaks(arms, height=0.3, prominence=0.4) if wide[max(0, p - 4):p + 5].any()]
 
 
 def detect_kicks(m: MotionSignals) -> list[Detected]:
@@ -267,14 +263,15 @@ def detect_bows(m: MotionSignals) -> list[Detected]:
 def detect_punches(m: MotionSignals) -> list[Detected]:
     """A wrist thrust forward to near arm's length at shoulder height, fast."""
     out = []
-    for side in SIDES:
+    for side, other in (("left", "right"), ("right", "left")):
         w = m.wrist(side)
+        guard = m.wrist(other)[:, 2]  # a punch's other hand stays up in front; a running arm swings back
         fwd = w[:, 2]
         speed = np.gradient(fwd) * m.fps
         for p in _peaks(fwd, height=0.4, prominence=0.15, distance=4):
             rise = speed[max(0, p - 5):p + 1].max()
             feet_low = max(m.foot_height["left"][p], m.foot_height["right"][p]) < 0.15  # not a kick's arm swing
-            if abs(w[p, 1]) < 0.2 and rise > 1.5 and feet_low and not m.near_flight(p, 0.5):
+            if abs(w[p, 1]) < 0.3 and rise > 1.5 and feet_low and not m.near_flight(p, 0.5) and guard[p] > 0.05:
                 out.append(Detected("punch", int(p), side))
     return sorted(out, key=lambda d: d.frame)
 
@@ -313,12 +310,14 @@ def detect_raises(m: MotionSignals) -> list[Detected]:
     """A wrist lifted well above the shoulder (overhead), away from jumping jacks' flights."""
     out = []
     ups = {side: m.wrist(side)[:, 1] for side in SIDES}
+    jacks = jack_peaks(m)
     found: dict[str, np.ndarray] = {
         side: np.array([p for p in _peaks(ups[side], height=0.38, prominence=0.3, distance=8)
-                        if not m.near_flight(p, 0.5)], dtype=int) for side in SIDES}
+                        if not m.near_flight(p, 0.5) and not any(abs(p - j) <= 6 for j in jacks)], dtype=int)
+        for side in SIDES}
     used = set()
     for p in found["left"]:
-        q = [r for r in found["right"] if abs(r - p) <= 0.6 * m.fps and r not in used]
+        q = [r for r in found["right"] if abs(r - p) <= 1.0 * m.fps and r not in used]
         if q:
             used.add(q[0])
             out.append(Detected("raise_arms", int(p), "both"))
@@ -378,11 +377,14 @@ def detect_backward(m: MotionSignals) -> list[Detected]:
 
 def detect_side_steps(m: MotionSignals) -> list[Detected]:
     v = m.root_velocity
+    dances = dance_spans(m)
     out = []
     for sign, side in ((1.0, "left"), (-1.0, "right")):
         mask = (sign * v[:, 0] > 0.06) & (np.abs(v[:, 0]) > np.abs(v[:, 2]))
-        for a, b in _sustained(mask, m, 0.8):
-            if sign * (m.j("pelvis")[b - 1] - m.j("pelvis")[a]) @ m.left[a] > 0.25:
+        for a, b in _sustained(mask, m, 0.6):
+            if any(a < d1 and d0 < b for d0, d1 in dances):
+                continue  # one leg of a side-to-side dance
+            if sign * (m.j("pelvis")[b - 1] - m.j("pelvis")[a]) @ m.left[a] > 0.15:
                 out.append(Detected("side_step", (a + b) // 2, side))
     return out
 
@@ -404,9 +406,9 @@ def detect_stands(m: MotionSignals) -> list[Detected]:
     return [Detected("stand", (a + b) // 2) for a, b in _sustained(m.leg_speed < 0.3, m, 1.0)]
 
 
-def detect_dances(m: MotionSignals) -> list[Detected]:
-    """Stepping from side to side: the body's sideways position reverses three times or more (swings of
-    8 cm or more) within 4 s, with little travel."""
+def dance_spans(m: MotionSignals) -> list[tuple[int, int]]:
+    """Stretches where the body's sideways position reverses three times or more (swings of 8 cm or more)
+    within 4 s, with little travel: stepping from side to side."""
     lateral = np.cumsum(m.root_velocity[:, 0]) / m.fps  # sideways position in the body's own frame
     ext = sorted([int(p) for p in _peaks(lateral, height=-np.inf, prominence=0.08, distance=4)] +
                  [int(p) for p in _peaks(-lateral, height=-np.inf, prominence=0.08, distance=4)])
@@ -415,15 +417,21 @@ def detect_dances(m: MotionSignals) -> list[Detected]:
     for k in range(len(ext) - 2):
         a, b = ext[k], ext[k + 2]
         if b - a <= window and np.linalg.norm(m.j("pelvis")[b, [0, 2]] - m.j("pelvis")[a, [0, 2]]) < 0.6:
-            out.append(Detected("dance", (a + b) // 2))
-    return out[:1]
+            out.append((a, b))
+    return out
+
+
+def detect_dances(m: MotionSignals) -> list[Detected]:
+    """A dance (one event: a dance has no count)."""
+    spans = dance_spans(m)
+    return [Detected("dance", (spans[0][0] + spans[0][1]) // 2)] if spans else []
 
 
 DETECTORS = {
     "jump": lambda m: detect_jumps(m, "jump"),
     "jump_forward": lambda m: detect_jumps(m, "jump_forward"),
     "hop": lambda m: detect_jumps(m, "hop"),
-    "jumping_jacks": lambda m: detect_jumps(m, "jack"),
+    "jumping_jacks": lambda m: [Detected("jumping_jacks", p) for p in jack_peaks(m)],
     "kick": detect_kicks,
     "squat": detect_squats,
     "bow": detect_bows,

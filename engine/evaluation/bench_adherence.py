@@ -49,7 +49,7 @@ class AdherenceBenchConfig:
     seeds: int = 4
     steps: int = SampleConfig().steps
     guidance: float = SampleConfig().guidance
-    validation_motions: int = 500
+    validation_motions: int = 1000  # corpus test motions the detectors are validated on (the issue asks >= 500)
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -68,16 +68,14 @@ def _refused(loaded, prompt: str) -> list[str]:
 
 
 def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: AdherenceBenchConfig) -> list[np.ndarray]:
-    """One motion per seed, each with the given number of joint frames."""
+    """One motion per seed (a batch slot each, noise drawn from ``config.seed``), each with the given number of
+    joint frames."""
     from engine.generate import Request, generate
 
-    out = []
-    for k, n in enumerate(lengths):
-        frames = min(n - 1, loaded.model.config.max_frames)
-        gen = generate(loaded, Request(prompts=[prompt], frames=[frames]),
-                       SampleConfig(steps=config.steps, guidance=config.guidance, seed=config.seed + k))
-        out.append(gen.joints[0])
-    return out
+    frames = [min(n - 1, loaded.model.config.max_frames) for n in lengths]  # one batch: a slot per seed
+    gen = generate(loaded, Request(prompts=[prompt] * len(frames), frames=frames),
+                   SampleConfig(steps=config.steps, guidance=config.guidance, seed=config.seed))
+    return list(gen.joints)
 
 
 def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(), *,

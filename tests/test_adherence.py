@@ -1,0 +1,85 @@
+"""Adherence detectors on hand-built motions and corpus ground truth, and the adherence bench's shape."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from engine.analysis.detectors import MotionSignals, detect
+from engine.evaluation.adherence import (check_motion, ground_truth_motion, intent_of_program, program_for_intent,
+                                         validate)
+from engine.intent import parse_intent
+from engine.synth.corpus import make_sample
+from engine.synth.program import Program, Segment
+
+
+def corpus_motion(*segments: Segment, style: str = "none") -> np.ndarray:
+    return make_sample(Program(segments=segments, style=style), captions=["x"], with_features=False).joints
+
+
+def test_one_jump_is_not_two():
+    one = corpus_motion(Segment(action="jump", frames=40, count=1))
+    two = corpus_motion(Segment(action="jump", frames=60, count=2))
+    assert len(detect(one, "jump")) == 1 and len(detect(two, "jump")) == 2
+    assert check_motion(two, parse_intent("a person jumps twice"))["count"] is True
+    assert check_motion(one, parse_intent("a person jumps twice"))["count"] is False
+
+
+def test_left_kick_is_not_a_right_kick():
+    left = corpus_motion(Segment(action="kick", frames=50, count=1, side="left"))
+    right = corpus_motion(Segment(action="kick", frames=50, count=1, side="right"))
+    assert [d.side for d in detect(left, "kick")] == ["left"]
+    assert [d.side for d in detect(right, "kick")] == ["right"]
+    assert check_motion(left, parse_intent("a person kicks with the left leg"))["side"] is True
+    assert check_motion(right, parse_intent("a person kicks with the left leg"))["side"] is False
+
+
+def test_a_still_body_does_nothing_asked():
+    still = np.repeat(corpus_motion(Segment(action="stand", frames=40))[:1], 60, axis=0)
+    result = check_motion(still, parse_intent("a person waves twice then jumps"))
+    assert result["action"] is False
+    assert check_motion(still, parse_intent("someone stands still"))["action"] is True
+
+
+def test_order_follows_the_motion():
+    walk_jump = corpus_motion(Segment(action="walk", frames=60, direction="forward"),
+                              Segment(action="jump", frames=40, count=1))
+    assert check_motion(walk_jump, parse_intent("a person walks then jumps"))["order"] is True
+    assert check_motion(walk_jump, parse_intent("a person jumps then walks"))["order"] is False
+
+
+def test_bad_joints_are_refused():
+    with pytest.raises(ValueError, match="22, 3"):
+        MotionSignals(np.zeros((10, 21, 3)))
+    with pytest.raises(ValueError, match="NaN"):
+        MotionSignals(np.full((10, 22, 3), np.nan))
+
+
+def test_ground_truth_realises_the_stated_attributes():
+    intent = parse_intent("a man hops on the right leg three times")
+    program = program_for_intent(intent, np.random.default_rng(0))
+    assert program.segments[0].action == "hop" and program.segments[0].side == "right"
+    assert program.segments[0].count == 3
+    assert intent_of_program(program).segments[0].side == "right"
+    assert check_motion(ground_truth_motion(intent, 0), intent)["count"] is True
+
+
+def test_validation_on_a_corpus_slice():
+    result = validate(motions=40)
+    agreement = result["agreement"]
+    assert set(agreement) >= {"action", "count", "side", "direction", "order", "action_absent"}
+    assert agreement["action"] > 0.8 and agreement["count"] > 0.8 and agreement["action_absent"] > 0.9
+    # a check seen fewer times than the minimum is never called reliable
+    rare = [k for k, v in result["per_action"].items() if v["n"] < 5]
+    assert all(not result["reliable"][k] for k in rare)
+
+
+def test_bench_ground_truth_only_shape():
+    from engine.evaluation.bench_adherence import AdherenceBenchConfig, bench_adherence, format_table, read_prompts
+
+    assert len(read_prompts()) >= 60
+    result = bench_adherence(None, AdherenceBenchConfig(seeds=1, validation_motions=30),
+                             prompts=["a person jumps twice", "a person staggers", "someone kicks with the left leg"])
+    assert result["model"] is None and result["ground_truth"]["action_n"] >= 1
+    assert [u["prompt"] for u in result["unparsed"]] == ["a person staggers"]
+    assert len(result["per_prompt"]) == 2
+    assert "detector validation" in format_table(result)
