@@ -306,7 +306,17 @@ def _parse_clause(tokens: list[str], used: list[bool], style: list[str]) -> Inte
                                                     ["on", "the", "left", "foot"], ["on", "the", "right", "foot"])
                                 for j in range(len(tokens))):
         action = "hop"
-    count = side = direction = speed = None
+    side = None
+    found: dict = {}  # modifier -> value
+    moving = ("walk", "run", "jog", "walk_backward", "side_step", "turn", "jump_forward")
+    modifiers = (  # (name, phrase table, whether a match at token k with this value belongs to this action)
+        ("direction", _DIRECTIONS, lambda k, v: action in moving or v in ("forward", "backward")),
+        ("count", _COUNTS, lambda k, v: not (tokens[k] in ("one", "two", "three", "four", "five") and
+                                             k + 1 < len(tokens) and tokens[k + 1] in LIMBS)),  # "two hands"
+        ("speed", _SPEEDS, lambda k, v: True),
+        ("style", _STYLES, lambda k, v: True),
+        ("intensity", _INTENSITIES, lambda k, v: True),
+    )
     k = 0
     while k < len(tokens):
         if used[k]:
@@ -330,44 +340,22 @@ def _parse_clause(tokens: list[str], used: list[bool], style: list[str]) -> Inte
             used[k] = True
             k += 1
             continue
-        m = _match(tokens, used, k, _DIRECTIONS)
-        if m is not None and (action in ("walk", "run", "jog", "walk_backward", "side_step", "turn", "jump_forward")
-                              or m[1] in ("forward", "backward")):
-            n, direction = m
-            for j in range(k, k + n):
-                used[j] = True
-            k += n
-            continue
-        m = _match(tokens, used, k, _COUNTS)
-        if m is not None and not (tokens[k] in ("one", "two", "three", "four", "five") and k + 1 < len(tokens) and
-                                  tokens[k + 1] in LIMBS):
-            n, count = m
-            for j in range(k, k + n):
-                used[j] = True
-            k += n
-            continue
-        m = _match(tokens, used, k, _SPEEDS)
-        if m is not None:
-            n, speed = m
-            for j in range(k, k + n):
-                used[j] = True
-            k += n
-            continue
-        m = _match(tokens, used, k, _STYLES)
-        if m is not None:
-            n, name = m
-            style.append(name)
-            for j in range(k, k + n):
-                used[j] = True
-            k += n
-            continue
-        m = _match(tokens, used, k, _INTENSITIES)
-        if m is not None:
-            for j in range(k, k + m[0]):
-                used[j] = True
-            k += m[0]
+        placed = False
+        for name, table, accept in modifiers:
+            m = _match(tokens, used, k, table)
+            if m is not None and accept(k, m[1]):
+                n, found[name] = m
+                if name == "style":
+                    style.append(m[1])
+                for j in range(k, k + n):
+                    used[j] = True
+                k += n
+                placed = True
+                break
+        if placed:
             continue
         k += 1
+    count, direction, speed = found.get("count"), found.get("direction"), found.get("speed")
     if action == "walk_backward":
         direction = "backward"
         for j, t in enumerate(tokens):
