@@ -178,7 +178,7 @@ class ImportPanel(pn.viewable.Viewer):
                                            css_classes=["import-start"])
         self.seconds = pn.widgets.FloatInput(label="Seconds", value=None, start=2 / FPS, end=self.limit_s, step=0.5,
                                              placeholder="to the end", width=100, css_classes=["import-seconds"])
-        self.again = pn.widgets.Button(label="Import window", disabled=True, width=120, margin=(24, 5, 5, 5),
+        self.again = pn.widgets.Button(label="Import window", disabled=True, sizing_mode="stretch_width",
                                        css_classes=["import-again"])
         self._upload: tuple[bytes, str] | None = None
         self._input.param.watch(self._on_upload, "value")
@@ -225,7 +225,7 @@ class ImportPanel(pn.viewable.Viewer):
         return pn.Column("#### Import", "BVH, joints (T,22,3) or HumanML3D vectors (T,263) as .npy "
                          f"(up to {MAX_UPLOAD_BYTES // 2**20} MB); a file over the model's {self.limit_s:.1f} s: "
                          "pick its window (Start, Seconds)", self._input,
-                         pn.Row(self.start, self.seconds, self.again), sizing_mode="stretch_width")
+                         pn.Row(self.start, self.seconds), self.again, sizing_mode="stretch_width")
 
 
 class ExportPanel(pn.viewable.Viewer):
