@@ -342,7 +342,7 @@ def gait_runs(m: MotionSignals) -> list[dict]:
         speed = float(np.median(fwd[a:b]))
         turned = float(m.heading[b - 1] - m.heading[a])
         h = m.foot_height
-        support = float(np.mean((h["left"][a:b] < 0.02) & (h["right"][a:b] < 0.02)))
+        support = float(np.mean((h["left"][a:b] < 0.03) & (h["right"][a:b] < 0.03)))
         out.append({"start": a, "end": b, "speed": speed, "cadence": cadence, "bob": bob, "turned": turned,
                     "double_support": support,
                     "lift": float(max(m.foot_height[s][a:b].max() for s in SIDES))})
@@ -350,9 +350,9 @@ def gait_runs(m: MotionSignals) -> list[dict]:
 
 
 def gait_kind(run: dict) -> str:
-    """walk or run (jogs count as runs). A walk keeps both feet on the floor part of every step
-    (double support: 17-64 % of corpus walking frames); a run or jog hardly ever does (2-14 %)."""
-    return "run" if run["double_support"] < 0.15 else "walk"
+    """walk or run (jogs count as runs). A walk keeps both feet on the floor (within 3 cm) part of every
+    step (double support: 22-80 % of corpus walking frames); a run hardly ever does (4-18 %)."""
+    return "run" if run["double_support"] < 0.2 else "walk"
 
 
 def detect_gaits(m: MotionSignals, action: str) -> list[Detected]:
