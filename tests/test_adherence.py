@@ -83,3 +83,26 @@ def test_bench_ground_truth_only_shape():
     assert [u["prompt"] for u in result["unparsed"]] == ["a person staggers"]
     assert len(result["per_prompt"]) == 2
     assert "detector validation" in format_table(result)
+
+
+@pytest.mark.parametrize("argv,message", [
+    (["--transfer", "--prompts", "p.txt"], "--prompts goes with --adherence or --sampling"),
+    (["--transfer", "--drawn", "2"], "--drawn goes with --control"),
+    (["--control", "--drawn", "-1"], "--drawn must be 0 or more"),
+    (["--edits", "--seeds", "2"], "--seeds goes with --duet, --adherence or --sampling"),
+    (["--adherence", "--seeds", "0"], "--seeds must be at least 1"),
+])
+def test_bench_flags_are_checked_before_any_model_loads(capsys, argv, message):
+    from engine.cli import main
+
+    assert main(["bench", *argv, "--model", "/nonexistent"]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_bench_refuses_an_empty_prompts_file(tmp_path, capsys):
+    from engine.cli import main
+
+    empty = tmp_path / "none.txt"
+    empty.write_text("# only a comment\n\n")
+    assert main(["bench", "--adherence", "--prompts", str(empty), "--model", "/nonexistent"]) == 2
+    assert "holds no prompts" in capsys.readouterr().err
