@@ -19,6 +19,7 @@ import numpy as np
 import param
 
 from app.generation import Cancelled, prompt_analysis, sampling_slot
+from engine.io import seconds_number
 from engine.paths import DUET_DIR
 
 FPS = 20
@@ -197,7 +198,7 @@ def prepare(state, settings: DuetSettings) -> DuetJob:
     if model is None:
         raise ValueError(problem)
     prompt = settings.prompt.strip()
-    seconds = _seconds(settings.seconds, "the length")
+    seconds = seconds_number(settings.seconds, "the length")
     if settings.mode == "text":
         if not prompt:
             raise ValueError("type what the two people do, e.g. 'two people shake hands'")
@@ -207,7 +208,7 @@ def prepare(state, settings: DuetSettings) -> DuetJob:
         sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
         return DuetJob(mode="text", prompt=prompt, seconds=seconds, prefix=None, prefix_seconds=0.0,
                        communicate=settings.communicate, sample=sample, description="duet", contact=settings.contact)
-    given = _seconds(settings.prefix_seconds, "the prefix")
+    given = seconds_number(settings.prefix_seconds, "the prefix")
     if prompt:
         model.tokenizer.encode(prompt)
     a, b = prefix_joints(state, settings)
@@ -223,16 +224,6 @@ def prepare(state, settings: DuetSettings) -> DuetJob:
                           seed=int(state.seed))
     return DuetJob(mode="prefix", prompt=prompt or None, seconds=seconds, prefix=(a, b), prefix_seconds=given,
                    communicate=settings.communicate, sample=sample, description="duet completion")
-
-
-def _seconds(value, what: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what} must be a number of seconds") from None
-    if not np.isfinite(v):
-        raise ValueError(f"{what} must be a number of seconds")
-    return v
 
 
 def prefix_joints(state, settings: DuetSettings) -> tuple[np.ndarray, np.ndarray]:

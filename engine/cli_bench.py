@@ -82,6 +82,8 @@ def run(args: argparse.Namespace) -> int:
     given_steps(args)  # a bad --steps fails before any model loads
     if args.seeds is not None and not (args.duet or args.adherence or args.sampling):
         raise ValueError("--seeds goes with --duet, --adherence or --sampling")
+    if args.sampling and args.steps is not None:
+        raise ValueError("--sampling measures its own step counts (10, 20, 50, DDPM 1000): drop --steps")
     if args.drawn is not None and not args.control:
         raise ValueError("--drawn goes with --control")
     if args.drawn is not None and args.drawn < 0:
@@ -217,8 +219,8 @@ def run_adherence(args: argparse.Namespace) -> int:
 
 def run_sampling(args: argparse.Namespace) -> int:
     from engine.checkpoint import load_model
-    from engine.evaluation.bench_sampling import SamplingBenchConfig, bench_sampling, format_table
     from engine.evaluation.bench_adherence import read_prompts
+    from engine.evaluation.bench_sampling import SamplingBenchConfig, bench_sampling, format_table
     from engine.evaluation.evaluator import load_evaluator
 
     config = preset(SamplingBenchConfig, args, seeds=args.seeds)

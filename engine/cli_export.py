@@ -7,7 +7,9 @@ import json
 import shutil
 from pathlib import Path
 
-from engine.paths import MODEL_DIR
+from engine.paths import MODEL_DIR, PROJECT_ROOT
+
+PATH_FIELDS = ("out", "data")  # training-config fields that hold folders
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -21,6 +23,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=run)
 
 
+def portable(path: str | Path) -> str:
+    """A folder as shipped files record it: relative to the project when inside it, else its name alone
+    (a shipped file never carries one machine's absolute path)."""
+    path = Path(path)
+    if not path.is_absolute():
+        return path.as_posix()
+    try:
+        return path.resolve().relative_to(PROJECT_ROOT).as_posix()
+    except ValueError:
+        return path.name
+
+
 def export_model(run_dir: Path, out: Path, *, command: str, reports: list[Path], note: str = "") -> Path:
     import torch
 
@@ -28,6 +42,10 @@ def export_model(run_dir: Path, out: Path, *, command: str, reports: list[Path],
 
     run_dir, out = Path(run_dir), Path(out)
     config = read_config(run_dir)
+    train_config = config.get("train", {})
+    for key in PATH_FIELDS:
+        if isinstance(train_config.get(key), str) and train_config[key] != "corpus":
+            train_config[key] = portable(train_config[key])
     out.mkdir(parents=True, exist_ok=True)
     if (run_dir / WEIGHTS).exists():
         state = torch.load(run_dir / WEIGHTS, map_location="cpu", weights_only=True)
@@ -42,7 +60,7 @@ def export_model(run_dir: Path, out: Path, *, command: str, reports: list[Path],
     if not log.exists() and (run_dir.parent.parent / "log.jsonl").exists():
         log = run_dir.parent.parent / "log.jsonl"  # a snapshot: the run's log
     rows = [json.loads(line) for line in log.read_text().splitlines()] if log.exists() else []
-    lines = ["# Shipped model", "", f"Exported from `{run_dir}` at training step {config.get('step')}.", ""]
+    lines = ["# Shipped model", "", f"Exported from `{portable(run_dir)}` at training step {config.get('step')}.", ""]
     lines += ["## Command", "", "```bash", command or "(not recorded)", "```", ""]
     lines += ["## Model and training configuration", "", "```json", json.dumps(config.get("train", {}), indent=2), "```", ""]
     if rows:

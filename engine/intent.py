@@ -13,7 +13,7 @@ against :class:`Intent` (``engine.evaluation.adherence``).
 from __future__ import annotations
 
 import re
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 from engine.synth.grammar import STYLE_PHRASES
 from engine.synth.program import ACTIONS
@@ -280,11 +280,12 @@ def _is_direction_turn(tokens: list[str], i: int) -> bool:
         any(_ACTIONS.get((t,)) in ("walk", "run", "jog") for t in tokens[:i])
 
 
-def _parse_clause(tokens: list[str], used: list[bool], style: list[str]) -> IntentSegment | None:
-    """The segment a clause asks for, marking the tokens it places in ``used`` and any style in ``style``."""
+def _parse_clause(tokens: list[str], used: list[bool], style: list[str], *,
+                  action: str | None = None) -> IntentSegment | None:
+    """The segment a clause asks for, marking the tokens it places in ``used`` and any style in ``style``.
+    ``action`` given: the clause names none of its own, its modifiers are read for that action."""
     # the action: first action phrase (longest match), with the corpus's disambiguations
-    action = None
-    for k in range(len(tokens)):
+    for k in range(len(tokens) if action is None else 0):
         m = _match(tokens, used, k, _ACTIONS)
         if m is not None:
             n, action = m
@@ -383,6 +384,10 @@ def _parse_clause(tokens: list[str], used: list[bool], style: list[str]) -> Inte
     return IntentSegment(action=action, count=count, side=side, direction=direction, speed=speed)
 
 
+def _unplaced(tokens: list[str], used: list[bool]) -> list[str]:
+    return [t for t, u in zip(tokens, used) if not u and t != "," and t not in FILLER]
+
+
 def parse_intent(text: str) -> Intent:
     """The intended program of a prompt (see the module docstring)."""
     tokens = _tokens(text)
@@ -397,30 +402,25 @@ def parse_intent(text: str) -> Intent:
         else:
             main_tokens, over_tokens = clause, []
         used = [t == "," for t in main_tokens]
-        seg = _parse_clause(main_tokens, used, styles) if has_action else None
-        if seg is None:
-            # a clause with no action: its modifiers still belong to the previous segment ("..., slowly")
-            seg_prev = segments[-1] if segments else None
-            probe = ["stand"] + main_tokens
-            probe_used = [True] + used
-            extra = _parse_clause(probe, probe_used, styles)
-            if seg_prev is not None and extra is not None:
-                segments[-1] = IntentSegment(
-                    action=seg_prev.action, count=seg_prev.count, side=seg_prev.side,
-                    direction=seg_prev.direction or (extra.direction if seg_prev.action in
-                                                     ("walk", "run", "jog", "turn") else None),
-                    speed=seg_prev.speed or extra.speed, overlay=seg_prev.overlay)
-            unplaced += [t for t, u in zip(main_tokens, probe_used[1:]) if not u and t != "," and t not in FILLER]
+        if not has_action:
+            # a clause with no action: its modifiers belong to the previous segment ("..., slowly")
+            if segments:
+                prev = segments[-1]
+                extra = _parse_clause(main_tokens, used, styles, action=prev.action)
+                segments[-1] = replace(prev, direction=prev.direction or extra.direction,
+                                       speed=prev.speed or extra.speed)
+            unplaced += _unplaced(main_tokens, used)
             continue
-        unplaced += [t for t, u in zip(main_tokens, used) if not u and t != "," and t not in FILLER]
+        seg = _parse_clause(main_tokens, used, styles)
+        unplaced += _unplaced(main_tokens, used)
         if over_tokens:
             over_used = [t == "," for t in over_tokens]
             over = _parse_clause(over_tokens, over_used, styles)
-            unplaced += [t for t, u in zip(over_tokens, over_used) if not u and t != "," and t not in FILLER]
+            unplaced += _unplaced(over_tokens, over_used)
             if over is not None:
                 if seg.action in ("walk", "stand", "side_step", "turn", "run", "jog") and \
                         over.action in ("wave", "clap", "raise_arms", "punch"):
-                    seg = IntentSegment(**{**seg.__dict__, "overlay": over})
+                    seg = replace(seg, overlay=over)
                 else:
                     segments.append(seg)
                     seg = over

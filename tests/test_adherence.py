@@ -91,6 +91,7 @@ def test_bench_ground_truth_only_shape():
     (["--control", "--drawn", "-1"], "--drawn must be 0 or more"),
     (["--edits", "--seeds", "2"], "--seeds goes with --duet, --adherence or --sampling"),
     (["--adherence", "--seeds", "0"], "--seeds must be at least 1"),
+    (["--sampling", "--steps", "20"], "--sampling measures its own step counts"),
 ])
 def test_bench_flags_are_checked_before_any_model_loads(capsys, argv, message):
     from engine.cli import main

@@ -85,3 +85,9 @@ def test_corpus_captions_parse_back_to_their_programs():
             if [(g.action, g.count) for g in intent.segments] != want or intent.unplaced:
                 wrong.append(cap)
     assert not wrong, wrong[:3]
+
+
+def test_a_clause_without_an_action_modifies_the_one_before():
+    assert seg("a person walks forward, slowly") == IntentSegment(action="walk", direction="forward", speed="slowly")
+    assert seg("a man runs, to the left").direction == "left"
+    assert len(parse_intent("a person walks forward, slowly").segments) == 1

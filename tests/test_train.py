@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 import os
 import subprocess
+import re
 import sys
 from pathlib import Path
 
@@ -120,6 +121,9 @@ def test_continue_from_a_shipped_model_folder(tmp_path):
     train(config(tmp_path, steps=20), source=ToySource(), progress=False)
     shipped = export_model(tmp_path / "run", tmp_path / "shipped", command="test", reports=[])
     assert (shipped / "TRAINING.md").read_text().count("test") >= 1
+    # shipped files carry no absolute path of this machine
+    assert str(tmp_path) not in (shipped / "TRAINING.md").read_text() + (shipped / "config.json").read_text()
+    assert json.loads((shipped / "config.json").read_text())["train"]["out"] == "run"
     result = train(config(tmp_path, out=str(tmp_path / "next"), steps=30), source=ToySource(), progress=False,
                    init_from=shipped)
     assert result["step"] == 30
@@ -147,3 +151,15 @@ def test_a_continued_run_says_which_flags_it_does_not_apply(tmp_path, capsys):
     train(config(tmp_path, out=str(tmp_path / "ctl"), steps=2, lr=saved_lr / 2, control="root"), source=ToySource(),
           progress=False, init_from=shipped, given=("lr",))
     assert "is not applied" not in capsys.readouterr().err
+
+
+def test_shipped_files_carry_no_absolute_paths():
+    from engine.paths import ASSETS
+
+    bad = []
+    for path in ASSETS.rglob("*"):
+        if path.suffix in (".json", ".md", ".txt"):
+            text = path.read_text(encoding="utf-8")
+            bad += [f"{path.relative_to(ASSETS)}: {line.strip()}" for line in text.splitlines()
+                    if re.search(r'["`\\s](/(work|root|home|tmp|Users)/)', line)]
+    assert not bad, bad[:5]

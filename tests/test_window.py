@@ -9,7 +9,7 @@ import pytest
 
 from engine.cli import main
 from engine.generate import FPS
-from engine.io import load_motion, model_seconds, pick_window, window_slice
+from engine.io import load_motion, pick_window, seconds_of, window_slice
 from engine.model import ModelConfig
 from tests.conftest import random_corpus_model, real_file
 
@@ -31,7 +31,7 @@ def _first(window: np.ndarray) -> int:
 
 def test_window_keeps_exact_frames():
     joints = _motion(208)  # 10.4 s at 20 fps
-    assert FPS == 20 and model_seconds(LIMIT) == pytest.approx(9.8)
+    assert FPS == 20 and seconds_of(LIMIT) == pytest.approx(9.8)
     assert pick_window(joints) is not None and len(pick_window(joints)) == 208  # no window, no limit: all of it
     w = pick_window(joints, start=1.0, seconds=5.0)
     assert len(w) == 100 and _first(w) == 20 and np.array_equal(w, joints[20:120])

@@ -167,11 +167,11 @@ class ImportPanel(pn.viewable.Viewer):
 
     def __init__(self, **params):
         from engine.generate import FPS
-        from engine.io import model_seconds
+        from engine.io import seconds_of
 
         super().__init__(**params)
         self.max_frames = self._max_frames()
-        self.limit_s = model_seconds(self.max_frames)
+        self.limit_s = seconds_of(self.max_frames)
         self._input = pn.widgets.FileInput(accept=".bvh,.npy", multiple=False, css_classes=["import-input"],
                                            sizing_mode="stretch_width")
         self.start = pn.widgets.FloatInput(label="Start (s)", value=0.0, start=0.0, step=0.5, width=100,

@@ -37,7 +37,7 @@ class Detected:
 
     action: str
     frame: int
-    side: str = "none"
+    side: str = "none"  # left | right | both; for travel and turns the way taken (forward, left, circle_right...)
 
 
 def _runs(mask: np.ndarray, min_len: int = 1) -> list[tuple[int, int]]:
@@ -129,9 +129,6 @@ class MotionSignals:
     def contact(self) -> dict[str, np.ndarray]:
         return {side: self.foot_height[side] < AIR for side in SIDES}
 
-    def seconds(self, frames: int) -> float:
-        return frames / self.fps
-
     # ---------------------------------------------------------------- derived helpers
     @cached_property
     def pelvis_drop(self) -> np.ndarray:
@@ -185,11 +182,10 @@ def _jump_flights(m: MotionSignals) -> list[dict]:
             kind, side = "jump", "none"
         crouch = float(m.pelvis_drop[lo:apex + 1].max()) if apex >= lo else 0.0
         # both feet leave (and land) together: frames one foot was already up before take-off / still up after
-        lead = min(_up_before(h[s], a) for s in SIDES)
-        trail = min(_up_after(h[s], b) for s in SIDES)
+        lead = max(_up_before(h[s], a) for s in SIDES)
+        trail = max(_up_after(h[s], b) for s in SIDES)
         out.append({"kind": kind, "apex": apex, "start": a, "end": b, "side": side, "crouch": crouch,
-                    "together": max(lead, trail) <= 3,
-                    "lateral": float(abs(m.root_velocity[apex, 0]))})
+                    "together": max(lead, trail) <= 3})
     return out
 
 
@@ -332,20 +328,15 @@ def _sustained(mask: np.ndarray, m: MotionSignals, seconds: float) -> list[tuple
 
 
 def gait_runs(m: MotionSignals) -> list[dict]:
-    """Stretches of forward travel (>= 1 s above 0.35 m/s) with their speed, cadence and turning."""
+    """Stretches of forward travel (>= 1 s above 0.35 m/s) with their speed, turning and double support
+    (the share of frames with both feet within 3 cm of the floor)."""
     out = []
     fwd = m.root_velocity[:, 2]
+    h = m.foot_height
     for a, b in _sustained(fwd > 0.35, m, 1.0):
-        onsets = sum(len(_runs(~m.contact[s][a:b], 2)) for s in SIDES)
-        cadence = onsets / max(m.seconds(b - a), 1e-6)
-        bob = float(np.ptp(m.j("pelvis")[a:b, 1]))
-        speed = float(np.median(fwd[a:b]))
-        turned = float(m.heading[b - 1] - m.heading[a])
-        h = m.foot_height
-        support = float(np.mean((h["left"][a:b] < 0.03) & (h["right"][a:b] < 0.03)))
-        out.append({"start": a, "end": b, "speed": speed, "cadence": cadence, "bob": bob, "turned": turned,
-                    "double_support": support,
-                    "lift": float(max(m.foot_height[s][a:b].max() for s in SIDES))})
+        out.append({"start": a, "end": b, "speed": float(np.median(fwd[a:b])),
+                    "turned": float(m.heading[b - 1] - m.heading[a]),
+                    "double_support": float(np.mean((h["left"][a:b] < 0.03) & (h["right"][a:b] < 0.03)))})
     return out
 
 

@@ -25,7 +25,7 @@ import numpy as np
 
 from engine.analysis.detectors import Detected, MotionSignals, detect
 from engine.intent import COUNTED_ACTIONS, SIDES_OF, Intent, IntentSegment
-from engine.synth.program import MAX_FRAMES, Program, Segment
+from engine.synth.program import FPS, MAX_FRAMES, SPEEDS, Program, Segment
 
 ATTRIBUTES = ("action", "count", "side", "direction", "order")
 RELIABLE = 0.95  # agreement with ground truth a check needs to be scored
@@ -63,9 +63,9 @@ class SegmentCheck:
     result: dict  # attribute -> bool | None
 
 
-def check_segments(joints: np.ndarray, intent: Intent) -> list[SegmentCheck]:
+def check_segments(joints: np.ndarray | MotionSignals, intent: Intent) -> list[SegmentCheck]:
     """Per intended segment (overlays as their own entries), the events found and the checks."""
-    m = MotionSignals(joints)
+    m = joints if isinstance(joints, MotionSignals) else MotionSignals(joints)
     flat: list[IntentSegment] = []
     for seg in intent.segments:
         flat.append(seg)
@@ -115,10 +115,10 @@ def check_motion(joints: np.ndarray, intent: Intent, *, reliable: Reliability | 
         vals = [c.result[attr] for c in checks
                 if c.result[attr] is not None and (reliable is None or reliable.get((attr, c.segment.action), False))]
         out[attr] = all(vals) if vals else None
-    order_ok = reliable is None or all(reliable.get(("action", c.segment.action), False) for c in checks)
-    out["order"] = _order(checks, intent) if order_ok else None
-    if out["order"] is not None and reliable is not None and not reliable.get(("order", "*"), False):
-        out["order"] = None
+    # order is judged on detected actions: every action check and the order check itself must be reliable
+    scored = reliable is None or (reliable.get(("order", "*"), False) and
+                                  all(reliable.get(("action", c.segment.action), False) for c in checks))
+    out["order"] = _order(checks, intent) if scored else None
     return out
 
 
@@ -160,8 +160,8 @@ def program_for_intent(intent: Intent, rng: np.random.Generator) -> Program:
     secs = [natural_seconds(s, rng) for s in segments]
     if any(s.overlay is not None for s in segments):
         secs = [max(x, (s.overlay.count * 0.6 + 1.2) if s.overlay is not None else x) for x, s in zip(secs, segments)]
-    scale = min(1.0, (MAX_FRAMES - 1) / 20.0 / sum(secs))
-    frames = [max(int(round(x * scale * 20.0)), 12) for x in secs]
+    scale = min(1.0, (MAX_FRAMES - 1) / FPS / sum(secs))
+    frames = [max(int(round(x * scale * FPS)), 12) for x in secs]
     segments = [replace(s, frames=f, overlay=replace(s.overlay, frames=f) if s.overlay is not None else None)
                 for s, f in zip(segments, frames)]
     style = intent.style if intent.style in STYLES else "none"
@@ -177,8 +177,6 @@ def _realise(want: IntentSegment, rng, random_segment) -> Segment:
     if want.side is not None:
         fields["side"] = want.side
     if want.speed is not None:
-        from engine.synth.program import SPEEDS
-
         fields["speed"], fields["speed_word"] = SPEEDS[want.speed], want.speed
     if want.direction is not None:
         if want.action == "turn":
@@ -222,7 +220,8 @@ def validate(*, motions: int = 500, split: str = "test", start: int = 0,
     for k in range(motions):
         sample = corpus.sample(start + k, with_features=False)
         intent = intent_of_program(sample.program, sample.captions[0])
-        checks = check_segments(sample.joints, intent)
+        m = MotionSignals(sample.joints)
+        checks = check_segments(m, intent)
         for c in checks:
             for attr in ATTRIBUTES[:-1]:
                 if c.result[attr] is not None:
@@ -234,7 +233,6 @@ def validate(*, motions: int = 500, split: str = "test", start: int = 0,
         if present & {"punch", "wave", "clap", "raise_arms", "bow"} & {s.action for s in sample.program.segments}:
             present.add("stand")  # the corpus's standing gestures stand on still legs
         others = [a for a in ACTIONS if not any(_same_action(a, p) for p in present)]
-        m = MotionSignals(sample.joints)
         # every absent action once per motion would be slow; a rotating pair of them is enough
         for a in (others[k % len(others)], others[(k * 7 + 3) % len(others)]):
             absent[a].append(not detect(m, a))

@@ -63,10 +63,6 @@ class AdherenceBenchConfig:
         return cls(seeds=2, steps=20, validation_motions=500)
 
 
-def _refused(loaded, prompt: str) -> list[str]:
-    return loaded.tokenizer.unknown_words(prompt) if loaded is not None else []
-
-
 def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: AdherenceBenchConfig) -> list[np.ndarray]:
     """One motion per seed (a batch slot each, noise drawn from ``config.seed``), each with the given number of
     joint frames."""
@@ -99,7 +95,7 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
         truth_rows += truth_checks
         row = {"prompt": prompt, "intent": intent.describe(), "ground_truth": _shares(truth_checks)}
         if loaded is not None:
-            unknown = _refused(loaded, prompt)
+            unknown = loaded.tokenizer.unknown_words(prompt)
             if unknown:
                 refused.append({"prompt": prompt, "unknown": unknown})
                 model_checks = [{a: (False if v is not None else None) for a, v in c.items()} for c in truth_checks]

@@ -27,7 +27,7 @@ import numpy as np
 
 from engine.checkpoint import LoadedModel
 from engine.io import SUPPORTED_SUFFIXES, load_motion
-from engine.io.window import longest_window, model_seconds, seconds_of
+from engine.io.window import seconds_of
 from engine.methods.inversion import InversionConfig, roundtrip_error
 from engine.paths import REAL_DATA_DIR
 
@@ -94,7 +94,7 @@ def given_motions(files, max_frames: int) -> list[Motion]:
 
 
 def _cut(source: str, joints: np.ndarray, max_frames: int, *, real: bool = False) -> Motion:
-    cut = longest_window(joints, max_frames)
+    cut = joints[:max_frames]  # the model's longest duration
     return Motion(source=source, joints=cut, real=real,
                   trimmed_from_s=seconds_of(len(joints)) if len(cut) < len(joints) else None)
 
@@ -133,7 +133,7 @@ def bench_inversion(loaded: LoadedModel, config: InversionBenchConfig = Inversio
     for i in range(config.motions):
         s = corpus.sample(config.first_seed + i, with_features=False)
         corpus_motions.append(Motion(source=f"corpus test {config.first_seed + i}",
-                                     joints=longest_window(s.joints, max_frames), prompt=s.captions[0]))
+                                     joints=s.joints[:max_frames], prompt=s.captions[0]))
     log(f"inversion benchmark: {len(corpus_motions)} corpus motions, {len(real)} real, {len(given)} given; "
         f"{config.steps} steps, settings {', '.join(f'{n} (refine {r})' for n, r in SETTINGS.items())}")
     corpus_rows = [measure(loaded, m, config.steps, log=log) for m in corpus_motions]
@@ -148,7 +148,7 @@ def bench_inversion(loaded: LoadedModel, config: InversionBenchConfig = Inversio
         "real_data": real_info,
         "default_setting": DEFAULT_SETTING,
         "settings": dict(SETTINGS),
-        "max_seconds": model_seconds(max_frames),
+        "max_seconds": seconds_of(max_frames),
         "steps": config.steps,
         "elapsed_s": time.time() - t0,
     }

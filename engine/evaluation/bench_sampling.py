@@ -32,7 +32,6 @@ class SamplingBenchConfig:
     seeds: int = 1
     fid_samples: int = 64
     validation_motions: int = 500
-    steps: int | None = None  # not used: the settings are the point of this bench (kept for the shared preset)
 
     def __post_init__(self) -> None:
         if self.repeats < 1 or self.prompts < 1 or self.seeds < 1 or self.fid_samples < 2:

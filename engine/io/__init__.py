@@ -21,7 +21,7 @@ import numpy as np
 from engine.io.bvh import BVHData, BVHImport, format_bvh, import_bvh, load_bvh, read_bvh, save_bvh
 from engine.io.errors import DEFAULT_MAX_BYTES, BVHError, MotionIOError
 from engine.io.npy import classify_motion_array, load_npy, save_npy
-from engine.io.window import model_seconds, pick_window, window_slice
+from engine.io.window import pick_window, seconds_of, seconds_number, window_slice
 from engine.representation import features_to_joints, joints_to_features
 
 SUPPORTED_SUFFIXES: tuple[str, ...] = (".bvh", ".npy")
@@ -80,6 +80,6 @@ def save_motion(
 
 __all__ = [
     "BVHData", "BVHError", "BVHImport", "DEFAULT_MAX_BYTES", "MotionIOError", "SUPPORTED_SUFFIXES",
-    "format_bvh", "import_bvh", "load_bvh", "load_motion", "load_npy", "model_seconds", "pick_window", "read_bvh",
-    "save_bvh", "save_motion", "save_npy", "window_slice",
+    "format_bvh", "import_bvh", "load_bvh", "load_motion", "load_npy", "pick_window", "read_bvh", "save_bvh",
+    "save_motion", "save_npy", "seconds_number", "seconds_of", "window_slice",
 ]

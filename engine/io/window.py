@@ -25,13 +25,8 @@ FLAGS = ("--start", "--seconds")
 
 
 def seconds_of(frames: int) -> float:
-    """The duration of ``frames`` poses in seconds."""
+    """The duration of ``frames`` poses in seconds (of a model's ``max_frames``: the longest motion it takes)."""
     return frames / FPS
-
-
-def model_seconds(max_frames: int) -> float:
-    """The longest motion a model takes, in seconds: its config's ``max_frames`` at the project's fps."""
-    return max_frames / FPS
 
 
 def window_slice(total: int, *, start: float | None = None, seconds: float | None = None,
@@ -45,13 +40,13 @@ def window_slice(total: int, *, start: float | None = None, seconds: float | Non
     """
     start_flag, seconds_flag = flags
     length = f"{name} ({seconds_of(total):.1f} s, {total} frames)"
-    limit = None if max_frames is None else model_seconds(max_frames)
+    limit = None if max_frames is None else seconds_of(max_frames)
     if start is None and seconds is None:
         if max_frames is not None and total > max_frames:
             raise ValueError(f"{name} is {seconds_of(total):.1f} s, longer than the model's {limit:.1f} s: "
                              + (hint or f"pick a window with {start_flag}/{seconds_flag}"))
         return slice(0, total)
-    start = 0.0 if start is None else _number(start, start_flag)
+    start = 0.0 if start is None else seconds_number(start, start_flag)
     if start < 0:
         raise ValueError(f"{start_flag} must be 0 s or more, got {start:g} s")
     first = int(round(start * FPS))
@@ -63,7 +58,7 @@ def window_slice(total: int, *, start: float | None = None, seconds: float | Non
             raise ValueError(f"{name} from {start:g} s to its end is {seconds_of(count):.1f} s, longer than the "
                              f"model's {limit:.1f} s: add {seconds_flag} (at most {limit:g})")
     else:
-        seconds = _number(seconds, seconds_flag)
+        seconds = seconds_number(seconds, seconds_flag)
         if seconds <= 0:
             raise ValueError(f"{seconds_flag} must be more than 0 s, got {seconds:g} s")
         count = int(round(seconds * FPS))
@@ -87,16 +82,12 @@ def pick_window(joints: np.ndarray, *, start: float | None = None, seconds: floa
                                flags=flags, hint=hint)]
 
 
-def longest_window(joints: np.ndarray, max_frames: int) -> np.ndarray:
-    """The first ``max_frames`` poses of ``joints`` (the model's longest duration); a shorter motion as it is."""
-    return joints[:max_frames]
-
-
-def _number(value, flag: str) -> float:
+def seconds_number(value, what: str) -> float:
+    """``value`` as a finite number of seconds; else a one-line ValueError naming ``what`` (a flag or a field)."""
     try:
         value = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{flag} must be a number of seconds, got {value!r}") from None
+        raise ValueError(f"{what} must be a number of seconds, got {value!r}") from None
     if not math.isfinite(value):
-        raise ValueError(f"{flag} must be a number of seconds, got {value}")
+        raise ValueError(f"{what} must be a number of seconds, got {value}")
     return value
