@@ -4,6 +4,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from engine.runtime import add_runtime_arguments, runtime_from_args
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     from engine.paths import CONTROL_DIR, DUET_DIR, MODEL_DIR
@@ -19,13 +21,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help=f"folder of fine-tuned control models (Control tab); default {CONTROL_DIR}")
     p.add_argument("--duet-model", type=Path, default=DUET_DIR,
                    help=f"the ComMDM block trained on --model (Duet tab); default {DUET_DIR}")
+    add_runtime_arguments(p)
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from app.main import serve
+    from app.model_cache import use_runtime
 
-    print(f"Motion Attention Studio: http://{args.address}:{args.port}/ (model: {args.model})", flush=True)
+    runtime = runtime_from_args(args)
+    use_runtime(runtime)
+    print(f"Motion Attention Studio: http://{args.address}:{args.port}/ (model: {args.model}, on {runtime.describe()})",
+          flush=True)
     serve(port=args.port, show=args.show, address=args.address, initial=args.motion, model_dir=args.model,
           controls_dir=args.controls, duet_dir=args.duet_model)
     return 0

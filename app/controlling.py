@@ -49,6 +49,7 @@ def control_models(folder: str | Path, *, base=None) -> tuple[dict, str]:
 
 
 def _load(folder: str | Path) -> tuple[dict, str]:
+    from app.model_cache import runtime
     from engine.methods.control import load_controls
 
     key = Path(folder).expanduser().resolve()
@@ -59,7 +60,7 @@ def _load(folder: str | Path) -> tuple[dict, str]:
             return cached[1], cached[2]
         problem = ""
         try:
-            models = load_controls(key) if key.exists() else {}
+            models = load_controls(key, runtime=runtime()) if key.exists() else {}
         except Exception as exc:  # a broken folder: say so, offer inpainting
             models, problem = {}, f"the control models in {key} could not be loaded ({exc})"
         if not models and not problem:

@@ -1,8 +1,9 @@
 """The model, loaded once per server process and shared read-only by every session.
 
 Sessions never mutate the loaded model: attention recording and edits are controllers passed to
-each sampling call (``engine.generate`` does that). Sampling is serialised with one process-wide
-slot so that two sessions on a two-core laptop do not thrash each other; the second waits.
+each sampling call (``engine.generate`` does that). Every model lives on the server's one device
+(``moattn serve --device``); sampling is serialised with one process-wide slot, so sessions' jobs
+queue on that device (and two sessions on a two-core laptop do not thrash each other).
 """
 from __future__ import annotations
 
@@ -10,9 +11,11 @@ import threading
 from pathlib import Path
 
 from engine.checkpoint import LoadedModel, load_model
+from engine.runtime import CPU, Runtime
 
 _lock = threading.Lock()
 _cache: dict[Path, LoadedModel] = {}
+_runtime: list[Runtime] = [CPU]  # the server's device, set once by `moattn serve` before any model loads
 
 #: One generation at a time per process (sessions queue for it).
 SAMPLING_SLOT = threading.BoundedSemaphore(1)
@@ -20,6 +23,20 @@ SAMPLING_SLOT = threading.BoundedSemaphore(1)
 #: VTK is not thread safe across scenes sharing globals (fonts, EGL displays): every scene build,
 #: frame render and file render in the app holds this lock.
 VTK_LOCK = threading.RLock()
+
+
+def use_runtime(runtime: Runtime) -> None:
+    """Put every model this process loads from now on on ``runtime``'s device (models already loaded move)."""
+    with _lock:
+        _runtime[0] = runtime
+        for loaded in _cache.values():
+            loaded.model.to(runtime.device)
+            loaded.model.autocast_dtype = runtime.dtype
+
+
+def runtime() -> Runtime:
+    """Where the server's models run."""
+    return _runtime[0]
 
 
 def get_model(folder: str | Path) -> LoadedModel:
@@ -31,7 +48,7 @@ def get_model(folder: str | Path) -> LoadedModel:
             if not key.exists():
                 raise FileNotFoundError(
                     f"no model at {key}: train one with `moattn train --out {key}` or pass --model DIR")
-            loaded = load_model(key)
+            loaded = load_model(key, runtime=_runtime[0])
             _cache[key] = loaded
         return loaded
 

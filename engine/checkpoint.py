@@ -14,6 +14,7 @@ import torch
 
 from engine.model.denoiser import Denoiser, ModelConfig
 from engine.representation import Normalizer
+from engine.runtime import CPU, Runtime
 from engine.text import Tokenizer
 
 CONFIG_NAME = "config.json"
@@ -28,6 +29,11 @@ class LoadedModel:
     normalizer: Normalizer
     config: dict
     folder: Path
+
+    @property
+    def runtime(self) -> Runtime:
+        """Where the model runs (its device and autocast)."""
+        return Runtime(device=self.model.device, dtype=self.model.autocast_dtype)
 
 
 def write_config(folder: Path, *, model_config: ModelConfig, vocabulary: tuple[str, ...], extra: dict) -> None:
@@ -69,8 +75,9 @@ def export_weights(folder: Path, ema_state: dict, *, dtype: torch.dtype = torch.
     return path
 
 
-def load_model(folder: str | Path, *, prefer: str = "weights") -> LoadedModel:
-    """Load a model folder for inference (fp32 in memory); ``prefer`` "weights" or "ema" (train state)."""
+def load_model(folder: str | Path, *, prefer: str = "weights", runtime: Runtime = CPU) -> LoadedModel:
+    """Load a model folder for inference (fp32 weights on ``runtime.device``, its autocast on the model);
+    ``prefer`` "weights" or "ema" (train state). The files themselves are device-free."""
     folder = Path(folder)
     config = read_config(folder)
     model_config = ModelConfig.from_json(config["model"])
@@ -88,6 +95,8 @@ def load_model(folder: str | Path, *, prefer: str = "weights") -> LoadedModel:
     model.eval()
     for p in model.parameters():
         p.requires_grad_(False)
+    model.to(runtime.device)
+    model.autocast_dtype = runtime.dtype
     tokenizer = Tokenizer(config["vocabulary"])
     normalizer = Normalizer.load(folder)
     return LoadedModel(model=model, tokenizer=tokenizer, normalizer=normalizer, config=config, folder=folder)

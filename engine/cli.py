@@ -62,6 +62,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        if getattr(args, "device", None) is not None:  # one device rule: refused before any work starts
+            from engine.runtime import runtime_from_args
+
+            runtime_from_args(args)
         return int(args.run(args) or 0)
     except (CLIError, ValueError, FileNotFoundError) as exc:
         print(f"moattn {args.command}: error: {exc}", file=sys.stderr)

@@ -12,6 +12,9 @@
              then the model and the ground truth on prompts people type (engine/evaluation/bench_adherence.py)
 --sampling   seconds for a 6-s motion at 10/20/50 DDIM steps and DDPM 1000, with adherence and FID per
              setting, and the attention-recording overhead (engine/evaluation/bench_sampling.py)
+--train      training steps/s, samples/s, GFLOP/s and share of the matmul peak for the shipped model's shape
+             and one twice as wide (fp32 and bf16 on the CPU; --device / --precision), and whether the corpus
+             generator keeps up with 0/1/2/several DataLoader workers (engine/evaluation/bench_train.py)
 """
 from __future__ import annotations
 
@@ -22,6 +25,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from engine.paths import DUET_DIR, EVALUATOR_DIR, MODEL_DIR
+from engine.runtime import add_runtime_arguments, runtime_from_args
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -40,10 +44,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                       help="prompt adherence (action, count, side, direction, order) of the model and the ground truth")
     mode.add_argument("--sampling", action="store_true",
                       help="sampling speed per step count with adherence and FID, and attention-recording overhead")
+    mode.add_argument("--train", action="store_true",
+                      help="training step speed and GFLOP/s vs the matmul peak (two model shapes), and the corpus "
+                           "generator's samples/s with DataLoader workers")
     p.add_argument("--control", action="store_true", help="control models and blending vs inpainting (PriorMDM)")
     p.add_argument("--model", type=Path, default=MODEL_DIR, help=f"model folder (default {MODEL_DIR})")
     p.add_argument("--duet-model", type=Path, default=DUET_DIR, help=f"--duet: the ComMDM block (default {DUET_DIR})")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_runtime_arguments(p)  # --device, --precision: used by --train (the other benchmarks run on the CPU for now)
     app = p.add_argument_group("--app")
     app.add_argument("--prompt", default="a person jumps twice")
     app.add_argument("--seconds", type=float, default=3.0, help="playback measuring window")
@@ -70,8 +78,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        help="--adherence / --sampling: a file of prompts, one per line (default: the shipped set of "
                             "prompts people type)")
     edits.add_argument("--steps", type=int, default=None,
-                       help="sampling steps for every benchmark but --app (default: the benchmark's preset, 50; "
-                            "--quick: its own)")
+                       help="sampling steps for every benchmark but --app and --train (default: the benchmark's "
+                            "preset, 50; --quick: its own); --train: timed training steps per row (default 5)")
     edits.add_argument("--no-real-data", action="store_true",
                        help="--inversion: skip the motion files of the shared real-data folder (../shared/data/real/)")
     edits.add_argument("files", nargs="*", type=Path, help="--inversion: real motions (.bvh/.npy) to invert as well")
@@ -96,6 +104,10 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--no-real-data goes with --inversion")
     if args.write and not args.calibrate:
         raise ValueError("--write stores a calibration: add --calibrate")
+    if args.train:
+        if args.control:
+            raise ValueError("--train goes alone")
+        return run_train(args)
     if args.compose or args.control:
         if args.app or args.edits or args.inversion or args.transfer or args.duet:
             raise ValueError("--control goes alone or with --compose")
@@ -108,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
         return run_sampling(args)
     if not (args.app or args.edits or args.inversion or args.transfer):
         raise ValueError("choose a benchmark: --app, --edits, --inversion, --transfer, --compose and/or --control, "
-                         "--duet, --adherence, --sampling")
+                         "--duet, --adherence, --sampling, --train")
     if args.app:
         from app.bench import run_app_bench
 
@@ -135,15 +147,21 @@ def preset(cls, args: argparse.Namespace, **overrides):
     return replace(config, **fields)
 
 
+def _model(args: argparse.Namespace):
+    """``--model`` on ``--device``."""
+    from engine.checkpoint import load_model
+
+    return load_model(args.model, runtime=runtime_from_args(args))
+
+
 def _log(line: str) -> None:
     print(line, file=sys.stderr, flush=True)
 
 
 def run_calibration(args: argparse.Namespace) -> int:
-    from engine.checkpoint import load_model
     from engine.evaluation.calibrate_edits import calibrate_emphasis, write_calibration
 
-    result = calibrate_emphasis(load_model(args.model), log=_log)
+    result = calibrate_emphasis(_model(args), log=_log)
     if args.write:
         write_calibration(args.model, result)
     if args.json:
@@ -163,32 +181,29 @@ def run_calibration(args: argparse.Namespace) -> int:
 def run_edits(args: argparse.Namespace) -> int:
     if args.calibrate:
         return run_calibration(args)
-    from engine.checkpoint import load_model
     from engine.evaluation.bench_edits import EditBenchConfig, bench_edits, format_table
     from engine.evaluation.evaluator import load_evaluator
 
     config = preset(EditBenchConfig, args)
-    result = bench_edits(load_model(args.model), load_evaluator(args.evaluator), config, log=_log)
+    result = bench_edits(_model(args), load_evaluator(args.evaluator), config, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0
 
 
 def run_transfer(args: argparse.Namespace) -> int:
-    from engine.checkpoint import load_model
     from engine.evaluation.bench_transfer import TransferBenchConfig, bench_transfer, format_table
     from engine.evaluation.evaluator import load_evaluator
 
     config = preset(TransferBenchConfig, args, pairs=args.samples, ood_pairs=args.ood_pairs)
-    result = bench_transfer(load_model(args.model), load_evaluator(args.evaluator), config, log=_log)
+    result = bench_transfer(_model(args), load_evaluator(args.evaluator), config, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0
 
 
 def run_priormdm(args: argparse.Namespace) -> int:
-    from engine.checkpoint import load_model
     from engine.evaluation.evaluator import load_evaluator
 
-    loaded, evaluator = load_model(args.model), load_evaluator(args.evaluator)
+    loaded, evaluator = _model(args), load_evaluator(args.evaluator)
     result, tables = {}, []
     if args.compose:
         from engine.evaluation.bench_compose import ComposeBenchConfig, bench_compose, format_table
@@ -207,25 +222,23 @@ def run_priormdm(args: argparse.Namespace) -> int:
 
 
 def run_adherence(args: argparse.Namespace) -> int:
-    from engine.checkpoint import load_model
     from engine.evaluation.bench_adherence import AdherenceBenchConfig, bench_adherence, format_table, read_prompts
 
     config = preset(AdherenceBenchConfig, args, seeds=args.seeds)  # bad settings fail before the model loads
     prompts = read_prompts(args.prompts) if args.prompts is not None else None
-    result = bench_adherence(load_model(args.model), config, prompts=prompts, log=_log)
+    result = bench_adherence(_model(args), config, prompts=prompts, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0
 
 
 def run_sampling(args: argparse.Namespace) -> int:
-    from engine.checkpoint import load_model
     from engine.evaluation.bench_adherence import read_prompts
     from engine.evaluation.bench_sampling import SamplingBenchConfig, bench_sampling, format_table
     from engine.evaluation.evaluator import load_evaluator
 
     config = preset(SamplingBenchConfig, args, seeds=args.seeds)
     prompts = read_prompts(args.prompts) if args.prompts is not None else None
-    result = bench_sampling(load_model(args.model), load_evaluator(args.evaluator), config, prompts=prompts, log=_log)
+    result = bench_sampling(_model(args), load_evaluator(args.evaluator), config, prompts=prompts, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0
 
@@ -237,18 +250,27 @@ def run_duet(args: argparse.Namespace) -> int:
     if args.seeds is not None and args.seeds < 1:
         raise ValueError("--seeds must be at least 1")
     config = preset(DuetBenchConfig, args, per_interaction=args.samples, seeds=args.seeds)
-    result = bench_duet(load_trained(args.duet_model, args.model), config, log=_log)
+    result = bench_duet(load_trained(args.duet_model, args.model, runtime=runtime_from_args(args)), config, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0
 
 
 def run_inversion(args: argparse.Namespace) -> int:
-    from engine.checkpoint import load_model
     from engine.evaluation.bench_inversion import InversionBenchConfig, bench_inversion, format_table
 
     config = preset(InversionBenchConfig, args, motions=args.samples)
     if args.no_real_data:
         config = replace(config, real_data=None)
-    result = bench_inversion(load_model(args.model), config, args.files, log=_log)
+    result = bench_inversion(_model(args), config, args.files, log=_log)
+    print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
+    return 0
+
+
+def run_train(args: argparse.Namespace) -> int:
+    from engine.evaluation.bench_train import TrainBenchConfig, bench_train, format_table, runtimes
+
+    runtimes(args.device, args.precision)  # a device that cannot be used fails in one line before any work
+    config = preset(TrainBenchConfig, args)
+    result = bench_train(config, device=args.device, precision=args.precision, model_dir=args.model, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0

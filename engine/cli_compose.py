@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 from engine.paths import MODEL_DIR
+from engine.runtime import add_runtime_arguments, runtime_from_args
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -29,6 +30,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--model", type=Path, default=MODEL_DIR)
     p.add_argument("--out", type=Path, required=True, help="the long motion (.npy or .bvh)")
     p.add_argument("--render", type=Path, default=None, help="a render (.gif, .mp4 or .png)")
+    add_runtime_arguments(p)
     p.set_defaults(run=run)
     add_control_parser(sub)
 
@@ -49,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
 
     intervals = [Interval.parse(text) for text in args.intervals]
     config = config_from_args(args)
-    loaded = load_model(args.model)
+    loaded = load_model(args.model, runtime=runtime_from_args(args))
     for iv in intervals:
         loaded.tokenizer.encode(iv.prompt)  # unknown words fail before any sampling
     result = compose(loaded, intervals, config, sample=SampleConfig(steps=args.steps, guidance=args.guidance,
@@ -92,6 +94,7 @@ def add_control_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--controls", type=Path, default=CONTROL_DIR, help=f"control model folders (default {CONTROL_DIR})")
     p.add_argument("--out", type=Path, required=True, help="the motion (.npy or .bvh), in the path's world frame")
     p.add_argument("--render", type=Path, default=None, help="a render (.gif, .mp4 or .png)")
+    add_runtime_arguments(p)
     p.set_defaults(run=run_control)
 
 
@@ -139,11 +142,11 @@ def run_control(args: argparse.Namespace) -> int:
     from engine.methods.paths import path_error, to_world
 
     controls, frame = build_controls(args)
-    loaded = load_model(args.model)
+    loaded = load_model(args.model, runtime=runtime_from_args(args))
     loaded.tokenizer.encode(args.prompt)
     models = None
     if not args.inpaint:
-        models = load_controls(args.controls)
+        models = load_controls(args.controls, runtime=loaded.runtime)
         missing = [c.name for c in controls if c.name not in models]
         if missing:
             raise FileNotFoundError(f"no fine-tuned control model for {', '.join(missing)} in {args.controls} "

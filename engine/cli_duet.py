@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from engine.paths import DUET_DIR, MODEL_DIR
+from engine.runtime import add_runtime_arguments, runtime_from_args
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -34,6 +35,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--model", type=Path, default=MODEL_DIR, help="the base model (the prior)")
     p.add_argument("--duet-model", type=Path, default=DUET_DIR, help="the ComMDM block trained on that prior")
     p.add_argument("--render", type=Path, default=None, help="a render of both people (.gif, .mp4 or .png)")
+    add_runtime_arguments(p)
     p.set_defaults(run=run)
 
 
@@ -89,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("the prompt is empty: describe what the two people do, e.g. 'two people shake hands'")
     if args.prompt is None and args.prefix is None:
         raise ValueError("give a prompt (e.g. 'two people shake hands') or --prefix FILE")
-    model = load_trained(args.duet_model, args.model)
+    model = load_trained(args.duet_model, args.model, runtime=runtime_from_args(args))
     if args.prompt is not None:
         model.tokenizer.encode(args.prompt)  # unknown words fail before any sampling
     guidance = args.guidance if args.guidance is not None else (1.0 if args.prompt is None else 2.5)

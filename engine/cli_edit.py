@@ -7,6 +7,7 @@ from pathlib import Path
 
 from engine.methods.edit_options import KINDS
 from engine.paths import MODEL_DIR
+from engine.runtime import add_runtime_arguments, runtime_from_args
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -37,6 +38,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--model", type=Path, default=MODEL_DIR)
     p.add_argument("--out", type=Path, default=Path("edited.npy"), help="edited motion (.npy or .bvh)")
     p.add_argument("--render", type=Path, default=None, help="before/after render (.gif, .mp4 or .png)")
+    add_runtime_arguments(p)
     p.set_defaults(run=run)
 
 
@@ -77,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     from engine.methods.edit_options import run_edit
 
     options = options_from_args(args)
-    loaded = load_model(args.model)
+    loaded = load_model(args.model, runtime=runtime_from_args(args))
     frames = frames_for(args.seconds)
     sample = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed)
 

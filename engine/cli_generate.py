@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from engine.paths import MODEL_DIR
+from engine.runtime import add_runtime_arguments, runtime_from_args
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -22,6 +23,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--sampler", choices=("ddim", "ddpm"), default="ddim")
     p.add_argument("--model", type=Path, default=MODEL_DIR)
     p.add_argument("--vecs", action="store_true", help="write .npy outputs as 263-dim features instead of joints")
+    add_runtime_arguments(p)
     p.set_defaults(run=run)
 
 
@@ -31,7 +33,7 @@ def run(args: argparse.Namespace) -> int:
     from engine.io import save_motion
 
     frames = frames_for(args.seconds)
-    loaded = load_model(args.model)
+    loaded = load_model(args.model, runtime=runtime_from_args(args))
     config = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed, sampler=args.sampler)
 
     def progress(state):

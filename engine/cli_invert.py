@@ -7,6 +7,7 @@ from pathlib import Path
 
 from engine.cli_io import add_window_args, load_window
 from engine.paths import MODEL_DIR
+from engine.runtime import add_runtime_arguments, runtime_from_args
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -21,6 +22,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, default=None, help="save the noise as .npy (1, T, 263)")
     p.add_argument("--json", action="store_true")
     add_window_args(p, what="the part of the input to invert")
+    add_runtime_arguments(p)
     p.set_defaults(run=run)
 
 
@@ -32,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
     from engine.methods.inversion import InversionConfig, invert, roundtrip_error
 
     config = InversionConfig(prompt=args.prompt, steps=args.steps, refine=args.refine)
-    loaded = load_model(args.model)
+    loaded = load_model(args.model, runtime=runtime_from_args(args))
     joints = load_window(args.input, args, max_frames=loaded.model.config.max_frames)
     report = {"input": str(args.input), "start_s": args.start or 0.0, "seconds": seconds_of(len(joints)),
               **roundtrip_error(loaded, joints, config), "steps": args.steps, "refine": args.refine,

@@ -7,6 +7,13 @@ import json
 from dataclasses import fields
 
 from engine.model.denoiser import ModelConfig
+from engine.runtime import DEVICE_HELP, PRECISION_HELP, autocast_dtype, resolve_device
+
+
+_RUNTIME_HELP = {
+    "device": DEVICE_HELP.replace("(default: auto)", "(default: auto; under torchrun on CUDA, rank r uses cuda:LOCAL_RANK)"),
+    "precision": PRECISION_HELP,
+}
 
 
 def _configs():
@@ -24,7 +31,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "train",
         help="train the denoiser on the procedural corpus (or a HumanML3D folder), or the ComMDM block",
         description="Train the motion denoiser. Checkpoints, log.jsonl and snapshots go to --out; "
-        "--resume continues from the last checkpoint there. Run under torchrun for data parallel (gloo). "
+        "--resume continues from the last checkpoint there (under any number of processes). Run under torchrun for "
+        "data parallel: NCCL on CUDA, gloo on the CPU. "
         "With --commdm: train the two-person ComMDM block on a few corpus duets, the base model (--prior) frozen.",
     )
     base, com = base_type(), com_type()
@@ -40,7 +48,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         else:
             shown = f"default: {value}"
         flag = f"--{f.name.replace('_', '-')}"
-        if isinstance(value, bool):
+        if f.name in _RUNTIME_HELP:
+            p.add_argument(flag, default=None, help=_RUNTIME_HELP[f.name])
+        elif isinstance(value, bool):
             p.add_argument(flag, action=argparse.BooleanOptionalAction, default=None, help=f"({shown})")
         else:
             p.add_argument(flag, type=type(value), default=None, help=f"({shown})")
@@ -78,6 +88,8 @@ def run(args: argparse.Namespace) -> int:
         raise SystemExit(f"--{foreign[0].replace('_', '-')} applies to --commdm only")
     from engine.train import train
 
+    # refuse an unusable device or precision before any data is built
+    autocast_dtype(resolve_device(base_given.get("device", "auto")), base_given.get("precision", "auto"), training=True)
     model = ModelConfig(**{f.name: getattr(args, f"model_{f.name}") for f in fields(ModelConfig)
                            if hasattr(args, f"model_{f.name}")})
     config = base_type(model=model, **base_given)

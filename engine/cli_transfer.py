@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 from engine.paths import MODEL_DIR
+from engine.runtime import add_runtime_arguments, runtime_from_args
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -33,6 +34,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--steps", type=int, default=50)
     p.add_argument("--guidance", type=float, default=2.5)
     p.add_argument("--model", type=Path, default=MODEL_DIR)
+    add_runtime_arguments(p)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -106,7 +108,7 @@ def _run(args: argparse.Namespace, *, record: bool):
     from engine.analysis.qk import qk_record
     from engine.methods.momo import transfer
 
-    loaded = load_model(args.model)
+    loaded = load_model(args.model, runtime=runtime_from_args(args))
     leader, followers = sources(args, max_frames=loaded.model.config.max_frames)
     sample = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed)
     result = transfer(loaded, leader, followers, config_from_args(args), sample=sample,

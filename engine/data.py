@@ -51,24 +51,48 @@ class FolderSource:
     """A HumanML3D-layout folder (new_joint_vecs/, texts/, split lists); cycles over its samples.
 
     Whole-clip captions stay with their clip; a caption with a time interval becomes its own
-    item cropped to that interval, as HumanML3D's loaders do.
+    item cropped to that interval (at 20 fps), as HumanML3D's loaders do. Listed samples whose
+    feature or caption file is missing are skipped with one warning; a broken file (wrong shape,
+    NaN, bad caption line, bad Mean/Std) raises a ``MotionIOError`` naming it.
     """
 
     def __init__(self, folder: str | Path, *, split: str = "train", min_frames: int = 20):
-        from engine.io.humanml3d import HumanML3DFolder
+        from engine.io.humanml3d import TEXTS_DIR, HumanML3DFolder
 
+        data = HumanML3DFolder(folder)
+        if data.has_normalizer():
+            data.normalizer()  # a broken Mean.npy/Std.npy fails now, naming the file, not mid-training
+        self.folder = data.root
+        self.split = split
+        self._texts = data.root / TEXTS_DIR
         self.items: list[tuple[np.ndarray, tuple[str, ...]]] = []
-        for _, features, captions in HumanML3DFolder(folder).iter_samples(split, skip_missing=True):
+        self.names: list[str] = []  # the sample each item comes from (for messages)
+        read = 0
+        for name, features, captions in data.iter_samples(split, skip_missing=True):
+            read += 1
             features = np.asarray(features, dtype=np.float32)
             whole = tuple(c.text for c in captions if c.whole_clip)
             if whole and len(features) >= min_frames:
                 self.items.append((features, whole))
+                self.names.append(name)
             for c in captions:
                 span = c.frames()
-                if span is not None and span[1] - span[0] >= min_frames:
-                    self.items.append((features[span[0] : span[1]], (c.text,)))
+                if span is None:
+                    continue
+                clip = features[span[0] : span[1]]
+                if len(clip) >= min_frames:
+                    self.items.append((clip, (c.text,)))
+                    self.names.append(name)
         if not self.items:
-            raise ValueError(f"no usable samples in split {split!r} of {folder}")
+            raise ValueError(f"no usable samples in split {split!r} of {folder}: {read} read, none with a caption "
+                             f"covering at least {min_frames} frames")
+
+    def __len__(self) -> int:
+        return len(self.items)
+
+    def caption_file(self, index: int) -> Path:
+        """The texts/<name>.txt file item ``index`` takes its captions from."""
+        return self._texts / f"{self.names[index % len(self.items)]}.txt"
 
     def get(self, index: int) -> MotionText:
         features, captions = self.items[index % len(self.items)]
@@ -139,16 +163,122 @@ def batches(
     stride: int = 1,
     **collate_kwargs,
 ) -> Iterator[Batch]:
-    """An endless stream of batches; item indices start_index, start_index + stride, ... (DDP ranks interleave)."""
-    rng = np.random.default_rng(seed)
-    index = start_index
-    while True:
+    """An endless stream of batches built in this process: :func:`batch_loader` with ``workers=0``."""
+    return batch_loader(source, tokenizer=tokenizer, normalize=normalize, batch_size=batch_size, seed=seed,
+                        start_index=start_index, stride=stride, workers=0, **collate_kwargs)
+
+
+def batch_loader(
+    source: MotionSource,
+    *,
+    tokenizer: Tokenizer,
+    normalize,
+    batch_size: int,
+    seed: int,
+    start_index: int = 0,
+    stride: int = 1,
+    workers: int = 0,
+    pin_memory: bool = False,
+    prefetch_factor: int = 2,
+    **collate_kwargs,
+) -> Iterator[Batch]:
+    """An endless stream of batches, built in this process (``workers=0``) or by DataLoader worker processes.
+
+    Batch k is a pure function of (seed, start_index, stride, k): its items are source indices
+    ``start_index + stride * (k * batch_size + j)`` for j < batch_size (DDP ranks interleave with stride = world
+    size), and its collate rng is ``np.random.default_rng([seed, k])``. Items with non-finite features are dropped
+    with a warning (that batch is smaller; a batch left empty is skipped). Worker w of W builds the batches
+    k = w (mod W) and the DataLoader hands them back in order, so the stream is the same for any ``workers``.
+    ``pin_memory``: page-locked batches for fast, asynchronous copies to a CUDA device (ignored without CUDA).
+    Close the iterator (``.close()``) to stop worker processes early; they also stop when it is garbage-collected.
+    """
+    if batch_size < 1:
+        raise ValueError(f"batch_size must be at least 1, got {batch_size}")
+    if stride < 1 or start_index < 0:
+        raise ValueError(f"start_index must be >= 0 and stride >= 1, got {start_index} and {stride}")
+    if workers < 0:
+        raise ValueError(f"workers must be 0 or more, got {workers}")
+    dataset = _BatchStream(source, tokenizer=tokenizer, normalize=normalize, batch_size=batch_size, seed=seed,
+                           start_index=start_index, stride=stride, collate_kwargs=collate_kwargs)
+    pin = pin_memory and torch.cuda.is_available()
+    if workers == 0:
+        return _in_process(dataset, pin)
+    import multiprocessing
+
+    from torch.utils.data import DataLoader
+
+    context = "fork" if "fork" in multiprocessing.get_all_start_methods() else None
+    loader = DataLoader(dataset, batch_size=None, num_workers=workers, persistent_workers=True,
+                        prefetch_factor=max(2, min(4, prefetch_factor)), multiprocessing_context=context,
+                        pin_memory=pin, collate_fn=_as_is)
+    return _from_loader(loader)
+
+
+class _Packed:
+    """A batch as it crosses from a worker: DataLoader's pin-memory thread calls ``pin_memory()`` on it."""
+
+    __slots__ = ("batch",)
+
+    def __init__(self, batch: Batch | None):
+        self.batch = batch
+
+    def pin_memory(self, device=None) -> "_Packed":
+        return _Packed(None if self.batch is None else _pinned(self.batch))
+
+
+def _pinned(batch: Batch) -> Batch:
+    from dataclasses import replace
+
+    c = batch.cond
+    extras = {k: v.pin_memory() if isinstance(v, torch.Tensor) else v for k, v in c.extras.items()}
+    cond = replace(c, text_ids=c.text_ids.pin_memory(), text_mask=c.text_mask.pin_memory(),
+                   frame_mask=c.frame_mask.pin_memory(), use_text=c.use_text.pin_memory(), extras=extras)
+    return replace(batch, x0=batch.x0.pin_memory(), cond=cond)
+
+
+def _as_is(item):
+    return item
+
+
+class _BatchStream(torch.utils.data.IterableDataset):
+    """Batch k for every k this process builds (all of them, or worker w's share k = w mod W)."""
+
+    def __init__(self, source: MotionSource, *, tokenizer: Tokenizer, normalize, batch_size: int, seed: int,
+                 start_index: int, stride: int, collate_kwargs: dict):
+        super().__init__()
+        self.source, self.tokenizer, self.normalize = source, tokenizer, normalize
+        self.batch_size, self.seed, self.start_index, self.stride = batch_size, seed, start_index, stride
+        self.collate_kwargs = collate_kwargs
+
+    def batch(self, k: int) -> Batch | None:
         items = []
-        while len(items) < batch_size:
-            item = source.get(index)
-            index += stride
+        for j in range(self.batch_size):
+            index = self.start_index + self.stride * (k * self.batch_size + j)
+            item = self.source.get(index)
             if np.isfinite(item.features).all():
                 items.append(item)
             else:  # a broken sample must never reach the model
-                warnings.warn(f"training sample {index - stride} has non-finite features; skipped", RuntimeWarning)
-        yield collate(items, tokenizer=tokenizer, normalize=normalize, rng=rng, **collate_kwargs)
+                warnings.warn(f"training sample {index} has non-finite features; skipped", RuntimeWarning)
+        if not items:
+            return None
+        rng = np.random.default_rng([self.seed, k])
+        return collate(items, tokenizer=self.tokenizer, normalize=self.normalize, rng=rng, **self.collate_kwargs)
+
+    def __iter__(self) -> Iterator[_Packed]:
+        info = torch.utils.data.get_worker_info()
+        k, step = (0, 1) if info is None else (info.id, info.num_workers)
+        while True:
+            yield _Packed(self.batch(k))  # an empty batch too, so the workers' round-robin order holds
+            k += step
+
+
+def _in_process(dataset: _BatchStream, pin: bool) -> Iterator[Batch]:
+    for packed in dataset:
+        if packed.batch is not None:
+            yield _pinned(packed.batch) if pin else packed.batch
+
+
+def _from_loader(loader) -> Iterator[Batch]:
+    for packed in loader:
+        if packed.batch is not None:
+            yield packed.batch

@@ -1,7 +1,9 @@
 """`moattn train`: train the denoiser on the corpus (on the fly) or a HumanML3D folder.
 
-Single process by default; under ``torchrun`` (WORLD_SIZE set) it runs torch DDP with gloo on CPU,
-each rank drawing interleaved corpus indices. Rank 0 writes checkpoints and logs.
+Single process by default; under ``torchrun`` (WORLD_SIZE set) it runs torch DDP: NCCL when the
+run is on CUDA (rank r on cuda:LOCAL_RANK), gloo on the CPU. Each rank draws its own interleaved
+share of the corpus (or folder) indices; rank 0 writes checkpoints, logs and progress. The item
+counter in a checkpoint is global, so ``--resume`` works under another world size.
 """
 from __future__ import annotations
 
@@ -14,6 +16,7 @@ import sys
 import time
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -21,10 +24,11 @@ import torch.distributed as dist
 from tqdm import tqdm
 
 from engine.checkpoint import export_weights, load_train_state, read_config, save_train_state, write_config
-from engine.data import CorpusSource, FolderSource, MotionSource, batches
+from engine.data import Batch, CorpusSource, FolderSource, MotionSource, batch_loader
 from engine.diffusion.schedule import CosineSchedule
 from engine.model.denoiser import Denoiser, ModelConfig
 from engine.representation import Normalizer
+from engine.runtime import Runtime
 from engine.text import Tokenizer
 
 
@@ -48,7 +52,9 @@ class TrainConfig:
     snapshot_every: int = 2000
     stats_samples: int = 2000
     threads: int = 0  # torch threads per process; 0 = torch's default
-    bf16: bool = True  # bfloat16 autocast for the forward pass (about 25 % faster on AVX-512 CPUs)
+    workers: int = 0  # DataLoader worker processes building batches (0 = in the training process)
+    device: str = "auto"  # auto | cpu | cuda | cuda:N (under torchrun on CUDA: cuda:LOCAL_RANK)
+    precision: str = "auto"  # auto | fp32 | bf16 | fp16 (engine.runtime: bf16 on CPUs only where native)
     # "" = the base model; a control name ("root", "left_wrist", "right_wrist") fine-tunes a control
     # model by PriorMDM's Algorithm 1: those features reach the model noise-free (only scaled by sqrt(alpha_bar))
     control: str = ""
@@ -68,7 +74,7 @@ class TrainConfig:
 
 
 # fields a resumed run takes from the new call rather than from its checkpoint
-_RUNTIME_FIELDS = ("steps", "log_every", "ckpt_every", "snapshot_every", "threads", "bf16")
+_RUNTIME_FIELDS = ("steps", "log_every", "ckpt_every", "snapshot_every", "threads", "workers", "device", "precision")
 
 
 def kept_from_checkpoint(given: dict, saved: dict) -> dict[str, tuple]:
@@ -130,10 +136,13 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
     """``given``: the config fields the caller set explicitly (the CLI's flags); a continued base run says which of
     them it does not apply."""
     distributed = int(os.environ.get("WORLD_SIZE", "1")) > 1
+    runtime = _runtime(config, distributed=distributed)
     if distributed:
-        dist.init_process_group("gloo")
+        dist.init_process_group("nccl" if runtime.device.type == "cuda" else "gloo")
     rank = dist.get_rank() if distributed else 0
     world = dist.get_world_size() if distributed else 1
+    if rank == 0:
+        print(f"training on {runtime.describe()}" + (f", {world} processes" if distributed else ""), flush=True)
     if config.threads:
         torch.set_num_threads(config.threads)
     out = Path(config.out).resolve()
@@ -169,8 +178,8 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
             for name, (want, value) in kept.items() if rank == 0 else ():
                 print(f"--{name.replace('_', '-')} {want} is not applied: a continued run keeps its saved {name} "
                       f"({value})", file=sys.stderr)
-            runtime = {k: getattr(config, k) for k in _RUNTIME_FIELDS}
-            config = TrainConfig.from_json({**saved["train"], **runtime, "out": str(out)})
+            how = {k: getattr(config, k) for k in _RUNTIME_FIELDS}
+            config = TrainConfig.from_json({**saved["train"], **how, "out": str(out)})
         tokenizer = Tokenizer(saved["vocabulary"])
         normalizer = Normalizer.load(stats_folder)
         if rank == 0 and stats_folder != out:
@@ -215,14 +224,21 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
     for p in ema.parameters():
         p.requires_grad_(False)
 
-    net = torch.nn.parallel.DistributedDataParallel(model) if distributed else model
+    model.to(runtime.device)
+    ema.to(runtime.device)
+    model.autocast_dtype = runtime.dtype
+    if distributed:
+        ids = [runtime.device.index] if runtime.device.type == "cuda" else None
+        net = torch.nn.parallel.DistributedDataParallel(model, device_ids=ids)
+    else:
+        net = model
     optimizer = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
     if opt_state is not None:
         optimizer.load_state_dict(opt_state)
-    schedule = CosineSchedule()
-    stream = batches(
+    stream = batch_loader(
         source, tokenizer=tokenizer, normalize=normalizer.normalize, batch_size=config.batch_size,
         seed=config.seed * 1000 + rank + start_step, start_index=next_index + rank, stride=world,
+        workers=config.workers, pin_memory=runtime.device.type == "cuda",
         max_frames=config.max_frames, text_dropout=config.text_dropout,
     )
     gen = torch.Generator().manual_seed(config.seed * 7919 + rank * 104729 + start_step)
@@ -235,15 +251,18 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
             return
         write_config(out, model_config=model_config, vocabulary=tokenizer.words[1:],
                      extra={"train": config.to_json(), "step": step})
-        save_train_state(out, {"model": model.state_dict(), "ema": ema.state_dict(),
-                               "optimizer": optimizer.state_dict(), "step": step, "next_index": index})
-        export_weights(out, ema.state_dict())
+        save_train_state(out, {"model": on_cpu(model.state_dict()), "ema": on_cpu(ema.state_dict()),
+                               "optimizer": on_cpu(optimizer.state_dict()), "step": step, "next_index": index})
+        export_weights(out, on_cpu(ema.state_dict()))
 
     control_dims = None
     if config.control:
         from engine.methods.control import control_dims as _dims
 
         control_dims = torch.as_tensor(_dims(config.control))
+    train_step = TrainStep(model=model, net=net, ema=ema, optimizer=optimizer, runtime=runtime, generator=gen,
+                           velocity_weight=config.velocity_weight, grad_clip=config.grad_clip,
+                           ema_decay=config.ema_decay, control_dims=control_dims)
     stop = _Stop()
     previous = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
     log_path = out / "log.jsonl"
@@ -255,36 +274,18 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
         while step < config.steps and not stop.requested:
             batch = next(stream)
             index += config.batch_size * world
-            b = batch.x0.shape[0]
-            t = torch.randint(0, schedule.steps, (b,), generator=gen)
-            noise = torch.randn(batch.x0.shape, generator=gen)
-            if control_dims is not None:
-                noise[..., control_dims] = 0.0
-            x_t = schedule.q_sample(batch.x0, t, noise)
-            for group in optimizer.param_groups:
-                group["lr"] = lr_at(step, config)
-            with torch.autocast("cpu", dtype=torch.bfloat16, enabled=config.bf16):
-                x0_hat = net(x_t, t, batch.cond)
-            mse, vel = masked_losses(x0_hat.float(), batch.x0, batch.cond.frame_mask)
-            loss = mse + config.velocity_weight * vel
-            optimizer.zero_grad(set_to_none=True)
-            loss.backward()
-            grad_norm = torch.nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip)
-            if not (torch.isfinite(loss) and torch.isfinite(grad_norm)):
+            outcome = train_step(batch, step=step, lr=lr_at(step, config))
+            if not outcome.applied:
+                if outcome.overflow:
+                    continue  # an fp16 gradient overflowed: the scaler lowered its scale
                 skipped += 1  # never let one bad batch poison the weights
-                optimizer.zero_grad(set_to_none=True)
                 if rank == 0:
                     print(f"step {step}: non-finite loss or gradient; update skipped ({skipped} so far)", flush=True)
                 if skipped > 50:
                     raise RuntimeError("more than 50 non-finite updates: stopping (check the data and learning rate)")
                 continue
-            optimizer.step()
-            with torch.no_grad():
-                decay = min(config.ema_decay, (1 + step) / (10 + step))
-                for pe, pm in zip(ema.parameters(), model.parameters()):
-                    pe.lerp_(pm, 1 - decay)
             step += 1
-            window_loss.append((mse.item(), vel.item()))
+            window_loss.append((outcome.mse, outcome.vel))
             bar.update(1)
             if step % config.log_every == 0 or step == config.steps:
                 elapsed = time.perf_counter() - window_t0
@@ -304,7 +305,7 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
                 write_config(snap, model_config=model_config, vocabulary=tokenizer.words[1:],
                              extra={"train": config.to_json(), "step": step})
                 normalizer.save(snap)
-                export_weights(snap, ema.state_dict())
+                export_weights(snap, on_cpu(ema.state_dict()))
     finally:
         bar.close()
         for s, handler in previous.items():
@@ -314,6 +315,96 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
             dist.barrier()
             dist.destroy_process_group()
     return {"step": step, "stopped": stop.requested, **last}
+
+
+class StepOutcome(NamedTuple):
+    mse: float
+    vel: float
+    applied: bool  # False: the update was skipped (non-finite loss or gradient)
+    overflow: bool = False  # skipped because an fp16 gradient overflowed (the scaler lowered its scale)
+
+
+@dataclass
+class TrainStep:
+    """One optimisation step of the denoiser: what ``moattn train`` runs and ``moattn bench --train`` times.
+
+    Timesteps and noise are drawn on the CPU from ``generator`` (the same run on any device); the batch crosses
+    to the runtime's device here. The model's own ``autocast_dtype`` sets the forward precision; fp16 scales the
+    loss. ``control_dims``: features that reach the model noise-free (a control fine-tune, PriorMDM Algorithm 1).
+    """
+
+    model: Denoiser
+    net: torch.nn.Module  # the model, or its DistributedDataParallel wrapper
+    ema: Denoiser
+    optimizer: torch.optim.Optimizer
+    runtime: Runtime
+    generator: torch.Generator
+    velocity_weight: float = 0.5
+    grad_clip: float = 1.0
+    ema_decay: float = 0.999
+    control_dims: torch.Tensor | None = None
+    schedule: CosineSchedule = field(default_factory=CosineSchedule)
+
+    def __post_init__(self) -> None:
+        self.scaler = torch.amp.GradScaler(self.runtime.device.type, enabled=self.runtime.dtype == torch.float16)
+
+    def losses(self, batch: Batch) -> tuple[torch.Tensor, torch.Tensor]:
+        """(mse, velocity) of the denoiser on ``batch`` at random timesteps."""
+        device = self.runtime.device
+        b = batch.x0.shape[0]
+        t = torch.randint(0, self.schedule.steps, (b,), generator=self.generator)
+        noise = torch.randn(batch.x0.shape, generator=self.generator)
+        if self.control_dims is not None:
+            noise[..., self.control_dims] = 0.0
+        x_t = self.schedule.q_sample(batch.x0, t, noise)
+        x0 = batch.x0.to(device, non_blocking=True)
+        cond = batch.cond.to_device(device)
+        x0_hat = self.net(x_t.to(device, non_blocking=True), t.to(device), cond)
+        return masked_losses(x0_hat.float(), x0, cond.frame_mask)
+
+    def __call__(self, batch: Batch, *, step: int, lr: float) -> StepOutcome:
+        for group in self.optimizer.param_groups:
+            group["lr"] = lr
+        mse, vel = self.losses(batch)
+        loss = mse + self.velocity_weight * vel
+        self.optimizer.zero_grad(set_to_none=True)
+        self.scaler.scale(loss).backward()
+        self.scaler.unscale_(self.optimizer)
+        grad_norm = torch.nn.utils.clip_grad_norm_(self.model.parameters(), self.grad_clip)
+        if not (torch.isfinite(loss) and torch.isfinite(grad_norm)):
+            self.optimizer.zero_grad(set_to_none=True)
+            overflow = self.scaler.is_enabled() and bool(torch.isfinite(loss))
+            if overflow:
+                self.scaler.update()
+            return StepOutcome(mse=float(mse), vel=float(vel), applied=False, overflow=overflow)
+        self.scaler.step(self.optimizer)
+        self.scaler.update()
+        with torch.no_grad():
+            decay = min(self.ema_decay, (1 + step) / (10 + step))
+            torch._foreach_lerp_(list(self.ema.parameters()), list(self.model.parameters()), 1 - decay)
+        return StepOutcome(mse=mse.item(), vel=vel.item(), applied=True)
+
+
+def _runtime(config: TrainConfig, *, distributed: bool) -> Runtime:
+    """The device rule for a training process; under torchrun on CUDA each rank takes cuda:LOCAL_RANK."""
+    runtime = Runtime.create(config.device, config.precision, training=True)
+    if distributed and runtime.device.type == "cuda" and runtime.device.index in (None, 0):
+        local = int(os.environ.get("LOCAL_RANK", "0"))
+        runtime = Runtime.create(f"cuda:{local}", config.precision, training=True)
+    if runtime.device.type == "cuda":
+        torch.cuda.set_device(runtime.device)
+    return runtime
+
+
+def on_cpu(state):
+    """A state dict (nested dicts/lists of tensors) with every tensor on the CPU: checkpoints stay device-free."""
+    if isinstance(state, torch.Tensor):
+        return state.detach().cpu()
+    if isinstance(state, dict):
+        return {k: on_cpu(v) for k, v in state.items()}
+    if isinstance(state, (list, tuple)):
+        return type(state)(on_cpu(v) for v in state)
+    return state
 
 
 def _fit_stats(source: MotionSource, config: TrainConfig) -> Normalizer:

@@ -33,6 +33,7 @@ from engine.attention.context import WordIndex
 from engine.generate import FPS
 from engine.paths import MODEL_DIR
 from engine.train import _Stop, lr_at
+from engine.runtime import CPU, Runtime
 
 
 @dataclass
@@ -201,11 +202,11 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
     return {"step": step, "stopped": stop.requested, **last}
 
 
-def load_trained(folder: str | Path, prior_folder: str | Path | None = None) -> DuetModel:
-    """A duet model folder with its prior (the one named in its training config unless given)."""
+def load_trained(folder: str | Path, prior_folder: str | Path | None = None, *, runtime: Runtime = CPU) -> DuetModel:
+    """A duet model folder with its prior (the one named in its training config unless given), on ``runtime``."""
     from engine.paths import PROJECT_ROOT
 
     config = read_config(Path(folder))
     named = Path(config["train"]["prior"])  # a shipped config names its prior relative to the project
-    prior = load_model(prior_folder or (named if named.is_absolute() else PROJECT_ROOT / named))
+    prior = load_model(prior_folder or (named if named.is_absolute() else PROJECT_ROOT / named), runtime=runtime)
     return load_duet(folder, prior)

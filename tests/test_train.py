@@ -38,7 +38,7 @@ class ToySource:
 
 def config(tmp_path: Path, **kw) -> TrainConfig:
     base = dict(out=str(tmp_path / "run"), steps=60, batch_size=8, max_frames=40, lr=2e-3, warmup=5, log_every=10,
-                ckpt_every=30, snapshot_every=0, stats_samples=20, threads=1, bf16=False, model=TINY)
+                ckpt_every=30, snapshot_every=0, stats_samples=20, threads=1, precision="fp32", model=TINY)
     base.update(kw)
     return TrainConfig(**base)
 
@@ -95,24 +95,43 @@ def test_trains_on_a_humanml3d_folder(tmp_path):
     assert result["step"] == 20 and (tmp_path / "run" / "weights.pt").exists()
 
 
-def test_torchrun_two_processes(tmp_path):
+def _moattn_train(folder: Path, out: Path, steps: int, *, processes: int, resume: bool = False):
+    """`moattn train` on a tiny model, under torchrun (gloo on the CPU) when ``processes`` > 1."""
+    launcher = (["-m", "torch.distributed.run", "--standalone", f"--nproc_per_node={processes}"] if processes > 1
+                else [])
+    cmd = [sys.executable, *launcher, "-m", "engine.cli",
+           "train", "--data", str(folder), "--out", str(out), "--steps", str(steps), "--batch-size", "4",
+           "--max-frames", "40", "--width", "32", "--layers", "2", "--heads", "2", "--text-layers", "1",
+           "--log-every", "4", "--ckpt-every", "6", "--snapshot-every", "0", "--stats-samples", "8", "--threads", "1",
+           "--precision", "fp32", "--device", "cpu", "--no-progress", *(["--resume"] if resume else [])]
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env,
+                          cwd=Path(__file__).resolve().parents[1])
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return proc, torch.load(out / "train_state.pt", weights_only=True)
+
+
+def test_torchrun_two_processes_and_resume_under_another_world_size(tmp_path):
     folder = tmp_path / "hml"
     _write_folder(folder)
     out = tmp_path / "ddp"
-    cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2", "-m", "engine.cli",
-           "train", "--data", str(folder), "--out", str(out), "--steps", "12", "--batch-size", "4", "--max-frames", "40",
-           "--width", "32", "--layers", "2", "--heads", "2", "--text-layers", "1", "--log-every", "4",
-           "--ckpt-every", "6", "--snapshot-every", "0", "--stats-samples", "8", "--threads", "1", "--no-bf16",
-           "--no-progress"]
-    env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env, cwd=Path(__file__).resolve().parents[1])
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    state = torch.load(out / "train_state.pt", weights_only=True)
+    proc, state = _moattn_train(folder, out, 12, processes=2)
+    assert "training on cpu, fp32, 2 processes" in proc.stdout
     assert state["step"] == 12
-    # each step consumed batch_size items on each of the 2 ranks
+    # each step consumed batch_size items on each of the 2 ranks; rank 0 alone logged
     assert state["next_index"] == 12 * 4 * 2
     log = [json.loads(line) for line in (out / "log.jsonl").read_text().splitlines()]
     assert [r["step"] for r in log] == [4, 8, 12]
+    # the item counter is global: one process continues where two stopped, and two continue after one
+    _, state = _moattn_train(folder, out, 16, processes=1, resume=True)
+    assert (state["step"], state["next_index"]) == (16, 12 * 4 * 2 + 4 * 4)
+    _, state = _moattn_train(folder, out, 20, processes=2, resume=True)
+    assert (state["step"], state["next_index"]) == (20, 12 * 4 * 2 + 4 * 4 + 4 * 4 * 2)
+    log = [json.loads(line) for line in (out / "log.jsonl").read_text().splitlines()]
+    assert [r["step"] for r in log] == [4, 8, 12, 16, 20]
+    assert all(np.isfinite(r["mse"]) for r in log)
+    # weights stay device-free and load for inference
+    assert load_model(out).model.device == torch.device("cpu")
 
 
 def test_continue_from_a_shipped_model_folder(tmp_path):

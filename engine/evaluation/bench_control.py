@@ -150,7 +150,7 @@ def bench_control(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Contr
         raise ValueError(f"the control benchmark needs at least 2 held-out motions (an FID of one motion is undefined), "
                          f"got {config.motions}")
     t0 = time.time()
-    models = load_controls(CONTROL_DIR) if models is None else models
+    models = load_controls(CONTROL_DIR, runtime=loaded.runtime) if models is None else models
     corpus = Corpus(split="test", seed=config.seed)
 
     def held_out(start: int) -> list:

@@ -1,14 +1,17 @@
-"""The evaluator: a small contrastive text-motion model trained on the corpus train split.
+"""The evaluator: a small contrastive text-motion model trained on a train split (the corpus's or a
+HumanML3D-layout folder's).
 
 Its embeddings (unit norm) give FID, R-precision, MM-Dist, Diversity and MultiModality the
-HumanML3D way. It sees normalised 263-dim features (with its own Mean/Std) and the words.
+HumanML3D way. It sees normalised 263-dim features (with its own Mean/Std) and the words of its
+training captions (its vocabulary is saved beside it). It runs on any device; its files are
+device-free (CPU tensors, loaded with map_location="cpu").
 """
 from __future__ import annotations
 
-import copy
+import contextlib
 import json
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +22,8 @@ from tqdm import tqdm
 
 from engine.data import MotionSource, collate
 from engine.representation import FEATURE_DIM, Normalizer
-from engine.text import Tokenizer, sinusoidal
+from engine.runtime import CPU, Runtime
+from engine.text import PromptError, Tokenizer, sinusoidal
 
 WEIGHTS = "evaluator.pt"
 CONFIG = "evaluator.json"
@@ -46,7 +50,7 @@ class _SeqEncoder(nn.Module):
         self.width = width
 
     def forward(self, h: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
-        h = h + sinusoidal(torch.arange(h.shape[1]), self.width)[None]
+        h = h + sinusoidal(torch.arange(h.shape[1], device=h.device), self.width)[None]
         h = self.encoder(h, src_key_padding_mask=~mask)
         m = mask[..., None].float()
         pooled = (h * m).sum(1) / m.sum(1).clamp_min(1)
@@ -85,40 +89,60 @@ class LoadedEvaluator:
     tokenizer: Tokenizer
     normalizer: Normalizer
 
+    @property
+    def device(self) -> torch.device:
+        return next(self.model.parameters()).device
+
+    def readable(self, caption: str) -> bool:
+        """Whether the evaluator's tokenizer can read ``caption`` (known words, not empty, not too long)."""
+        try:
+            self.tokenizer.encode(caption)
+        except PromptError:
+            return False
+        return True
+
     @torch.no_grad()
     def motion_embeddings(self, features: list[np.ndarray], *, batch: int = 64) -> np.ndarray:
-        """Raw (de-normalised) features, one (T, 263) array per motion -> (N, D)."""
+        """Raw (de-normalised) features, one (T, 263) array per motion -> (N, D) on the CPU."""
+        device = self.device
         out = []
         for i in range(0, len(features), batch):
             chunk = [self.normalizer.normalize(f[: self.model.config.max_frames]) for f in features[i : i + batch]]
             length = max(len(c) for c in chunk)
-            x = torch.zeros(len(chunk), length, FEATURE_DIM)
+            x = torch.zeros(len(chunk), length, FEATURE_DIM)  # built on the CPU, moved once
             mask = torch.zeros(len(chunk), length, dtype=torch.bool)
             for j, c in enumerate(chunk):
                 x[j, : len(c)] = torch.from_numpy(np.asarray(c, dtype=np.float32))
                 mask[j, : len(c)] = True
-            out.append(self.model.embed_motion(x, mask).numpy())
+            out.append(self.model.embed_motion(x.to(device), mask.to(device)).float().cpu().numpy())
         return np.concatenate(out)
 
     @torch.no_grad()
     def text_embeddings(self, captions: list[str], *, batch: int = 256) -> np.ndarray:
+        """Captions -> (N, D) on the CPU; a word the evaluator does not know raises PromptError naming it."""
+        device = self.device
         out = []
         for i in range(0, len(captions), batch):
             ids, mask = self.tokenizer.batch(captions[i : i + batch])
-            out.append(self.model.embed_text(ids, mask).numpy())
+            out.append(self.model.embed_text(ids.to(device), mask.to(device)).float().cpu().numpy())
         return np.concatenate(out)
 
 
-def load_evaluator(folder: str | Path) -> LoadedEvaluator:
+def load_evaluator(folder: str | Path, *, runtime: Runtime = CPU) -> LoadedEvaluator:
+    """An evaluator folder (weights, config + vocabulary, Mean/Std), its network on ``runtime.device`` in fp32."""
     folder = Path(folder)
     if not (folder / CONFIG).exists():
         raise FileNotFoundError(f"no evaluator in {folder} (expected {CONFIG}); train one with `moattn evaluator --out {folder}`")
-    meta = json.loads((folder / CONFIG).read_text())
-    model = Evaluator(EvaluatorConfig(**meta["config"]))
+    try:
+        meta = json.loads((folder / CONFIG).read_text())
+        config, vocabulary = EvaluatorConfig(**meta["config"]), meta["vocabulary"]
+    except (json.JSONDecodeError, KeyError, TypeError) as exc:
+        raise ValueError(f"{folder / CONFIG} is not an evaluator config: {exc}") from None
+    model = Evaluator(config)
     state = torch.load(folder / WEIGHTS, map_location="cpu", weights_only=True)
     model.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in state.items()})
-    model.eval()
-    return LoadedEvaluator(model=model, tokenizer=Tokenizer(meta["vocabulary"]), normalizer=Normalizer.load(folder))
+    model.eval().to(runtime.device)
+    return LoadedEvaluator(model=model, tokenizer=Tokenizer(vocabulary), normalizer=Normalizer.load(folder))
 
 
 def train_evaluator(
@@ -127,17 +151,22 @@ def train_evaluator(
     out: str | Path,
     steps: int = 1500,
     batch_size: int = 48,
-    pool_size: int = 3000,
+    pool_size: int | None = 3000,
     lr: float = 3e-4,
     seed: int = 0,
     config: EvaluatorConfig | None = None,
     progress: bool = True,
     stats_samples: int = 1000,
+    runtime: Runtime = CPU,
 ) -> dict:
     """InfoNCE between motion and caption embeddings; saves fp16 weights, config and stats in ``out``.
 
-    Trains on a fixed pool of ``pool_size`` corpus samples (generated once; every caption of each
-    is used), which keeps the data cost out of the step time.
+    Trains on a fixed pool of ``pool_size`` samples of ``source`` (drawn once; every caption of each
+    is used), which keeps the data cost out of the step time. A finite source (one with ``len``, e.g.
+    a HumanML3D folder's train split) is used whole when ``pool_size`` is None or larger. The
+    vocabulary is the source's words (a folder's own captions, not the corpus lexicon). The network
+    trains on ``runtime.device`` (bf16 autocast when the runtime asks for it); the saved weights are
+    CPU tensors.
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -146,9 +175,21 @@ def train_evaluator(
     words = sorted(source.words())
     tokenizer = Tokenizer(words)
     config = config or EvaluatorConfig(vocab_size=len(tokenizer) + 16)
+    if config.vocab_size < len(tokenizer):  # a given config must still have a row per word
+        config = replace(config, vocab_size=len(tokenizer))
+    finite = getattr(source, "__len__", None)
+    if finite is not None:
+        pool_size = len(source) if pool_size is None else min(pool_size, len(source))
+    elif pool_size is None:
+        pool_size = 3000
+    if pool_size < 2:
+        raise ValueError(f"the evaluator needs at least 2 training motions, the source has {pool_size}")
+    batch_size = min(batch_size, pool_size)
     pool = [source.get(i) for i in tqdm(range(pool_size), disable=not progress, desc="evaluator data", unit="motion")]
     normalizer = Normalizer.fit(np.concatenate([item.features for item in pool[:stats_samples]]))
-    model = Evaluator(config)
+    device = runtime.device
+    autocast = runtime.autocast() if runtime.dtype == torch.bfloat16 else contextlib.nullcontext()
+    model = Evaluator(config).to(device)
     optimizer = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=1e-2)
     history = []
     t0 = time.perf_counter()
@@ -156,11 +197,13 @@ def train_evaluator(
         items = [pool[i] for i in rng.choice(len(pool), batch_size, replace=False)]
         batch = collate(items, tokenizer=tokenizer, normalize=normalizer.normalize, rng=rng, text_dropout=0.0,
                         max_frames=config.max_frames)
-        m = model.embed_motion(batch.x0, batch.cond.frame_mask)
-        t = model.embed_text(batch.cond.text_ids, batch.cond.text_mask)
-        logits = model.log_temp.exp().clamp(max=100) * t @ m.T
+        with autocast:
+            m = model.embed_motion(batch.x0.to(device), batch.cond.frame_mask.to(device))
+            t = model.embed_text(batch.cond.text_ids.to(device), batch.cond.text_mask.to(device))
+        logits = model.log_temp.exp().clamp(max=100) * t.float() @ m.float().T
         # captions of the same program can repeat in a batch: treat identical captions as positives
-        same = torch.tensor([[a == b for b in batch.captions] for a in batch.captions], dtype=torch.float32)
+        same = torch.tensor([[a == b for b in batch.captions] for a in batch.captions], dtype=torch.float32,
+                            device=device)
         target = same / same.sum(1, keepdim=True)
         loss = 0.5 * (torch.sum(-target * logits.log_softmax(1), 1).mean() + torch.sum(-target.T * logits.log_softmax(0).T, 1).mean())
         for g in optimizer.param_groups:
@@ -170,11 +213,11 @@ def train_evaluator(
         torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
         optimizer.step()
         history.append(loss.item())
-    state = {k: (v.half() if v.is_floating_point() else v) for k, v in model.state_dict().items()}
+    state = {k: (v.half() if v.is_floating_point() else v).cpu() for k, v in model.state_dict().items()}
     torch.save(state, out / WEIGHTS)
     normalizer.save(out)
     summary = {"steps": steps, "batch_size": batch_size, "pool_size": pool_size, "final_loss": float(np.mean(history[-50:])),
-               "seconds": time.perf_counter() - t0}
+               "seconds": time.perf_counter() - t0, "vocabulary": len(tokenizer) - 1, "device": str(device)}
     (out / CONFIG).write_text(json.dumps({"config": asdict(config), "vocabulary": list(tokenizer.words[1:]),
                                           "training": summary}, indent=2))
     return summary

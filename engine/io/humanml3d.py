@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import warnings
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,8 +25,8 @@ from typing import NamedTuple
 import numpy as np
 
 from engine.io.errors import DEFAULT_MAX_BYTES, MotionIOError
-from engine.io.npy import classify_motion_array, load_npy
-from engine.representation import Normalizer
+from engine.io.npy import classify_motion_array, load_npy, read_array
+from engine.representation import FEATURE_DIM, Normalizer
 
 FEATURES_DIR = "new_joint_vecs"
 JOINTS_DIR = "new_joints"
@@ -95,12 +96,20 @@ def parse_caption_line(line: str, *, source: str = "captions", line_no: int | No
     return Caption(text=text.strip(), tokens=tuple(tokens.split()), start=start, end=end)
 
 
-def read_captions(path: str | os.PathLike[str]) -> tuple[Caption, ...]:
-    """All captions of a ``texts/<name>.txt`` file (blank lines skipped)."""
+def read_captions(path: str | os.PathLike[str], *, source: str | None = None) -> tuple[Caption, ...]:
+    """All captions of a ``texts/<name>.txt`` file (blank lines skipped); errors name ``source`` (the path)."""
     path = Path(path)
-    text = path.read_text(encoding="utf-8")
+    source = source or str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise MotionIOError(f"caption file not found: {source}") from None
+    except UnicodeDecodeError as exc:
+        raise MotionIOError(f"{source} is not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    except OSError as exc:
+        raise MotionIOError(f"cannot read caption file {source}: {exc.strerror or exc}") from None
     return tuple(
-        parse_caption_line(line, source=path.name, line_no=i)
+        parse_caption_line(line, source=source, line_no=i)
         for i, line in enumerate(text.splitlines(), start=1)
         if line.strip()
     )
@@ -126,11 +135,17 @@ class HumanML3DSample(NamedTuple):
 class HumanML3DFolder:
     """A HumanML3D-layout folder (see the module docstring); nothing is read until asked for."""
 
-    def __init__(self, root: str | os.PathLike[str], *, max_bytes: int = DEFAULT_MAX_BYTES) -> None:
+    def __init__(self, root: str | os.PathLike[str], *, max_bytes: int = DEFAULT_MAX_BYTES,
+                 require_texts: bool = True) -> None:
         self.root = Path(root)
         self.max_bytes = max_bytes
+        if not self.root.is_dir():
+            what = "is a file" if self.root.exists() else "does not exist"
+            raise MotionIOError(f"{self.root} is not a HumanML3D folder: it {what}")
         if not (self.root / FEATURES_DIR).is_dir():
             raise MotionIOError(f"{self.root} is not a HumanML3D folder: it has no {FEATURES_DIR}/ directory")
+        if require_texts and not (self.root / TEXTS_DIR).is_dir():
+            raise MotionIOError(f"{self.root} is not a HumanML3D folder: it has no {TEXTS_DIR}/ directory")
 
     def __repr__(self) -> str:
         return f"HumanML3DFolder({str(self.root)!r})"
@@ -145,16 +160,29 @@ class HumanML3DFolder:
             try:
                 check_name(name)
             except MotionIOError as exc:
-                raise MotionIOError(f"{path.name} line {i}: {exc}") from None
+                raise MotionIOError(f"{path} line {i}: {exc}") from None
         return names
 
     def names(self) -> list[str]:
         """Every sample that has a feature file, sorted."""
         return sorted(p.stem for p in (self.root / FEATURES_DIR).glob("*.npy"))
 
+    def features_path(self, name: str) -> Path:
+        return self.root / FEATURES_DIR / f"{check_name(name)}.npy"
+
+    def captions_path(self, name: str) -> Path:
+        return self.root / TEXTS_DIR / f"{check_name(name)}.txt"
+
     def read_features(self, name: str) -> np.ndarray:
-        path = self.root / FEATURES_DIR / f"{check_name(name)}.npy"
-        kind, array = load_npy(path, max_bytes=self.max_bytes)
+        """Features (T, 263) float32 of a sample; any problem is one :class:`MotionIOError` naming the file."""
+        path = self.features_path(name)
+        try:
+            kind, array = load_npy(path, max_bytes=self.max_bytes)
+        except MotionIOError as exc:
+            message = str(exc)
+            if str(path) not in message:  # the npy reader names the file only; give the whole path
+                message = message.replace(path.name, str(path), 1) if path.name in message else f"{path}: {message}"
+            raise MotionIOError(message) from None
         if kind != "vecs":
             raise MotionIOError(f"{path} holds joints {array.shape}, expected features (T, 263)")
         return array
@@ -171,29 +199,70 @@ class HumanML3DFolder:
 
     def read_captions(self, name: str) -> tuple[Caption, ...]:
         """Captions of a sample; () when it has no text file."""
-        path = self.root / TEXTS_DIR / f"{check_name(name)}.txt"
+        path = self.captions_path(name)
         return read_captions(path) if path.is_file() else ()
 
     def read_sample(self, name: str) -> HumanML3DSample:
         return HumanML3DSample(name, self.read_features(name), self.read_captions(name))
 
+    def missing_files(self, names: Iterable[str]) -> dict[str, Path]:
+        """name -> the first of its files (features, then captions) that does not exist, for each incomplete name."""
+        missing = {}
+        for name in names:
+            for path in (self.features_path(name), self.captions_path(name)):
+                if not path.is_file():
+                    missing[name] = path
+                    break
+        return missing
+
     def iter_samples(self, split: str | None = None, *, skip_missing: bool = False) -> Iterator[HumanML3DSample]:
         """Samples of a split (or all samples), as (name, features, captions).
 
-        A listed name without a feature file raises, or is skipped with ``skip_missing``.
+        A listed name without its feature or caption file raises :class:`MotionIOError` naming the file;
+        with ``skip_missing`` such names are skipped with one warning that counts them and names the
+        first, and a split none of whose names is complete raises.
         """
         names = self.names() if split is None else self.split_names(split)
+        missing = self.missing_files(names)
+        if missing:
+            where = self.root / f"{split}.txt" if split is not None else self.root
+            first_name, first_path = next(iter(missing.items()))
+            if not skip_missing:
+                kind = "feature" if first_path.suffix == ".npy" else "caption"
+                raise MotionIOError(f"sample {first_name!r} listed in {where} has no {kind} file: {first_path} not found")
+            if len(missing) == len(names):
+                raise MotionIOError(f"none of the {len(names)} samples listed in {where} has both its feature and "
+                                    f"caption file (first missing: {first_path})")
+            warnings.warn(f"{where}: skipped {len(missing)} of {len(names)} listed samples whose feature or caption "
+                          f"file is missing (first: {first_path})", UserWarning, stacklevel=2)
         for name in names:
-            if skip_missing and not (self.root / FEATURES_DIR / f"{name}.npy").is_file():
-                continue
-            yield self.read_sample(name)
+            if name not in missing:
+                yield self.read_sample(name)
+
+    def has_normalizer(self) -> bool:
+        """Whether the folder has Mean.npy or Std.npy (then :meth:`normalizer` checks both)."""
+        return any((self.root / n).exists() for n in ("Mean.npy", "Std.npy"))
 
     def normalizer(self) -> Normalizer:
-        """Mean/Std of the folder."""
+        """Mean/Std of the folder: (263,) finite floats each, Std positive; errors name the file."""
+        arrays = {}
         for file_name in ("Mean.npy", "Std.npy"):
-            if not (self.root / file_name).is_file():
+            path = self.root / file_name
+            if not path.is_file():
                 raise MotionIOError(f"{self.root} has no {file_name}")
-        return Normalizer.load(self.root)
+            array = read_array(path, max_bytes=self.max_bytes)
+            if array.shape != (FEATURE_DIM,) or not np.issubdtype(array.dtype, np.floating):
+                raise MotionIOError(f"{path} holds {array.dtype} of shape {array.shape}; expected ({FEATURE_DIM},) floats")
+            bad = ~np.isfinite(array)
+            if file_name == "Std.npy":
+                bad |= ~(array > 0)
+            if bad.any():
+                what = "NaN/inf" if file_name == "Mean.npy" else "zero, negative or non-finite"
+                raise MotionIOError(f"{path} has {int(bad.sum())} {what} entries (first at index "
+                                    f"{int(np.argmax(bad))}); every entry must be a finite"
+                                    f"{' positive' if file_name == 'Std.npy' else ''} number")
+            arrays[file_name] = array
+        return Normalizer(mean=arrays["Mean.npy"], std=arrays["Std.npy"])
 
 
 def write_sample(

@@ -127,7 +127,7 @@ def placements(joints_a: np.ndarray, joints_b: np.ndarray) -> tuple[Pose, Pose]:
 # ----------------------------------------------------------------------------- the duet state
 def pack(motion: torch.Tensor, place: torch.Tensor) -> torch.Tensor:
     """motion (B, T, D), place (B, 4) -> state (B, T + 1, D)."""
-    row = torch.zeros(motion.shape[0], 1, motion.shape[2], dtype=motion.dtype)
+    row = torch.zeros(motion.shape[0], 1, motion.shape[2], dtype=motion.dtype, device=motion.device)
     row[:, 0, :PLACE_DIMS] = place
     return torch.cat([motion, row], dim=1)
 
@@ -224,13 +224,17 @@ class DuetDenoiser(nn.Module):
         return self.prior.embed_frames(motion), place, run
 
     def forward(self, x, t, cond: Condition, *, step: int = 0, controller=None):
-        h, place, run = self.start(x, t, cond, step=step, controller=controller)
-        prior = self.prior
-        h = prior.layers(h, run, range(self.after))
-        other = partners(cond.roles)
-        delta, place0 = self.com(h, h[other], place, place[other], run.temb, run.cond.frame_mask)
-        h = prior.layers(h + delta, run, range(self.after, prior.num_layers))
-        return pack(prior.head(h), place0)
+        home = x
+        x, t, cond, cast = self.prior.enter(x, t, cond)  # onto the prior's device, with its autocast
+        with cast:
+            h, place, run = self.start(x, t, cond, step=step, controller=controller)
+            prior = self.prior
+            h = prior.layers(h, run, range(self.after))
+            other = partners(cond.roles)
+            delta, place0 = self.com(h, h[other], place, place[other], run.temb, run.cond.frame_mask)
+            h = prior.layers(h + delta, run, range(self.after, prior.num_layers))
+            out = pack(prior.head(h), place0)
+        return out.to(home.device, home.dtype)
 
 
 @dataclass
@@ -242,10 +246,14 @@ class PriorTwice:
     place: torch.Tensor  # (4,)
 
     def __call__(self, x, t, cond: Condition, *, step: int = 0, controller=None):
-        h, _, run = self.duet.start(x, t, cond, step=step, controller=controller)
+        home = x
         prior = self.duet.prior
-        h = prior.layers(h, run, range(prior.num_layers))
-        return pack(prior.head(h), self.place.to(x.dtype).expand(x.shape[0], -1))
+        x, t, cond, cast = prior.enter(x, t, cond)
+        with cast:
+            h, _, run = self.duet.start(x, t, cond, step=step, controller=controller)
+            h = prior.layers(h, run, range(prior.num_layers))
+            motion = prior.head(h).to(home.device, home.dtype)
+        return pack(motion, self.place.to(home.dtype).expand(home.shape[0], -1))
 
 
 def fingerprint(loaded: LoadedModel) -> str:

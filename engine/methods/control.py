@@ -16,6 +16,7 @@ from engine.checkpoint import LoadedModel, load_model
 from engine.diffusion import CLEAN, CosineSchedule, StepState
 from engine.generate import Generation, Request, SampleConfig, denoiser_for, frames_for, generate
 from engine.representation import SLICES, ric_dims
+from engine.runtime import CPU, Runtime
 from engine.skeleton import JOINT_INDEX
 
 CONTROLS = ("root", "left_wrist", "right_wrist")
@@ -178,13 +179,13 @@ def control_name(loaded: LoadedModel) -> str:
     return str(loaded.config.get("train", {}).get("control", "") or "")
 
 
-def load_controls(folder) -> dict[str, LoadedModel]:
-    """Every control model under ``folder`` (one sub-folder per control)."""
+def load_controls(folder, *, runtime: Runtime = CPU) -> dict[str, LoadedModel]:
+    """Every control model under ``folder`` (one sub-folder per control), on ``runtime``'s device."""
     out = {}
     root = Path(folder)
     for name in CONTROLS:
         if (root / name / "config.json").exists():
-            m = load_model(root / name)
+            m = load_model(root / name, runtime=runtime)
             if control_name(m) != name:
                 raise ValueError(f"{root / name} holds a model fine-tuned for {control_name(m)!r}, not {name!r}")
             out[name] = m

@@ -64,6 +64,7 @@ def new_duet(prior: LoadedModel, words, *, config: ComConfig = ComConfig(), mean
     torch.manual_seed(seed)
     known = len(prior.tokenizer) - 1
     denoiser = DuetDenoiser(prior.model, known_words=known, new_words=len(tokenizer) - 1 - known, config=config)
+    denoiser.to(prior.model.device)  # the block lives where its prior does
     return DuetModel(prior=prior, denoiser=denoiser, tokenizer=tokenizer, mean_place=mean_place,
                      config={"com": config.to_json(), "words": list(tokenizer.words[len(prior.tokenizer):]),
                              "prior": fingerprint(prior), "mean_place": mean_place.vector().tolist()})
@@ -87,7 +88,7 @@ def load_duet(folder: str | Path, prior: LoadedModel, *, prefer: str = "weights"
     missing = set(model.denoiser.trainable()) - set(state)
     if missing:
         raise ValueError(f"{folder / WEIGHTS} lacks {sorted(missing)[:3]}")
-    model.denoiser.load_state_dict({k: v.float() for k, v in state.items()}, strict=False)
+    model.denoiser.load_state_dict({k: v.float() for k, v in state.items()}, strict=False)  # copied to its device
     model.denoiser.eval()
     for p in model.denoiser.parameters():
         p.requires_grad_(False)
@@ -101,7 +102,7 @@ def _own_prior(folder: Path, config: dict, given: LoadedModel) -> LoadedModel:
         return given
     shipped = folder / PRIOR_FOLDER
     if (shipped / WEIGHTS).exists():
-        own = load_model(shipped)
+        own = load_model(shipped, runtime=given.runtime)
         if config["prior"] == fingerprint(own):
             return own
         raise ValueError(f"{shipped} is not the base model the duet block in {folder} was trained on")

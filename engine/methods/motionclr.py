@@ -133,7 +133,7 @@ class Ground(Controller):
         n = probs.shape[2]
         mask = torch.zeros(n, dtype=torch.bool)
         mask[: min(n, len(self.mask))] = self.mask[:n]
-        delta = torch.where(mask, c.weight, -c.weight).to(probs.dtype)
+        delta = torch.where(mask, c.weight, -c.weight).to(probs.device, probs.dtype)
         probs = probs.clone()
         for slot in ctx.roles.slots(c.role):
             col = ctx.words.index(slot, c.word)

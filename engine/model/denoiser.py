@@ -1,8 +1,9 @@
 """The MotionCLR-style denoiser: normalised 263-dim frames + timestep + words -> predicted x0."""
 from __future__ import annotations
 
+import contextlib
 import json
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import torch
 from torch import nn
@@ -59,6 +60,16 @@ class Condition:
     def __len__(self) -> int:
         return self.text_ids.shape[0]
 
+    def to_device(self, device: torch.device) -> "Condition":
+        """The same condition with its tensors (extras included) on ``device``."""
+        if self.text_ids.device == device:
+            return self
+        from engine.runtime import to_device
+
+        return replace(self, text_ids=self.text_ids.to(device), text_mask=self.text_mask.to(device),
+                       frame_mask=self.frame_mask.to(device), use_text=self.use_text.to(device),
+                       extras=to_device(dict(self.extras), device))
+
     def with_uncond(self) -> "Condition":
         """The CFG batch: these slots, then the same slots without text."""
         return Condition(
@@ -100,6 +111,21 @@ class Denoiser(nn.Module):
         self.out_norm = nn.LayerNorm(w)
         self.out_proj = nn.Linear(w, config.feature_dim)
         self.register_buffer("frame_pos", sinusoidal(torch.arange(config.max_frames), w), persistent=False)
+        # autocast dtype of a call (None = fp32); set by the runtime that loads the model (engine.runtime)
+        self.autocast_dtype: torch.dtype | None = None
+
+    @property
+    def device(self) -> torch.device:
+        return self.frame_pos.device
+
+    def enter(self, x: torch.Tensor, t: torch.Tensor, cond: Condition):
+        """The call's inputs on the model's device (the one place tensors cross to it), and its autocast."""
+        device = self.device
+        if x.device != device:
+            x, t, cond = x.to(device), t.to(device), cond.to_device(device)
+        if self.autocast_dtype is None:  # leave any caller's autocast as it is
+            return x, t, cond, contextlib.nullcontext()
+        return x, t, cond, torch.autocast(device.type, dtype=self.autocast_dtype)
 
     @property
     def num_layers(self) -> int:
@@ -117,9 +143,13 @@ class Denoiser(nn.Module):
         step: int = 0,
         controller: AttentionController | None = None,
     ) -> torch.Tensor:
-        run = self.begin(t, cond, step=step, controller=controller)
-        h = self.layers(self.embed_frames(x), run, range(self.num_layers))
-        return self.head(h)
+        home = x
+        x, t, cond, cast = self.enter(x, t, cond)
+        with cast:
+            run = self.begin(t, cond, step=step, controller=controller)
+            h = self.layers(self.embed_frames(x), run, range(self.num_layers))
+            out = self.head(h)
+        return out.to(home.device, home.dtype)
 
     # The forward pass in three parts, for methods that act between layers (ComMDM).
     def begin(self, t: torch.Tensor, cond: Condition, *, step: int = 0, controller: AttentionController | None = None,

@@ -1,0 +1,135 @@
+"""batch_loader: batch k is a pure function of (seed, start_index, stride, k), whatever the number of workers."""
+from __future__ import annotations
+
+import itertools
+import pickle
+import warnings
+
+import numpy as np
+import pytest
+import torch
+
+from engine.data import Batch, CorpusSource, MotionText, batch_loader, batches
+from engine.model.denoiser import Condition
+from engine.attention.context import BatchRoles, WordIndex
+from engine.text import Tokenizer
+
+
+class ToySource:
+    """Deterministic by index; index i's first feature is i, so a batch's indices can be read back."""
+
+    def __init__(self, broken: frozenset[int] = frozenset()):
+        self.broken = broken
+
+    def get(self, index: int) -> MotionText:
+        rng = np.random.default_rng(index)
+        frames = int(rng.integers(20, 40))
+        features = rng.normal(size=(frames, 263)).astype(np.float32)
+        features[:, 0] = index
+        if index in self.broken:
+            features[3, 5] = np.nan
+        return MotionText(features=features, captions=("a person rises", "a person falls"))
+
+    def words(self):
+        return ["a", "person", "rises", "falls"]
+
+
+def _identity(f):
+    return f
+
+
+def _take(source, n, *, workers, batch_size=4, seed=3, **kw):
+    tokenizer = Tokenizer(sorted(source.words()))
+    stream = batch_loader(source, tokenizer=tokenizer, normalize=_identity, batch_size=batch_size, seed=seed,
+                          workers=workers, max_frames=30, **kw)
+    try:
+        return list(itertools.islice(stream, n))
+    finally:
+        stream.close()
+
+
+def _indices(batch: Batch) -> list[int]:
+    return [int(v) for v in batch.x0[:, 0, 0]]
+
+
+def _same(a: list[Batch], b: list[Batch]) -> None:
+    assert len(a) == len(b)
+    for x, y in zip(a, b):
+        assert torch.equal(x.x0, y.x0)
+        assert x.captions == y.captions
+        for name in ("text_ids", "text_mask", "frame_mask", "use_text"):
+            assert torch.equal(getattr(x.cond, name), getattr(y.cond, name)), name
+        assert x.cond.roles == y.cond.roles and x.cond.words == y.cond.words
+
+
+def test_toy_batches_are_identical_for_0_1_and_2_workers():
+    base = _take(ToySource(), 5, workers=0)
+    assert [_indices(b) for b in base] == [[4 * k + j for j in range(4)] for k in range(5)]
+    assert isinstance(base[0].cond, Condition)
+    _same(base, _take(ToySource(), 5, workers=1))
+    two = _take(ToySource(), 5, workers=2)
+    _same(base, two)
+    # the condition's non-tensor parts cross the DataLoader untouched
+    assert isinstance(two[0].cond.roles, BatchRoles) and isinstance(two[0].cond.words, WordIndex)
+    assert two[0].cond.roles == BatchRoles.single("out", size=4)
+
+
+def test_batches_is_the_in_process_loader():
+    tokenizer = Tokenizer(sorted(ToySource().words()))
+    stream = batches(ToySource(), tokenizer=tokenizer, normalize=_identity, batch_size=4, seed=3, max_frames=30)
+    _same(list(itertools.islice(stream, 3)), _take(ToySource(), 3, workers=0))
+
+
+def test_batch_k_depends_only_on_seed_and_k():
+    a = _take(ToySource(), 3, workers=0, seed=1)
+    b = _take(ToySource(), 3, workers=0, seed=2)
+    assert [_indices(x) for x in a] == [_indices(x) for x in b]  # same items, other crops / captions / dropout
+    assert any(not torch.equal(x.x0, y.x0) or x.captions != y.captions for x, y in zip(a, b))
+
+
+def test_corpus_batches_are_identical_for_0_and_2_workers():
+    source = CorpusSource(split="train")
+    assert pickle.loads(pickle.dumps(source)).get(5).features.shape == source.get(5).features.shape
+    tokenizer = Tokenizer(sorted(source.words()))
+
+    def take(workers):
+        stream = batch_loader(source, tokenizer=tokenizer, normalize=_identity, batch_size=4, seed=0,
+                              workers=workers, max_frames=196)
+        try:
+            return list(itertools.islice(stream, 2))
+        finally:
+            stream.close()
+
+    first = take(0)
+    assert [b.x0.shape[0] for b in first] == [4, 4]
+    _same(first, take(2))
+
+
+def test_ranks_interleave_on_disjoint_indices():
+    rank0 = _take(ToySource(), 3, workers=0, start_index=0, stride=2)
+    rank1 = _take(ToySource(), 3, workers=2, start_index=1, stride=2)
+    seen0 = [i for b in rank0 for i in _indices(b)]
+    seen1 = [i for b in rank1 for i in _indices(b)]
+    assert seen0 == list(range(0, 24, 2)) and seen1 == list(range(1, 24, 2))
+    # a resumed rank (start_index advanced by k * batch_size * stride) continues where it stopped
+    resumed = _take(ToySource(), 1, workers=0, start_index=1 + 2 * 4 * 2, stride=2)
+    assert _indices(resumed[0]) == _indices(rank1[2])
+
+
+def test_a_non_finite_item_is_dropped_with_a_warning():
+    with pytest.warns(RuntimeWarning, match="training sample 6 has non-finite features"):
+        got = _take(ToySource(broken=frozenset({6})), 3, workers=0)
+    assert [_indices(b) for b in got] == [[0, 1, 2, 3], [4, 5, 7], [8, 9, 10, 11]]
+    assert all(torch.isfinite(b.x0).all() for b in got)
+    # a batch with nothing usable is skipped, the others keep their content
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        got = _take(ToySource(broken=frozenset({4, 5, 6, 7})), 2, workers=0)
+    assert [_indices(b) for b in got] == [[0, 1, 2, 3], [8, 9, 10, 11]]
+
+
+def test_bad_arguments_fail_at_once():
+    tokenizer = Tokenizer(["a"])
+    for kw in ({"batch_size": 0}, {"batch_size": 2, "stride": 0}, {"batch_size": 2, "workers": -1}):
+        with pytest.raises(ValueError):
+            batch_loader(ToySource(), tokenizer=tokenizer, normalize=_identity, seed=0, **kw)
