@@ -149,4 +149,5 @@ def add_runtime_arguments(parser: argparse.ArgumentParser, *, precision: bool = 
 
 
 def runtime_from_args(args: argparse.Namespace, *, training: bool = False) -> Runtime:
-    return Runtime.create(getattr(args, "device", "auto"), getattr(args, "precision", "auto"), training=training)
+    return Runtime.create(getattr(args, "device", None) or "auto", getattr(args, "precision", None) or "auto",
+                          training=training)

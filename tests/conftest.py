@@ -70,3 +70,49 @@ def cyclic_attention_map(reps: int, *, rest: int, period: int = 16) -> np.ndarra
     cyclic = np.exp(2 * (np.cos(phase[:, None] - phase[None]) - 1)) * np.outer(active, active)
     attn = 0.02 + local + 0.5 * cyclic + 0.3 * np.outer(~active, ~active)
     return attn / attn.sum(1, keepdims=True)
+
+
+HML_RARE = "pirouettes"  # a word only hml_folder's captions have, never the corpus lexicon
+HML_TINY_MODEL = dict(width=32, layers=2, heads=2, text_layers=1, dropout=0.0)
+
+
+@pytest.fixture(scope="session")
+def hml_rare() -> str:
+    """The word only ``hml_folder``'s captions have."""
+    return HML_RARE
+
+
+@pytest.fixture(scope="session")
+def hml_folder(tmp_path_factory) -> Path:
+    """A HumanML3D-layout folder, the stand-in for the real dataset: 60 test + 40 train corpus samples (train
+    written last: Mean/Std are the train split's), and two train samples with words outside the corpus lexicon,
+    one with a #start#end sub-range caption. As in the real dataset, some test captions use words the train split
+    never has."""
+    from engine.io.humanml3d import Caption, HumanML3DFolder, write_sample, write_split
+    from engine.synth.export import export_corpus
+
+    def features(name: str) -> np.ndarray:
+        return np.load(root / "new_joint_vecs" / f"{name}.npy")
+
+    root = tmp_path_factory.mktemp("hml") / "HumanML3D"
+    export_corpus(root, n=60, split="test")
+    export_corpus(root, n=40, split="train")
+    write_sample(root, "dance_000", features("train_000001"), None,
+                 [f"a dancer {HML_RARE} gracefully on the spot", Caption("then she bows", start=0.5, end=2.0)])
+    write_sample(root, "dance_001", features("train_000002"), None, [f"someone {HML_RARE} twice"])
+    names = HumanML3DFolder(root).split_names("train")
+    write_split(root, "train", [*names, "dance_000", "dance_001"])
+    return root
+
+
+@pytest.fixture(scope="session")
+def hml_run(hml_folder, tmp_path_factory) -> Path:
+    """A tiny model trained on ``hml_folder`` (its vocabulary, its Mean/Std)."""
+    from engine.model import ModelConfig
+    from engine.train import TrainConfig, train
+
+    out = tmp_path_factory.mktemp("run") / "model"
+    train(TrainConfig(out=str(out), data=str(hml_folder), steps=30, batch_size=8, max_frames=196, lr=2e-3, warmup=5,
+                      log_every=10, ckpt_every=30, snapshot_every=0, stats_samples=20, threads=1, workers=0,
+                      precision="fp32", device="cpu", model=ModelConfig(**HML_TINY_MODEL)), progress=False)
+    return out

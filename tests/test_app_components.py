@@ -376,3 +376,13 @@ def test_generate_box_shows_the_parsed_intent(tiny_model_dir):
         assert st.controls.intent.object == ""
     finally:
         st.close()
+
+
+def test_no_intent_line_when_the_model_knows_words_beyond_the_action_lexicon():
+    """A model trained on a real dataset knows 'pirouettes'; the action lexicon does not: no amber line then.
+    With a word the model does not know either, the line says so."""
+    from app.views.controls import intent_line
+
+    assert intent_line("someone pirouettes twice") == ""
+    assert "not understood: pirouettes" in intent_line("someone pirouettes twice", unknown=["pirouettes"])
+    assert "asked for: walk" in intent_line("someone walks and pirouettes")

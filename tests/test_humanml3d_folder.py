@@ -4,7 +4,6 @@ line naming the file. The folder is a small `moattn corpus` export (the stand-in
 plus hand-written samples with words the corpus lexicon lacks."""
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 import shutil
@@ -14,11 +13,20 @@ import numpy as np
 import pytest
 
 from engine.cli import main
-from engine.io.humanml3d import Caption, HumanML3DFolder, write_sample, write_split
-from engine.synth.export import export_corpus
+from engine.io.humanml3d import Caption, write_sample, write_split
 
-RARE = "pirouettes"  # a word only the folder's captions have, never the corpus lexicon
-TINY_MODEL = dict(width=32, layers=2, heads=2, text_layers=1, dropout=0.0)
+RARE = "pirouettes"  # the word only conftest's hml_folder captions have (its hml_rare fixture)
+
+
+@pytest.fixture(scope="module")
+def folder(hml_folder, hml_rare) -> Path:
+    assert hml_rare == RARE
+    return hml_folder
+
+
+@pytest.fixture(scope="module")
+def run_dir(hml_run) -> Path:
+    return hml_run
 
 
 def _corpus_features(folder: Path, name: str) -> np.ndarray:
@@ -39,37 +47,6 @@ def _one_line_error(argv, capsys, *needles: str) -> str:
     for needle in needles:
         assert needle in lines[0], lines[0]
     return lines[0]
-
-
-@pytest.fixture(scope="module")
-def folder(tmp_path_factory) -> Path:
-    """60 test + 40 train corpus samples (train written last: Mean/Std are the train split's), and two
-    train samples with words outside the corpus lexicon, one with a #start#end sub-range caption.
-    As in the real dataset, some test captions use words the train split never has."""
-    root = tmp_path_factory.mktemp("hml") / "HumanML3D"
-    export_corpus(root, n=60, split="test")
-    export_corpus(root, n=40, split="train")
-    base = _corpus_features(root, "train_000001")
-    write_sample(root, "dance_000", base, None, [f"a dancer {RARE} gracefully on the spot",
-                                                 Caption("then she bows", start=0.5, end=2.0)])
-    write_sample(root, "dance_001", _corpus_features(root, "train_000002"), None, [f"someone {RARE} twice"])
-    names = HumanML3DFolder(root).split_names("train")
-    write_split(root, "train", [*names, "dance_000", "dance_001"])
-    return root
-
-
-@pytest.fixture(scope="module")
-def run_dir(folder, tmp_path_factory) -> Path:
-    from engine.model import ModelConfig
-    from engine.train import TrainConfig, train
-
-    out = tmp_path_factory.mktemp("run") / "model"
-    wanted = dict(out=str(out), data=str(folder), steps=30, batch_size=8, max_frames=196, lr=2e-3, warmup=5,
-                  log_every=10, ckpt_every=30, snapshot_every=0, stats_samples=20, threads=1, workers=0,
-                  bf16=False, precision="fp32", device="cpu", model=ModelConfig(**TINY_MODEL))
-    names = {f.name for f in dataclasses.fields(TrainConfig)}  # robust to renamed runtime fields
-    train(TrainConfig(**{k: v for k, v in wanted.items() if k in names}), progress=False)
-    return out
 
 
 @pytest.fixture(scope="module")

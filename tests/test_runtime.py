@@ -83,6 +83,10 @@ def test_cuda_precision_prefers_bf16(monkeypatch):
     ["compose", "a person walks:2", "--out", "{tmp}/x.npy"],
     ["duet", "two people shake hands", "--out", "{tmp}/x.npy"],
     ["train", "--out", "{tmp}/run", "--steps", "1"],
+    ["eval", "--quick"],
+    ["evaluator", "--out", "{tmp}/run"],
+    ["bench", "--adherence"],
+    ["bench", "--train"],
     ["serve"],
 ])
 def test_every_command_refuses_an_absent_gpu_in_one_line(command, tmp_path, capsys, monkeypatch):

@@ -85,7 +85,7 @@ class GenerateControls(pn.viewable.Viewer):
         # the button state goes first so that it is never behind the highlighted words
         self.generate.disabled = bool(unknown) or s.running
         self.words.object = word_chips(s.prompt_words, s.unknown_words)
-        self.intent.object = intent_line(s.prompt)
+        self.intent.object = intent_line(s.prompt, unknown)
         buttons = []
         for word in s.unknown_words:
             for suggestion in s.suggestions.get(word, [])[:3]:
@@ -156,11 +156,16 @@ def word_chips(words: list[str], unknown: list[str]) -> str:
     return f'<div class="prompt-chips">{" ".join(parts)}</div>{note}'
 
 
-def intent_line(prompt: str) -> str:
-    """The parsed intent of a prompt: what the model is asked for ("wave (left side, ×2) → walk")."""
+def intent_line(prompt: str, unknown=()) -> str:
+    """The parsed intent of a prompt: what the model is asked for ("wave (left side, ×2) → walk");
+    ``unknown``: the prompt's words the model does not know."""
     if not prompt.strip():
         return ""
     intent = parse_intent(prompt)
+    if not intent.segments and not set(intent.unplaced) & set(unknown):
+        # no action of the lexicon, but the model knows every word (one trained on a real dataset reads words far
+        # beyond the corpus lexicon): no line, rather than an amber "no action recognised" under its prompts
+        return ""
     cls = "intent-partial" if not intent.complete else "intent-full"
     return f'<div class="{cls}" title="what this prompt asks for">asked for: {html.escape(intent.describe())}</div>'
 
