@@ -51,7 +51,7 @@ def alignment(tokenizer, reference: str, edited: str) -> tuple[bool, str]:
     ref, new = split_words(reference), split_words(edited)
     if not new:
         return False, "type the edited prompt: the same words as the prompt with the action swapped"
-    unknown = [w for w in dict.fromkeys(new) if tokenizer is not None and w not in tokenizer]
+    unknown = [w for w in dict.fromkeys(new) if tokenizer is not None and tokenizer.read_as(w) is None]
     if unknown:
         return False, f"unknown word(s) in the edited prompt: {', '.join(unknown)}"
     if len(ref) != len(new):

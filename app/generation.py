@@ -17,13 +17,14 @@ from app.attention_record import AttentionRecord, plan_steps
 from app.model_cache import SAMPLING_SLOT
 from engine.checkpoint import LoadedModel
 from engine.generate import Request, SampleConfig, finish, frames_for, sample_states
+from engine.duration import resolve_seconds
 from engine.text import TokenizedPrompt, split_words
 
 
 @dataclass(frozen=True)
 class GenerationSettings:
     prompt: str
-    seconds: float = 4.0
+    seconds: float | None = None  # None: predicted from the prompt (engine.duration, `--seconds auto`)
     seed: int = 0
     steps: int = 50
     guidance: float = 2.5
@@ -78,7 +79,7 @@ def prompt_analysis(tokenizer, text: str) -> tuple[list[str], list[str], dict[st
     """(words, unknown words, unknown word -> close vocabulary words) of a prompt; nothing is unknown without a
     tokenizer (no model loaded)."""
     words = split_words(text)
-    unknown = [] if tokenizer is None else list(dict.fromkeys(w for w in words if w not in tokenizer))
+    unknown = [] if tokenizer is None else list(dict.fromkeys(w for w in words if tokenizer.read_as(w) is None))
     suggestions = {} if tokenizer is None else {w: tokenizer.suggest(w) for w in unknown}
     return words, unknown, suggestions
 
@@ -99,7 +100,7 @@ def checked_frames(loaded: LoadedModel, seconds) -> int:
 def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:
     """Validate everything before any work starts; raises ValueError (PromptError) with a user-facing message."""
     tokens = loaded.tokenizer.encode(settings.prompt)
-    frames = checked_frames(loaded, settings.seconds)
+    frames = checked_frames(loaded, resolve_seconds(settings.seconds, settings.prompt))
     if int(settings.seed) < 0:
         raise ValueError("the seed must be >= 0")
     config = SampleConfig(steps=int(settings.steps), guidance=float(settings.guidance), seed=int(settings.seed))

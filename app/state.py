@@ -59,7 +59,8 @@ class StudioState(param.Parameterized):
 
     # ---- generation inputs
     prompt = param.String(default="a person jumps twice", doc="what to generate")
-    seconds = param.Number(default=4.0, doc="duration in seconds (1 to 9.8)")
+    seconds = param.Number(default=None, allow_None=True,
+                           doc="duration in seconds (1 to 9.8); empty: predicted from the prompt (auto)")
     seed = param.Integer(default=0, doc="noise seed (same seed, same motion)")
     steps = param.Integer(default=50, bounds=(1, 1000), doc="sampling steps (DDIM)")
     guidance = param.Number(default=2.5, bounds=(0.0, 20.0), doc="classifier-free guidance scale")
@@ -70,6 +71,7 @@ class StudioState(param.Parameterized):
     prompt_words = param.List(default=[], doc="words of the prompt")
     unknown_words = param.List(default=[], doc="words of the prompt the model does not know")
     suggestions = param.Dict(default={}, doc="unknown word -> close vocabulary words")
+    read_as = param.Dict(default={}, doc="typed word -> the known form it is read as ('jump' -> 'jumps')")
 
     # ---- generation progress
     running = param.Boolean(default=False)
@@ -181,17 +183,20 @@ class StudioState(param.Parameterized):
             return None
 
     def _analyse_prompt(self, *_):
-        words, unknown, suggestions = prompt_analysis(self._tokenizer(), self.prompt)
+        tokenizer = self._tokenizer()
+        words, unknown, suggestions = prompt_analysis(tokenizer, self.prompt)
         with param.parameterized.batch_call_watchers(self):
+            self.read_as = {} if tokenizer is None else tokenizer.inflected(self.prompt)
             self.prompt_words = words
             self.unknown_words = unknown
             self.suggestions = suggestions
 
     def replace_word(self, old: str, new: str) -> None:
-        """Swap an unknown word for a suggestion (whole words, case-insensitive)."""
-        import re
+        """Swap an unknown word for a suggestion (whole words, case-insensitive); a '~adverb' suggestion moves to
+        the end of the word's clause (engine.wordforms.rewrite)."""
+        from engine.wordforms import rewrite
 
-        self.prompt = re.sub(rf"(?i)\b{re.escape(old)}\b", new, self.prompt)
+        self.prompt = rewrite(self.prompt, old, new)
 
     # ------------------------------------------------------------------ notifications
     def _notify(self, level: str, text: str) -> None:
@@ -347,7 +352,8 @@ class StudioState(param.Parameterized):
             else:
                 self.progress = self.progress_total
                 s = result.settings
-                self.status = (f"{s.prompt!r}: {len(result.joints)} frames in {result.seconds_taken:.1f} s "
+                auto = " (length from the prompt)" if s.seconds is None else ""
+                self.status = (f"{s.prompt!r}: {len(result.joints)} frames{auto} in {result.seconds_taken:.1f} s "
                                f"({s.steps} steps)")
         if result is None:
             if level:

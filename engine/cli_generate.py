@@ -6,6 +6,7 @@ import json
 import sys
 from pathlib import Path
 
+from engine.duration import AUTO, resolve_seconds, seconds_argument
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 
@@ -16,7 +17,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "decides: .npy joints, .bvh, .png/.gif/.mp4 renders; --vecs writes 263-dim features to .npy).")
     p.add_argument("prompt", help='e.g. "a person jumps twice"')
     p.add_argument("--out", type=Path, action="append", required=True, help="output file; repeat for several")
-    p.add_argument("--seconds", type=float, default=4.0)
+    p.add_argument("--seconds", type=seconds_argument, default=AUTO,
+                   help="length in seconds (1 to 9.8), or auto: predicted from the prompt (default: auto)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--steps", type=int, default=50)
     p.add_argument("--guidance", type=float, default=2.5)
@@ -32,7 +34,8 @@ def run(args: argparse.Namespace) -> int:
     from engine.generate import Request, SampleConfig, frames_for, generate
     from engine.io import save_motion
 
-    frames = frames_for(args.seconds)
+    seconds = resolve_seconds(args.seconds, args.prompt)
+    frames = frames_for(seconds)
     loaded = load_model(args.model, runtime=runtime_from_args(args))
     config = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed, sampler=args.sampler)
 
@@ -51,6 +54,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             save_motion(joints, out, to="vecs" if args.vecs else "joints")
         print(f"wrote {out}")
-    print(json.dumps({"prompt": args.prompt, "frames": len(joints), "seed": args.seed, "steps": args.steps,
+    print(json.dumps({"prompt": args.prompt, "seconds": seconds, "seconds_from": "prompt" if args.seconds == AUTO
+                      else "given", "frames": len(joints), "seed": args.seed, "steps": args.steps,
                       "guidance": args.guidance}))
     return 0

@@ -152,22 +152,6 @@ def _pick_caption(captions: Sequence[str], tokenizer: Tokenizer, rng: np.random.
     raise ValueError(f"none of the captions can be tokenised: {list(captions)[:2]}")
 
 
-def batches(
-    source: MotionSource,
-    *,
-    tokenizer: Tokenizer,
-    normalize,
-    batch_size: int,
-    seed: int,
-    start_index: int = 0,
-    stride: int = 1,
-    **collate_kwargs,
-) -> Iterator[Batch]:
-    """An endless stream of batches built in this process: :func:`batch_loader` with ``workers=0``."""
-    return batch_loader(source, tokenizer=tokenizer, normalize=normalize, batch_size=batch_size, seed=seed,
-                        start_index=start_index, stride=stride, workers=0, **collate_kwargs)
-
-
 def batch_loader(
     source: MotionSource,
     *,

@@ -5,7 +5,6 @@ at words directly. Unknown words are reported by name with suggestions, never dr
 """
 from __future__ import annotations
 
-import difflib
 import math
 import re
 from collections.abc import Iterable, Sequence
@@ -13,6 +12,8 @@ from dataclasses import dataclass
 
 import torch
 from torch import nn
+
+from engine import wordforms
 
 PAD = "<pad>"
 _WORD = re.compile(r"[a-z]+(?:'[a-z]+)?")
@@ -59,6 +60,8 @@ class Tokenizer:
             raise ValueError(f"vocabulary entries are not plain words: {bad[:5]}")
         self.words: tuple[str, ...] = (PAD, *words)
         self._ids = {w: i for i, w in enumerate(self.words)}
+        self._known = frozenset(words)
+        self._read_as: dict[str, str | None] = {}
 
     def extended(self, vocabulary: Iterable[str]) -> "Tokenizer":
         """This tokenizer plus new words appended at the end (existing ids unchanged)."""
@@ -70,11 +73,27 @@ class Tokenizer:
     def __contains__(self, word: str) -> bool:
         return word.lower() in self._ids and word != PAD
 
+    def read_as(self, word: str) -> str | None:
+        """The vocabulary word a typed word is read as: itself, another form of it ("jump" -> "jumps",
+        "ran" -> "runs"), or None (unknown). See engine.wordforms."""
+        word = word.lower()
+        if word in self._ids and word != PAD:
+            return word
+        if word not in self._read_as:
+            self._read_as[word] = wordforms.read_as(word, self._known)
+        return self._read_as[word]
+
+    def inflected(self, prompt: str) -> dict[str, str]:
+        """Typed words read as another form of a known word: {"jump": "jumps"}."""
+        return {w: k for w in dict.fromkeys(split_words(prompt)) if (k := self.read_as(w)) not in (None, w)}
+
     def suggest(self, word: str, n: int = 3) -> list[str]:
-        return difflib.get_close_matches(word.lower(), self.words[1:], n=n, cutoff=0.6)
+        """Replacements for an unknown word, by meaning first ("skips" -> "hops", "tired" -> "~wearily": an adverb
+        moved after the verb by :func:`engine.wordforms.rewrite`), close spellings only where no meaning is known."""
+        return wordforms.suggestions(word, self._known, n=n)
 
     def unknown_words(self, prompt: str) -> list[str]:
-        return [w for w in split_words(prompt) if w not in self._ids]
+        return [w for w in split_words(prompt) if self.read_as(w) is None]
 
     def encode(self, prompt: str, *, max_words: int = MAX_WORDS) -> TokenizedPrompt:
         words = split_words(prompt)
@@ -82,15 +101,15 @@ class Tokenizer:
             raise PromptError("the prompt is empty: type a few words, e.g. 'a person jumps twice'")
         if len(words) > max_words:
             raise PromptError(f"the prompt has {len(words)} words; at most {max_words} are supported")
-        unknown = [w for w in dict.fromkeys(words) if w not in self._ids]
+        unknown = [w for w in dict.fromkeys(words) if self.read_as(w) is None]
         if unknown:
             suggestions = {w: self.suggest(w) for w in unknown}
             hints = "; ".join(
-                f"{w!r} (did you mean {', '.join(repr(s) for s in sug)}?)" if sug else repr(w)
+                f"{w!r} (did you mean {', '.join(wordforms.shown(s) for s in sug)}?)" if sug else repr(w)
                 for w, sug in suggestions.items()
             )
             raise PromptError(f"unknown word{'s' if len(unknown) > 1 else ''}: {hints}", unknown=unknown, suggestions=suggestions)
-        return TokenizedPrompt(prompt=prompt, words=tuple(words), ids=tuple(self._ids[w] for w in words))
+        return TokenizedPrompt(prompt=prompt, words=tuple(words), ids=tuple(self._ids[self.read_as(w)] for w in words))
 
     def batch(self, prompts: Sequence[str | TokenizedPrompt]) -> tuple[torch.Tensor, torch.Tensor]:
         """Pad a batch: ids (B, L) long and mask (B, L) bool (True = a real word)."""

@@ -386,3 +386,21 @@ def test_no_intent_line_when_the_model_knows_words_beyond_the_action_lexicon():
     assert intent_line("someone pirouettes twice") == ""
     assert "not understood: pirouettes" in intent_line("someone pirouettes twice", unknown=["pirouettes"])
     assert "asked for: walk" in intent_line("someone walks and pirouettes")
+
+
+def test_the_generate_box_reads_inflections_and_rewrites_by_meaning(tiny_model_dir):
+    """'jump' is read as 'jumps' (said under the chips); 'tired' is offered as 'wearily' after the verb."""
+    st = Studio(model_dir=tiny_model_dir, initial=None)
+    try:
+        s = st.state
+        s.prompt = "a tired person jump"
+        assert s.unknown_words == ["tired"] and s.read_as == {"jump": "jumps"}
+        assert "read as: jump → jumps" in st.controls.words.object
+        assert s.suggestions["tired"][0] == "~wearily"
+        labels = [b.label for b in st.controls.suggestion_row.objects]
+        assert "tired → … wearily" in labels
+        s.replace_word("tired", "~wearily")
+        assert s.prompt == "a person jump wearily" and s.unknown_words == []
+        assert not st.controls.generate.disabled
+    finally:
+        st.close()

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import torch
 
-from engine.data import Batch, CorpusSource, MotionText, batch_loader, batches
+from engine.data import Batch, CorpusSource, MotionText, batch_loader
 from engine.model.denoiser import Condition
 from engine.attention.context import BatchRoles, WordIndex
 from engine.text import Tokenizer
@@ -72,12 +72,6 @@ def test_toy_batches_are_identical_for_0_1_and_2_workers():
     # the condition's non-tensor parts cross the DataLoader untouched
     assert isinstance(two[0].cond.roles, BatchRoles) and isinstance(two[0].cond.words, WordIndex)
     assert two[0].cond.roles == BatchRoles.single("out", size=4)
-
-
-def test_batches_is_the_in_process_loader():
-    tokenizer = Tokenizer(sorted(ToySource().words()))
-    stream = batches(ToySource(), tokenizer=tokenizer, normalize=_identity, batch_size=4, seed=3, max_frames=30)
-    _same(list(itertools.islice(stream, 3)), _take(ToySource(), 3, workers=0))
 
 
 def test_batch_k_depends_only_on_seed_and_k():

@@ -8,6 +8,7 @@ import param
 
 from app.attention_record import estimate_bytes
 from app.state import StudioState
+from engine.duration import auto_seconds
 from engine.intent import parse_intent
 
 
@@ -28,7 +29,7 @@ class GenerateControls(pn.viewable.Viewer):
         # what the prompt asks for, as the adherence benchmark reads it (engine.intent)
         self.intent = pn.pane.HTML("", css_classes=["prompt-intent"], sizing_mode="stretch_width", margin=(0, 10),
                                    stylesheets=[_CSS])
-        self.seconds = pn.widgets.FloatInput(label="Seconds", value=s.seconds, step=0.5, width=90,
+        self.seconds = pn.widgets.FloatInput(label="Seconds", value=s.seconds, step=0.5, width=90, placeholder="auto",
                                              css_classes=["seconds-input"])
         self.seed = pn.widgets.IntInput(label="Seed", value=s.seed, start=0, width=90, css_classes=["seed-input"])
         self.steps = pn.widgets.IntInput(label="Steps", value=s.steps, start=1, end=1000, width=90,
@@ -57,7 +58,7 @@ class GenerateControls(pn.viewable.Viewer):
         s.param.watch(self._on_analysis, ["prompt_words", "unknown_words", "suggestions"])
         s.param.watch(self._on_prompt, "prompt")
         s.param.watch(self._on_progress, ["running", "progress", "progress_total", "status"])
-        s.param.watch(self._on_memory, ["steps", "record_steps", "seconds"])
+        s.param.watch(self._on_memory, ["steps", "record_steps", "seconds", "prompt_words"])
         self._on_analysis()
         self._on_progress()
         self._on_memory()
@@ -84,12 +85,13 @@ class GenerateControls(pn.viewable.Viewer):
         unknown = set(s.unknown_words)
         # the button state goes first so that it is never behind the highlighted words
         self.generate.disabled = bool(unknown) or s.running
-        self.words.object = word_chips(s.prompt_words, s.unknown_words)
+        self.words.object = word_chips(s.prompt_words, s.unknown_words, s.read_as)
         self.intent.object = intent_line(s.prompt, unknown)
         buttons = []
         for word in s.unknown_words:
             for suggestion in s.suggestions.get(word, [])[:3]:
-                b = pn.widgets.Button(label=f"{word} → {suggestion}", color="light", height=30,
+                shown = f"… {suggestion[1:]}" if suggestion.startswith("~") else suggestion
+                b = pn.widgets.Button(label=f"{word} → {shown}", color="light", height=30,
                                       css_classes=["suggestion"], margin=(2, 4))
                 b.on_click(lambda _, w=word, sug=suggestion: self.state.replace_word(w, sug))
                 buttons.append(b)
@@ -112,7 +114,12 @@ class GenerateControls(pn.viewable.Viewer):
             layers, heads = config["layers"], config["heads"]
         except Exception:
             layers, heads = 6, 4
-        frames = int(round(min(max(s.seconds or 0, 1.0), 9.8) * 20))
+        auto = auto_seconds(s.prompt)
+        placeholder = f"auto {auto:.1f}"  # an empty box: the length predicted from the prompt
+        if self.seconds.placeholder != placeholder:
+            self.seconds.placeholder = placeholder
+        seconds = s.seconds if s.seconds is not None else auto
+        frames = int(round(min(max(seconds, 1.0), 9.8) * 20))
         words = max(1, len(s.prompt_words))
         size = estimate_bytes(num_steps=max(1, s.steps), record_steps=s.record_steps, layers=layers, heads=heads,
                               frames=frames, words=words) if s.record_steps else 0
@@ -145,15 +152,25 @@ class GenerateControls(pn.viewable.Viewer):
         )
 
 
-def word_chips(words: list[str], unknown: list[str]) -> str:
-    """A prompt's words as chips, unknown ones flagged (with ``WORD_CSS``); shared by every prompt box."""
+def word_chips(words: list[str], unknown: list[str], read_as: dict[str, str] | None = None) -> str:
+    """A prompt's words as chips, unknown ones flagged (with ``WORD_CSS``); shared by every prompt box.
+    ``read_as``: typed words the model reads as another form of a known word ("jump" -> "jumps")."""
     if not words:
         return '<span class="prompt-empty">type a prompt</span>'
-    bad = set(unknown)
-    parts = [f'<span class="word-unknown" title="not in the vocabulary">{html.escape(w)}</span>'
-             if w in bad else f'<span class="word-known">{html.escape(w)}</span>' for w in words]
+    bad, read_as = set(unknown), read_as or {}
+
+    def chip(w: str) -> str:
+        if w in bad:
+            return f'<span class="word-unknown" title="not in the vocabulary">{html.escape(w)}</span>'
+        if w in read_as:
+            return f'<span class="word-known" title="read as {html.escape(read_as[w])}">{html.escape(w)}</span>'
+        return f'<span class="word-known">{html.escape(w)}</span>'
+
     note = f'<div class="unknown-note">unknown: {", ".join(html.escape(w) for w in unknown)}</div>' if unknown else ""
-    return f'<div class="prompt-chips">{" ".join(parts)}</div>{note}'
+    if read_as:
+        forms = ", ".join(f"{html.escape(w)} → {html.escape(k)}" for w, k in read_as.items())
+        note += f'<div class="read-as-note">read as: {forms}</div>'
+    return f'<div class="prompt-chips">{" ".join(chip(w) for w in words)}</div>{note}'
 
 
 def intent_line(prompt: str, unknown=()) -> str:
@@ -176,4 +193,5 @@ WORD_CSS = _CSS = """
 .word-unknown { background: #ffd6d6; color: #a00; border-bottom: 2px wavy #d00; padding: 0 3px; border-radius: 3px; }
 .word-known { background: #e7f0ff; padding: 0 3px; border-radius: 3px; }
 .unknown-note { color: #a00; font-size: 12px; margin-top: 2px; }
+.read-as-note { color: #446; font-size: 12px; margin-top: 2px; }
 """

@@ -75,6 +75,7 @@ def flag_unknown(words: list[str], suggestions: dict[str, list[str]] | None = No
     parts = []
     for w in words:
         near = (suggestions or {}).get(w) or []
+        near = [f"… {n[1:]}" if n.startswith("~") else n for n in near]  # '~adverb': goes after the verb
         parts.append(f"<b>{html.escape(w)}</b>" + (f" (try: {html.escape(', '.join(near))})" if near else ""))
     return f'<span class="unknown-words">unknown word{"s" * (len(words) > 1)}: {"; ".join(parts)}</span>'
 

@@ -148,14 +148,14 @@ def intent_of_program(program: Program, text: str = "") -> Intent:
 def program_for_intent(intent: Intent, rng: np.random.Generator) -> Program:
     """A corpus program realising an intent: stated attributes as stated, the rest drawn as the
     corpus draws them (an unstated side is either side), durations that fit the counts."""
-    from engine.synth.splits import natural_seconds, random_person, random_segment
+    from engine.synth.splits import natural_seconds, random_person
     from engine.synth.styles import STYLES
 
     segments = []
     for want in intent.segments:
-        seg = _realise(want, rng, random_segment)
+        seg = realise_segment(want, rng)
         if want.overlay is not None:
-            seg = replace(seg, overlay=_realise(want.overlay, rng, random_segment))
+            seg = replace(seg, overlay=realise_segment(want.overlay, rng))
         segments.append(seg)
     secs = [natural_seconds(s, rng) for s in segments]
     if any(s.overlay is not None for s in segments):
@@ -169,7 +169,10 @@ def program_for_intent(intent: Intent, rng: np.random.Generator) -> Program:
                    blend=int(rng.integers(6, 11)), seed=int(rng.integers(2**31)))
 
 
-def _realise(want: IntentSegment, rng, random_segment) -> Segment:
+def realise_segment(want: IntentSegment, rng: np.random.Generator) -> Segment:
+    """A corpus segment for an intended action: what the prompt states, the rest drawn as the corpus draws it."""
+    from engine.synth.splits import random_segment
+
     seg = random_segment(rng, want.action)
     fields: dict = {}
     if want.count is not None:
