@@ -30,16 +30,25 @@ class MotionSource(Protocol):
 
 
 class CorpusSource:
-    """The procedural corpus, generated on the fly."""
+    """The procedural corpus, generated on the fly. ``underspecified``: that many extra captions per motion which
+    leave attributes out the way people type ("a person waves"; engine.synth.grammar.underspecified_captions),
+    drawn from their own stream so the corpus's captions stay as they are."""
 
-    def __init__(self, *, split: str = "train", seed: int = 0):
+    def __init__(self, *, split: str = "train", seed: int = 0, underspecified: int = 0):
         from engine.synth import Corpus
 
         self.corpus = Corpus(split=split, seed=seed)
+        self.underspecified = underspecified
 
     def get(self, index: int) -> MotionText:
         s = self.corpus.sample(index)
-        return MotionText(features=s.features, captions=tuple(s.captions))
+        captions = tuple(s.captions)
+        if self.underspecified:
+            from engine.synth.grammar import underspecified_captions
+
+            rng = np.random.default_rng([s.program.seed, index, 7919])
+            captions += tuple(underspecified_captions(s.program, rng, n=self.underspecified))
+        return MotionText(features=s.features, captions=captions)
 
     def words(self) -> Sequence[str]:
         from engine.synth import vocabulary

@@ -70,3 +70,33 @@ def test_tokens_are_word_pos_pairs():
     parts = tok.split()
     assert all(re.fullmatch(r"[a-z]+/[A-Z]+", p) for p in parts)
     assert "walk/VERB" in parts and "hand/NOUN" in parts
+
+
+def test_underspecified_captions_leave_attributes_out_with_corpus_words_only():
+    """Captions the way people type them: no side, no count, no style; some bare subject-and-verb ones."""
+    import re
+
+    import numpy as np
+
+    from engine.data import CorpusSource
+    from engine.synth import Corpus
+    from engine.synth.grammar import underspecified_captions, vocabulary
+
+    known = set(vocabulary())
+    corpus = Corpus("train")
+    texts, bare, sided = [], 0, 0
+    for i in range(120):
+        program = corpus.program(i)[0]
+        for text in underspecified_captions(program, np.random.default_rng([i, 1]), n=2):
+            words = re.findall(r"[a-z']+", text)
+            assert set(words) <= known, text
+            texts.append(text)
+            bare += len(words) <= 4
+            sided += bool(re.search(r"\b(left|right)\b", text)) and all(
+                s.action not in ("walk", "run", "jog", "turn", "side_step") for s in program.segments)
+    assert len(texts) >= 200 and bare >= 40  # short captions are common
+    assert sided < 0.3 * len(texts)  # the side mostly left out
+    # the corpus's own captions are untouched; the training source adds the extra ones after them
+    plain, extra = CorpusSource(split="train").get(3), CorpusSource(split="train", underspecified=2).get(3)
+    assert extra.captions[: len(plain.captions)] == plain.captions and len(extra.captions) == len(plain.captions) + 2
+    assert CorpusSource(split="train", underspecified=2).get(3).captions == extra.captions  # deterministic

@@ -117,8 +117,10 @@ def _count_phrase(seg: Segment, rng) -> str:
     return _pick(rng, COUNT_WORDS[c])
 
 
-def action_phrase(seg: Segment, form: int, rng: np.random.Generator, *, with_count: bool = True) -> str:
-    """Verb phrase for a segment; form 0 = third person ("walks"), 1 = gerund ("walking")."""
+def action_phrase(seg: Segment, form: int, rng: np.random.Generator, *, with_count: bool = True,
+                  with_side: bool = True) -> str:
+    """Verb phrase for a segment; form 0 = third person ("walks"), 1 = gerund ("walking"). ``with_count`` and
+    ``with_side`` False leave the count and the side unsaid."""
     a = seg.action
     verb = _pick(rng, VERBS[a])[form]
     parts = [verb]
@@ -138,14 +140,19 @@ def action_phrase(seg: Segment, form: int, rng: np.random.Generator, *, with_cou
     elif a == "jump" and rng.random() < 0.3:
         extra.append(_pick(rng, ("in place", "up and down", "on the spot")))
     elif a == "hop":
-        extra.append(_pick(rng, (f"on the {seg.side} leg", f"on the {seg.side} foot", f"on one leg")))
+        if with_side and seg.side in ("left", "right"):
+            extra.append(_pick(rng, (f"on the {seg.side} leg", f"on the {seg.side} foot", f"on one leg")))
+        elif rng.random() < 0.5:  # a side left unsaid
+            extra.append("on one leg")
     elif a == "kick":
-        parts.append(_side_phrase(seg, rng, "leg", bare=" " not in verb))
+        parts.append(_side_phrase(seg, rng, "leg", bare=" " not in verb) if with_side else "")
     elif a in ("punch", "wave"):
-        parts.append(_side_phrase(seg, rng, "hand", bare=" " not in verb))
+        parts.append(_side_phrase(seg, rng, "hand", bare=" " not in verb) if with_side else "")
     elif a == "raise_arms":
         side = seg.side if seg.side != "none" else "both"
-        if side == "both":
+        if not with_side:
+            parts.append(_pick(rng, ("an arm", "a hand", "the arms", "the hands")))
+        elif side == "both":
             parts.append(_pick(rng, ("both arms", "both hands", "the arms", "the hands")))
         else:
             parts.append(_pick(rng, (f"the {side} arm", f"the {side} hand")))
@@ -218,6 +225,46 @@ def captions(program: Program, rng: np.random.Generator, *, n: int = 4, held_out
                           ing=_ing(program, rng, True) if "{ing}" in tpl else "")
         # a style phrase may also open the sentence ("happily, a person walks")
         text = re.sub(r"\s+", " ", text).strip()
+        if text not in out:
+            out.append(text)
+    return out
+
+
+def underspecified_captions(program: Program, rng: np.random.Generator, *, n: int = 2) -> list[str]:
+    """Captions that leave attributes out, the way people type ("a person waves" for a left-hand wave, twice).
+
+    Side, count, speed, intensity and style are each dropped at random, keeping the meaning: an unstated side
+    covers either hand, an unstated count any count. About a third are bare subject-and-verb captions of two to
+    four words ("someone kicks"). Only words of the phrase tables are used, so :func:`vocabulary` is unchanged.
+    """
+    from dataclasses import replace as _replace
+
+    out: list[str] = []
+    for _ in range(6 * n):
+        if len(out) >= n:
+            break
+        bare = rng.random() < 0.35
+        segments = []
+        for seg in program.segments:
+            fields = {}
+            say_side = not (bare or rng.random() < 0.6)
+            if bare or rng.random() < 0.6:
+                fields["speed_word"] = "normal"
+            if bare or rng.random() < 0.6:
+                fields["intensity_word"] = "normal"
+            if bare and seg.action in ("walk", "run", "jog") and rng.random() < 0.7:
+                fields["direction"] = "none"
+            keep_count = not bare and rng.random() < 0.5
+            overlay = None if bare else seg.overlay
+            segments.append((_replace(seg, overlay=overlay, **fields), keep_count, say_side))
+        parts = []
+        for i, (seg, keep_count, say_side) in enumerate(segments):
+            join = "" if i == 0 else _pick(rng, (", then ", " and then ", ", after that "))
+            phrase = action_phrase(seg, 0, rng, with_count=keep_count, with_side=say_side)
+            if seg.overlay is not None:
+                phrase += " while " + action_phrase(seg.overlay, 1, rng, with_count=False, with_side=False)
+            parts.append(join + phrase)
+        text = re.sub(r"\s+", " ", f"{_pick(rng, SUBJECTS)} {''.join(parts)}").strip()
         if text not in out:
             out.append(text)
     return out
