@@ -162,29 +162,30 @@ class AttentionRecord:
 
         sm = self.self_map(step=step, layer=layer, head=head)
         cm = self.cross_map(step=step, layer=layer, head=head)
-        fig = Figure(figsize=(11, 5), dpi=100)
+        fig = Figure(figsize=(11, 5), dpi=100, layout="constrained")  # no label over a neighbour's ticks
         ax1, ax2 = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1, 1.3]})
         im = ax1.imshow(sm, cmap="viridis", origin="upper", vmin=0, vmax=float(np.quantile(sm, 0.995)) or None)
         ax1.set_xlabel("key frame")
         ax1.set_ylabel("query frame")
         ax1.set_title("self-attention")
-        fig.colorbar(im, ax=ax1, fraction=0.046)
+        fig.colorbar(im, ax=ax1, fraction=0.046, pad=0.03, label="attention (clipped at the 99.5th pct)")
         for i, w in enumerate(self.words):
             ax2.plot(cm[:, i], label=w)
         ax2.set_xlabel("frame")
         ax2.set_ylabel("attention")
         ax2.set_title("cross-attention per word")
         ax2.legend(fontsize=8, ncol=2)
-        sel = describe_selection(step=step, layer=layer, head=head)
+        sel = describe_selection(step=step, layer=layer, head=head, num_steps=self.num_steps)
         fig.suptitle(f"{title}  ({sel})" if title else sel)
         buf = io.BytesIO()
         fig.savefig(buf, format="png")
         return buf.getvalue()
 
 
-def describe_selection(*, step, layer, head) -> str:
+def describe_selection(*, step, layer, head, num_steps: int | None = None) -> str:
+    """The selection as the studio states it: steps counted from 1 ("step 50/50"), as in its Step menu."""
     return ", ".join([
-        "all recorded steps" if step is None else f"step {step}",
+        "all recorded steps" if step is None else (f"step {step + 1}/{num_steps}" if num_steps else f"step {step + 1}"),
         "mean of layers" if layer is None else f"layer {layer}",
         "mean of heads" if head is None else f"head {head}",
     ])

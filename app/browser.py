@@ -229,11 +229,11 @@ def generate(page, prompt: str, *, timeout_ms: float = 120000) -> dict:
     box = page.locator(".prompt-input input")
     box.fill(prompt)
     page.locator(".generate-button button").click()
-    page.wait_for_function(
-        f"window.moattnPlayer.motion_key !== {before} && (window.moattnPlayer.motion_key in window.moattnPlayer.first_draw)",
-        timeout=timeout_ms)
+    key = page.wait_for_function(
+        f"window.moattnPlayer.motion_key !== {before} && (window.moattnPlayer.motion_key in window.moattnPlayer.first_draw)"
+        " && window.moattnPlayer.motion_key", timeout=timeout_ms).json_value()
     stats = player_stats(page)
-    first = stats["first_draw"][str(stats["motion_key"])]
+    first = stats["first_draw"][str(key)]
     click = page.evaluate("window.moattnLastClick")
     return {"click_to_first_frame_ms": first - click, "stats": stats}
 

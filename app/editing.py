@@ -16,6 +16,7 @@ import param
 
 from app.attention_record import AttentionRecord, estimate_bytes, plan_steps
 from app.generation import Cancelled, sampling_slot
+from engine.methods.motionclr import WEIGHT_RANGES, weight_range_text
 
 #: label shown in the tab -> ``moattn edit`` kind
 KIND_LABELS = {
@@ -82,7 +83,9 @@ class EditConfig(param.Parameterized):
     word = param.String(default="", doc="the picked word ('' = none picked yet)")
     occurrence = param.Integer(default=0, bounds=(0, None), doc="which appearance of the word in the prompt")
     mode = param.Selector(default="add", objects=["add", "mul"], doc="add the weight, or multiply by it")
-    weight = param.Number(default=0.3, bounds=(-1.0, 10.0), doc="add: -1..1; mul: 0..3 (> 1 emphasises)")
+    weight = param.Number(default=0.3, bounds=(min(lo for lo, _ in WEIGHT_RANGES.values()),
+                                               max(hi for _, hi in WEIGHT_RANGES.values())),
+                          doc=f"{weight_range_text()} (mul > 1 emphasises)")
     frames = param.Range(default=None, allow_None=True, doc="frame window [start, end) (None = the kind's default)")
     step_window = param.Range(default=None, allow_None=True, doc="fractions of the sampling run (None = the method's)")
     layers = param.List(default=[], item_type=int, doc="layers the edit acts in ([] = all)")
@@ -168,7 +171,7 @@ def prepare(state) -> EditJob:
         raise ValueError("counting is not an edit: use Count")
     loaded = state.model
     prompt = state.prompt
-    frames = frames_for(float(state.seconds))
+    frames = frames_for(state.duration())
     if frames > loaded.model.config.max_frames:
         raise ValueError(f"this model handles at most {loaded.model.config.max_frames / 20:.1f} s")
     sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))

@@ -62,7 +62,10 @@ class Studio:
 
     def template(self) -> pn.template.BaseTemplate:
         main = pn.Row(
-            pn.Column("### Viewer", self.viewer, sizing_mode="stretch_width", min_width=500, max_width=760),
+            # the viewer stays in sight while a long tab on the right scrolls (sticky in the page's scroll box)
+            pn.Column("### Viewer", self.viewer, sizing_mode="stretch_width", min_width=500, max_width=760,
+                      css_classes=["viewer-column"],
+                      styles={"position": "sticky", "top": "0px", "align-self": "flex-start", "z-index": "2"}),
             pn.Tabs(("Attention", self.attention), ("Edit", self.edit), ("Transfer", self.transfer),
                     ("Compose", self.compose), ("Control", self.control), ("Duet", self.duet), width=600, css_classes=["right-tabs"]),
             sizing_mode="stretch_width",

@@ -19,6 +19,7 @@ import param
 from app.attention_record import AttentionRecord
 from app.editing import EditConfig, EditResult, count_imported, count_record, prepare, run_edit_job
 from app.generation import Cancelled, GenerationResult, GenerationSettings, check, prompt_analysis, run_generation
+from engine.duration import resolve_seconds
 from app.transfer import TransferSettings, paint_clusters, start_transfer
 
 MAX_ITEMS = 24  # motions are small (a 10-s motion is 140 KB); a transfer onto 8 followers adds 17
@@ -48,6 +49,7 @@ class MotionItem:
     features: np.ndarray | None = None
     settings: GenerationSettings | None = None
     info: dict = field(default_factory=dict)
+    evicted: bool = False  # its recorded attention was dropped to keep memory bounded (re-record: same seed)
 
     @property
     def n_frames(self) -> int:
@@ -241,6 +243,22 @@ class StudioState(param.Parameterized):
             lambda job: run_generation(loaded, checked, on_step=job.step, cancel=job.cancel, on_wait=job.waiting),
             on_done=lambda result: self._finish(result, "", ""), total=checked.config.steps, what="generation",
             status=f"generating {checked.frames / 20:.1f} s: step 0 / {checked.config.steps}", verb="generating")
+
+    def duration(self) -> float:
+        """The Generate box's length in seconds: as typed, or predicted from the prompt when the box is empty."""
+        return resolve_seconds(self.seconds, self.prompt)
+
+    def rerecord(self) -> bool:
+        """Generate the shown motion again with its own settings (same seed: the same motion) to record its
+        attention anew; False (and a notification) when it has no settings to repeat."""
+        item = self.item
+        if item is None or item.settings is None:
+            self.error("only a motion generated in the Generate box can be re-recorded")
+            return False
+        s = item.settings
+        self.param.update(prompt=s.prompt, seconds=s.seconds, seed=s.seed, steps=s.steps, guidance=s.guidance,
+                          record_steps=max(1, s.record_steps))
+        return self.generate()
 
     def launch(self, *, prepare: Callable[[], object], run: Callable[[object, object, "Job"], object],
                finish: Callable[[object, object], None], refused: str, what: str,
@@ -489,7 +507,8 @@ class StudioState(param.Parameterized):
             del items[oldest]
         with_attention = [n for n, it in items.items() if it.attention is not None]
         for name in with_attention[:-MAX_ITEMS_WITH_ATTENTION]:
-            items[name].attention = None  # keep memory bounded: old motions lose their maps
+            items[name].attention = None  # keep memory bounded: old motions lose their maps (and say so)
+            items[name].evicted = True
         with param.parameterized.batch_call_watchers(self):
             self.items = items
             if self.compare and self.compare not in items:
@@ -504,7 +523,8 @@ class StudioState(param.Parameterized):
             raise KeyError(f"no motion named {name!r}")
         item = self.items[name]
         with param.parameterized.batch_call_watchers(self):
-            if self.compare == name:
+            # another motion shown: nothing is compared with it until its job (or the user) says so
+            if name != self.current or self.compare == name:
                 self.compare = ""
             self.also = []
             self.frame = 0

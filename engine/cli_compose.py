@@ -5,6 +5,7 @@ import argparse
 import json
 from pathlib import Path
 
+from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 
@@ -24,7 +25,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--second-take-text", action="store_true",
                    help="second take: denoise each transition with 'A, then B' (default: without text, as the "
                         "authors' code)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed_argument, default=0)
     p.add_argument("--steps", type=int, default=50)
     p.add_argument("--guidance", type=float, default=2.5)
     p.add_argument("--model", type=Path, default=MODEL_DIR)
@@ -49,6 +50,8 @@ def run(args: argparse.Namespace) -> int:
     from engine.io import save_motion
     from engine.methods.doubletake import Interval, compose
 
+    check_outputs([args.out], MOTION_SUFFIXES)
+    check_outputs([args.render], RENDER_SUFFIXES, flag="--render")
     intervals = [Interval.parse(text) for text in args.intervals]
     config = config_from_args(args)
     loaded = load_model(args.model, runtime=runtime_from_args(args))
@@ -87,7 +90,7 @@ def add_control_parser(sub: argparse._SubParsersAction) -> None:
                    help="blend weights in the order root, left wrist, right wrist (those given); scaled to sum 1")
     p.add_argument("--inpaint", action="store_true", help="the baseline: the base model with plain inpainting")
     p.add_argument("--seconds", type=float, default=6.0)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed_argument, default=0)
     p.add_argument("--steps", type=int, default=50)
     p.add_argument("--guidance", type=float, default=2.5)
     p.add_argument("--model", type=Path, default=MODEL_DIR)
@@ -98,21 +101,74 @@ def add_control_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=run_control)
 
 
-def read_path(path: Path, *, dims: int) -> tuple[list, list | None]:
-    """Points (and optional times) from a path JSON file: a list of points or {"points", "times"}."""
+MAX_PATH_BYTES = 2**20  # a path JSON file larger than this (1 MiB) is refused
+MAX_PATH_POINTS = 10_000  # points of one path
+MAX_PATH_COORD = 1000.0  # metres: the largest coordinate a point may have
+MAX_PATH_TIME = 3600.0  # seconds: the largest time a point may have
+
+
+def read_path(path: Path, *, dims: int) -> tuple[tuple[tuple[float, ...], ...], tuple[float, ...] | None]:
+    """Points (and optional times) from a path JSON file: a list of ``dims``-D points or {"points", "times"}.
+
+    Everything is checked here: at most MAX_PATH_BYTES, UTF-8 JSON, 2 to MAX_PATH_POINTS points of ``dims``
+    finite numbers within MAX_PATH_COORD, times (when given) one finite number per point within MAX_PATH_TIME.
+    Every problem is one :class:`engine.io.MotionIOError` (a ValueError) naming the file; the returned values
+    are plain floats (engine.methods.paths then checks speeds, reach and timing).
+    """
+    from engine.io.errors import MotionIOError, check_file_size
+
+    path = Path(path)
+    check_file_size(path, max_bytes=MAX_PATH_BYTES, kind="path JSON")
     try:
-        data = json.loads(Path(path).read_text())
-    except FileNotFoundError:
-        raise
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{path}: not a JSON path ({exc})") from None
+        data = json.loads(path.read_bytes().decode("utf-8-sig"))
+    except OSError as exc:
+        raise MotionIOError(f"cannot read the path file {path}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise MotionIOError(f"{path.name}: not a JSON path (the file is not UTF-8 text)") from None
+    except RecursionError:
+        raise MotionIOError(f"{path.name}: not a JSON path (nested too deeply)") from None
+    except ValueError as exc:  # JSONDecodeError, or an integer with too many digits
+        raise MotionIOError(f"{path.name}: not a JSON path ({' '.join(str(exc).split())[:200]})") from None
     if isinstance(data, dict):
+        unknown = sorted(set(data) - {"points", "times"})
+        if unknown:
+            raise MotionIOError(f"{path.name}: unknown keys {[k[:40] for k in unknown[:3]]}; a path has \"points\" "
+                                "and optionally \"times\"")
         points, times = data.get("points"), data.get("times")
     else:
         points, times = data, None
     if not isinstance(points, list):
-        raise ValueError(f"{path}: expected a list of {dims}-D points")
-    return points, times
+        raise MotionIOError(f"{path.name}: expected a list of {dims}-D points")
+    if not 2 <= len(points) <= MAX_PATH_POINTS:
+        raise MotionIOError(f"{path.name}: a path has 2 to {MAX_PATH_POINTS:,} points, got {len(points):,}")
+    out = []
+    for i, point in enumerate(points):
+        if not isinstance(point, list) or len(point) != dims:
+            raise MotionIOError(f"{path.name}: point {i} is not a list of {dims} numbers ({_short(point)})")
+        out.append(tuple(_number(v, f"{path.name}: point {i}", MAX_PATH_COORD, "m") for v in point))
+    if times is None:
+        return tuple(out), None
+    if not isinstance(times, list) or len(times) != len(points):
+        raise MotionIOError(f"{path.name}: \"times\" must be a list of one time per point ({len(points)} numbers)")
+    return tuple(out), tuple(_number(t, f"{path.name}: time {i}", MAX_PATH_TIME, "s") for i, t in enumerate(times))
+
+
+def _number(value, what: str, limit: float, unit: str) -> float:
+    from engine.io.errors import MotionIOError
+
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise MotionIOError(f"{what} is not a number ({_short(value)})")
+    if isinstance(value, int) and abs(value) > limit:
+        raise MotionIOError(f"{what}: {_short(value)} {unit} is beyond the limit of {limit:g} {unit}")
+    value = float(value)
+    if value != value or abs(value) > limit:  # NaN, infinities and huge values (JSON allows NaN and Infinity)
+        raise MotionIOError(f"{what}: {_short(value)} is not a finite number within {limit:g} {unit}")
+    return value
+
+
+def _short(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def build_controls(args: argparse.Namespace):
@@ -123,12 +179,12 @@ def build_controls(args: argparse.Namespace):
     controls, frame = [], None
     if args.root is not None:
         pts, times = read_path(args.root, dims=2)
-        values, frame = root_controls(RootPath(points=tuple(map(tuple, pts)), times=times), args.seconds)
+        values, frame = root_controls(RootPath(points=pts, times=times), args.seconds)
         controls.append(Control("root", values))
     for name, path in (("left_wrist", args.left_wrist), ("right_wrist", args.right_wrist)):
         if path is not None:
             pts, times = read_path(path, dims=3)
-            controls.append(Control(name, WristPath(points=tuple(map(tuple, pts)), times=times).controls(args.seconds)))
+            controls.append(Control(name, WristPath(points=pts, times=times).controls(args.seconds)))
     if not controls:
         raise ValueError("give at least one of --root, --left-wrist, --right-wrist")
     return controls, frame
@@ -141,6 +197,8 @@ def run_control(args: argparse.Namespace) -> int:
     from engine.methods.control import controlled, load_controls, same_base
     from engine.methods.paths import path_error, to_world
 
+    check_outputs([args.out], MOTION_SUFFIXES)
+    check_outputs([args.render], RENDER_SUFFIXES, flag="--render")
     controls, frame = build_controls(args)
     loaded = load_model(args.model, runtime=runtime_from_args(args))
     loaded.tokenizer.encode(args.prompt)

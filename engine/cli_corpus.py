@@ -5,6 +5,8 @@ import argparse
 import json
 import sys
 
+from engine.cli import seed_argument
+
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
@@ -15,7 +17,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("--check", action="store_true", help="report physical plausibility; exit 1 if a limit fails")
     p.add_argument("--n", type=int, default=None, help="number of samples (check: 1000; export: required)")
-    p.add_argument("--seed", type=int, default=0, help="corpus seed")
+    p.add_argument("--seed", type=seed_argument, default=0, help="corpus seed")
     p.add_argument("--split", choices=("train", "test", "ood"), default="train")
     p.add_argument("--out", default=None, help="output folder for the export")
     p.add_argument("--gallery", default=None, metavar="OUT.png", help="write a contact sheet of every action and style")
@@ -37,6 +39,9 @@ def _bar(total: int, desc: str):
 
 
 def run(args: argparse.Namespace) -> int:
+    from engine.cli import check_output_folder
+
+    check_output_folder(args.out)  # checked before any work
     did = False
     status = 0
     if args.gallery:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from engine.cli import RENDER_SUFFIXES, check_outputs, seed_argument
 from engine.paths import DUET_DIR, MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 
@@ -29,7 +30,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-contact", action="store_true",
                    help="no contact guidance (by default, a prompt read as a trained interaction with contacts, "
                    "e.g. a handshake, has the hands guided to touch when the training examples do)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed_argument, default=0)
     p.add_argument("--steps", type=int, default=50)
     p.add_argument("--guidance", type=float, default=None, help="default 2.5 (1.0 with --prefix and no prompt)")
     p.add_argument("--model", type=Path, default=MODEL_DIR, help="the base model (the prior)")
@@ -87,6 +88,11 @@ def run(args: argparse.Namespace) -> int:
 
     if args.out.suffix.lower() not in (".npy", ".bvh"):
         raise ValueError(f"--out must end in .npy or .bvh, got {args.out.name!r}")
+    if args.out.suffix.lower() == ".npy":  # write_duet makes the .npy's folder
+        check_outputs([args.out], (".npy",), make_parents=True)
+    else:  # FILE_a.bvh and FILE_b.bvh
+        check_outputs([args.out, *(args.out.with_name(f"{args.out.stem}_{p}.bvh") for p in ("a", "b"))], (".bvh",))
+    check_outputs([args.render], RENDER_SUFFIXES, flag="--render")
     if args.prompt is not None and not args.prompt.strip():
         raise ValueError("the prompt is empty: describe what the two people do, e.g. 'two people shake hands'")
     if args.prompt is None and args.prefix is None:

@@ -5,9 +5,11 @@ import argparse
 import json
 from pathlib import Path
 
+from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
 from engine.methods.edit_options import KINDS
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
+from engine.methods.motionclr import weight_range_text
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -18,7 +20,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("prompt", nargs="?", default=None,
                    help="the prompt (the reference prompt for replace); a .bvh/.npy file works as the example/content")
     p.add_argument("--word", help="the word to (de-)emphasise, erase or ground")
-    p.add_argument("--weight", type=float, default=0.3, help="emphasis weight (add: -1..1, mul: 0..10)")
+    p.add_argument("--weight", type=float, default=0.3, help=f"emphasis weight ({weight_range_text()})")
     p.add_argument("--mode", choices=("add", "mul"), default="add")
     p.add_argument("--from-frame", type=int, default=None, help="first frame the edit touches")
     p.add_argument("--to-frame", type=int, default=None, help="frame after the last one the edit touches")
@@ -32,7 +34,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="layers the edit acts in (default: all; emphasize and ground: the layers calibrated for the model, "
                         "see moattn bench --edits --calibrate)")
     p.add_argument("--seconds", type=float, default=4.0)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed_argument, default=0)
     p.add_argument("--steps", type=int, default=50)
     p.add_argument("--guidance", type=float, default=2.5)
     p.add_argument("--model", type=Path, default=MODEL_DIR)
@@ -78,6 +80,8 @@ def run(args: argparse.Namespace) -> int:
     from engine.methods import edits
     from engine.methods.edit_options import run_edit
 
+    check_outputs([args.out], MOTION_SUFFIXES)
+    check_outputs([args.render], RENDER_SUFFIXES, flag="--render")
     options = options_from_args(args)
     loaded = load_model(args.model, runtime=runtime_from_args(args))
     frames = frames_for(args.seconds)

@@ -12,6 +12,7 @@ import sys
 import warnings
 from pathlib import Path
 
+from engine.cli import check_output_folder, seed_argument
 from engine.paths import EVALUATOR_DIR, MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 
@@ -46,7 +47,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--pool-size", type=int, default=None,
                    help="motions drawn once and trained on (default: 3000 corpus motions, or every item of --data's "
                         "train split)")
-    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--seed", type=seed_argument, default=0)
     add_runtime_arguments(e)
     e.set_defaults(run=run_train_evaluator)
 
@@ -108,6 +109,7 @@ def run_train_evaluator(args: argparse.Namespace) -> int:
     from engine.data import CorpusSource, FolderSource
     from engine.evaluation.evaluator import train_evaluator
 
+    check_output_folder(args.out)
     runtime = runtime_from_args(args, training=True)
     data = _data(args)
     with _warnings_as_lines("evaluator"):

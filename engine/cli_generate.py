@@ -6,6 +6,7 @@ import json
 import sys
 from pathlib import Path
 
+from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, CLIError, check_outputs, seed_argument
 from engine.duration import AUTO, resolve_seconds, seconds_argument
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
@@ -19,7 +20,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, action="append", required=True, help="output file; repeat for several")
     p.add_argument("--seconds", type=seconds_argument, default=AUTO,
                    help="length in seconds (1 to 9.8), or auto: predicted from the prompt (default: auto)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed_argument, default=0)
     p.add_argument("--steps", type=int, default=50)
     p.add_argument("--guidance", type=float, default=2.5)
     p.add_argument("--sampler", choices=("ddim", "ddpm"), default="ddim")
@@ -34,6 +35,9 @@ def run(args: argparse.Namespace) -> int:
     from engine.generate import Request, SampleConfig, frames_for, generate
     from engine.io import save_motion
 
+    check_outputs(args.out, MOTION_SUFFIXES + RENDER_SUFFIXES)  # every --out, before the model loads
+    if args.vecs and any(out.suffix.lower() == ".bvh" for out in args.out):
+        raise CLIError("--vecs writes 263-dim features to .npy; a .bvh --out holds joints: drop --vecs or the .bvh")
     seconds = resolve_seconds(args.seconds, args.prompt)
     frames = frames_for(seconds)
     loaded = load_model(args.model, runtime=runtime_from_args(args))

@@ -5,6 +5,7 @@ import argparse
 import json
 from pathlib import Path
 
+from engine.cli import check_outputs
 from engine.cli_io import add_window_args, load_window
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
@@ -33,6 +34,7 @@ def run(args: argparse.Namespace) -> int:
     from engine.io.window import seconds_of
     from engine.methods.inversion import InversionConfig, invert, roundtrip_error
 
+    check_outputs([args.out], (".npy",))
     config = InversionConfig(prompt=args.prompt, steps=args.steps, refine=args.refine)
     loaded = load_model(args.model, runtime=runtime_from_args(args))
     joints = load_window(args.input, args, max_frames=loaded.model.config.max_frames)

@@ -47,9 +47,13 @@ def load_window(path: Path, args: argparse.Namespace, *, max_frames: int | None 
 
 
 def run_convert(args: argparse.Namespace) -> int:
+    from engine.cli import MOTION_SUFFIXES, CLIError, check_outputs
     from engine.generate import FPS
     from engine.io import save_motion
 
+    check_outputs([args.output], MOTION_SUFFIXES, flag="output")
+    if args.to == "vecs" and args.output.suffix.lower() == ".bvh":
+        raise CLIError("--to vecs writes 263-dim features to .npy; a .bvh output holds joints")
     joints = load_window(args.input, args)
     save_motion(joints, args.output, to=args.to)
     print(f"wrote {args.output} ({len(joints)} frames at {FPS} fps)")
@@ -57,10 +61,13 @@ def run_convert(args: argparse.Namespace) -> int:
 
 
 def run_render(args: argparse.Namespace) -> int:
+    from engine.cli import RENDER_SUFFIXES, check_outputs
     from engine.io import load_motion
+
+    check_outputs([args.out], RENDER_SUFFIXES)
+    joints = load_motion(args.input)
     from viz.render import render_file
 
-    joints = load_motion(args.input)
     if args.frame is not None and not 0 <= args.frame < len(joints):
         raise ValueError(f"--frame {args.frame} is outside the motion's {len(joints)} frames")
     render_file(joints, args.out, frame=args.frame)

@@ -5,6 +5,7 @@ import argparse
 import json
 from pathlib import Path
 
+from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, check_output_folder, check_outputs, seed_argument
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 
@@ -30,7 +31,7 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="what the output takes from the leader's root (default: its whole trajectory)")
     p.add_argument("--keep-feet", action="store_true",
                    help="also keep the leader's footwork (foot contacts, feet and ankle positions); not in the paper")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed_argument, default=0)
     p.add_argument("--steps", type=int, default=50)
     p.add_argument("--guidance", type=float, default=2.5)
     p.add_argument("--model", type=Path, default=MODEL_DIR)
@@ -119,13 +120,19 @@ def _run(args: argparse.Namespace, *, record: bool):
     return loaded, sample, result, report
 
 
+def out_paths(out: Path, followers: int) -> list[Path]:
+    """Where the outputs go: ``out`` for one follower, NAME_1.npy, NAME_2.npy, ... for several."""
+    return [out] if followers == 1 else [out.with_name(f"{out.stem}_{i + 1}{out.suffix}") for i in range(followers)]
+
+
 def run_transfer(args: argparse.Namespace) -> int:
     from engine.io import save_motion
 
+    check_outputs(out_paths(args.out, len(args.follower)), MOTION_SUFFIXES)
+    check_outputs([args.render], RENDER_SUFFIXES, flag="--render")
     _, _, result, report = _run(args, record=False)
     outs = []
-    for i in range(len(result.followers)):
-        path = args.out if len(result.followers) == 1 else args.out.with_name(f"{args.out.stem}_{i + 1}{args.out.suffix}")
+    for i, path in enumerate(out_paths(args.out, len(result.followers))):
         save_motion(result.out(i), path)
         outs.append(str(path))
     report["out"] = outs
@@ -147,6 +154,7 @@ def run_analyze(args: argparse.Namespace) -> int:
     from engine.methods.momo import analyze
     from viz.qk_figures import cluster_figure, correspondence_figure, maps_figure
 
+    check_output_folder(args.out)
     loaded, sample, result, report = _run(args, record=True)
     site = cluster_site(loaded.model.config.layers, sample.steps)
     clusters = fit_clusters(loaded, FIT_PROMPTS, site=site, sample=sample, per_prompt=args.per_prompt,

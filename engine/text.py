@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import re
+import unicodedata
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
@@ -16,13 +17,39 @@ from torch import nn
 from engine import wordforms
 
 PAD = "<pad>"
-_WORD = re.compile(r"[a-z]+(?:'[a-z]+)?")
+# a word: a letter, then letters and combining marks, optionally one apostrophe and more of them ("don't"); matched
+# in text where every other character has been made a space (see split_words)
+_WORD = re.compile(r"[^\W\d_][^\s']*(?:'[^\s']+)?")
 MAX_WORDS = 64
 
 
+class _Separators(dict):
+    """str.translate table: letters, combining marks (not variation selectors) and the apostrophe (also typed as
+    U+2019) are kept, every other character (digits, punctuation, symbols and emoji, spaces, controls) becomes a
+    space; filled as characters are met (at most 4096 remembered)."""
+
+    def __missing__(self, code: int) -> int:
+        ch = chr(code)
+        category = unicodedata.category(ch)
+        if ch in "'\u2019\u02bc":
+            out = 0x27
+        elif category[0] == "L" or (category in ("Mn", "Mc") and not 0xFE00 <= code <= 0xFE0F
+                                      and not 0xE0100 <= code <= 0xE01EF):
+            out = code
+        else:
+            out = 0x20
+        if len(self) < 4096:
+            self[code] = out
+        return out
+
+
+_SEPARATORS = _Separators()
+
+
 def split_words(prompt: str) -> list[str]:
-    """Lowercase words of a prompt; punctuation and digits are separators."""
-    return _WORD.findall(prompt.lower())
+    """Lowercase words of a prompt (NFKC-normalised), in any alphabet ("naïve", "café" are one word each);
+    digits, punctuation, symbols and emoji are separators (never part of a word, never splitting one)."""
+    return _WORD.findall(unicodedata.normalize("NFKC", prompt).lower().translate(_SEPARATORS))
 
 
 class PromptError(ValueError):
@@ -55,7 +82,7 @@ class Tokenizer:
     def __init__(self, vocabulary: Iterable[str]):
         # order is kept (a checkpoint's word list must map to the same ids); duplicates dropped
         words = list(dict.fromkeys(w.strip().lower() for w in vocabulary if w.strip() and w != PAD))
-        bad = [w for w in words if not _WORD.fullmatch(w)]
+        bad = [w for w in words if split_words(w) != [w]]  # a plain word: a prompt of just itself
         if bad:
             raise ValueError(f"vocabulary entries are not plain words: {bad[:5]}")
         self.words: tuple[str, ...] = (PAD, *words)

@@ -144,7 +144,7 @@ def test_generation_runs_on_a_worker_and_records_attention(studio, tiny_model_di
     assert item.source == "generated" and item.prompt == "a person jumps twice"
     assert item.joints.shape == (60, 22, 3) and np.isfinite(item.joints).all()
     assert s.progress == s.progress_total == 8
-    assert studio.controls.progress.value == studio.controls.progress.max == 8
+    assert studio.controls.progress.max == 8 and studio.controls.progress.value == 0  # empty when idle
     assert studio.controls.cancel.disabled and not studio.controls.generate.disabled
     rec = item.attention
     assert rec.words == ("a", "person", "jumps", "twice")

@@ -51,13 +51,13 @@ def test_emphasis_changes_the_edit_and_keeps_the_reference(studio):
     # the word is picked by clicking it: the tab keeps the word (and which occurrence), not a token index
     tab.words.value = 2
     assert (s.edit.word, s.edit.occurrence) == ("jumps", 0)
-    tab.weight.value = 0.8
+    tab.weight.value = 0.4
     steps_seen = []
     s.param.watch(lambda e: steps_seen.append(e.new), "progress")
     _run(studio, "emphasise")
     after, before = s.item, s.compare_item
     assert before is not None and s.compare == before.name  # compare mode: before and after side by side
-    assert "reference" in before.name and "emphasise 'jumps' +0.80" in after.name
+    assert "reference" in before.name and "emphasise 'jumps' +0.40" in after.name
     assert before.name in s.items and after.name in s.items
     np.testing.assert_allclose(before.joints, plain.joints, atol=1e-4)  # reference == plain generation, same seed
     assert np.abs(after.joints - before.joints).max() > 1e-2  # the edit did something
@@ -68,7 +68,7 @@ def test_emphasis_changes_the_edit_and_keeps_the_reference(studio):
     # the edited motion's attention was recorded at the session's plan (4 of 8 steps) and shows in the explorer
     assert after.attention is not None and after.attention.steps == (0, 2, 5, 7)
     assert after.attention.cross_maps.shape[-1] == 4
-    assert "emphasise" in tab.result.object and tab.progress.value == 8
+    assert "emphasise" in tab.result.object and tab.progress.value == 0  # the bar is empty once idle
 
 
 def test_emphasis_weight_sign_and_multiplicative_mode(studio):
@@ -85,10 +85,31 @@ def test_emphasis_weight_sign_and_multiplicative_mode(studio):
     assert "×2.00" in s.item.name and "frames 10–40" in s.item.name
     np.testing.assert_allclose(s.compare_item.joints, _plain(studio).joints, atol=1e-4)
     tab.mode.value = "add"
-    assert tab.weight.start == -1.0 and -1.0 <= s.edit.weight <= 1.0
+    assert tab.weight.start == -0.5 and -0.5 <= s.edit.weight <= 0.5
     tab.layers.value = []
     tab.frames.value = (0, tab.frames.end)
     tab.steps.value = (0.0, 1.0)
+
+
+def test_the_emphasis_range_is_stated_once(studio, capsys):
+    """The slider, the session's bounds, the CLI's help and the method's check all read WEIGHT_RANGES."""
+    from engine.cli import build_parser
+    from engine.methods.motionclr import WEIGHT_RANGES, ReweightConfig
+
+    tab = studio.edit
+    tab.kind.value = "emphasise"
+    for mode, (lo, hi) in WEIGHT_RANGES.items():
+        tab.mode.value = mode
+        assert (tab.weight.start, tab.weight.end) == (lo, hi)
+        ReweightConfig(word="jumps", weight=hi, mode=mode)
+        with pytest.raises(ValueError, match=f"between {lo:g} and {hi:g}"):
+            ReweightConfig(word="jumps", weight=hi + 0.1, mode=mode)
+    tab.mode.value = "add"
+    bounds = studio.state.edit.param.weight.bounds
+    assert bounds == (min(lo for lo, _ in WEIGHT_RANGES.values()), max(hi for _, hi in WEIGHT_RANGES.values()))
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["edit", "--help"])
+    assert "add: -0.5 to 0.5; mul: 0 to 3" in " ".join(capsys.readouterr().out.split())
 
 
 def test_erase_ground_shift_each_give_a_before_after_pair(studio):

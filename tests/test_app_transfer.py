@@ -52,7 +52,7 @@ def test_transfer_from_two_prompts(studio):
     assert [it.name for it in s.shown_items] == [view.names[r] for r in ("leader", "follower", "out")]
     spec = studio.viewer.spec()
     assert len(spec.motions) == 3 and [len(j) for _, j in spec.motions] == [n, m, n] and s.n_frames == n
-    assert max(seen) == 8 and tab.progress.value == 8  # progress per sampling step
+    assert max(seen) == 8 and tab.progress.value == 0  # progress per sampling step; empty once idle
     assert not np.allclose(s.items[view.names["out"]].joints, s.items[view.names["follower"]].joints[:1])
     # the analysis is sized to each stream's frames
     a = view.analysis
@@ -103,9 +103,10 @@ def test_picking_frames_and_cluster_colours(studio):
     assert studio.viewer.renderer.wait_until_done(120) and not studio.viewer.renderer.errors
     tab.color.value = "roles"
     assert studio.viewer.spec().role_colors == ()
-    # another motion shown: the trio goes (the compared motion stays, as ever); the tab's button brings it back
+    # another motion shown: the trio goes, and nothing is compared with it any more (no carry-over);
+    # the tab's button brings the trio back
     s.show(view.names["out"])
-    assert s.also == [] and len(studio.viewer.spec().motions) == 2
+    assert s.also == [] and s.compare == "" and len(studio.viewer.spec().motions) == 1
     tab.show.clicks += 1
     assert len(studio.viewer.spec().motions) == 3
 

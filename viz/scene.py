@@ -214,7 +214,8 @@ class SkeletonScene:
                 {"label": role, "color": color_to_rgb(s.base_colors[PELVIS]) / 255.0}
                 for role, s in self._skeletons.items()
             ]
-            self.plotter.add_legend(entries, bcolor="white", size=(0.14, 0.045 * len(entries)), face="circle")
+            # large enough to read on the 720-px compare picture (the text scales with the box)
+            self.plotter.add_legend(entries, bcolor="white", size=(0.3, 0.075 * len(entries)), face="circle")
 
         first = next(iter(self._skeletons.values()))
         self.azimuth = facing_azimuth(first.joints[0]) + 30.0 if azimuth is None else float(azimuth)

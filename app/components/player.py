@@ -153,12 +153,24 @@ export function render({ model, el }) {
   });
   model.on("playing", () => { if (model.playing !== playing) setPlaying(model.playing, false); });
   model.on("n_frames", () => { if (current >= n()) current = 0; updateLabel(); });
+  function placeholder(title) {
+    // a new motion whose frames are still being drawn: never the old motion under the new one's name
+    ctx.fillStyle = "#eef2f7"; ctx.fillRect(0, 0, canvas.width, canvas.height);
+    ctx.fillStyle = "#334"; ctx.font = "18px sans-serif";
+    ctx.fillText((title || "").slice(0, 44), 16, 30);
+    ctx.fillStyle = "#667"; ctx.font = "15px sans-serif";
+    ctx.fillText("drawing its frames\u2026", 16, canvas.height / 2);
+    stats.placeholder = motionKey;
+  }
   model.on("msg:custom", async (msg) => {
+    // keys only grow: a late batch of an older motion (the renderer's thread) never replaces a newer one
+    if (msg.motion_key < motionKey) return;
     if (msg.motion_key !== motionKey) {
       for (const e of cache.values()) e.bmp.close();
       cache.clear();
       motionKey = msg.motion_key;
       stats.motion_key = motionKey;
+      placeholder(msg.title);
     }
     stats.version = msg.version;
     const entries = Object.entries(msg.frames);
@@ -209,6 +221,12 @@ export function render({ model, el }) {
             "motion_key": batch.motion_key, "version": batch.version, "n_frames": batch.n_frames,
             "frames": {str(k): base64.b64encode(v).decode("ascii") for k, v in batch.frames.items()},
         })
+
+    def announce(self, *, motion_key: int, version: int, n_frames: int, title: str) -> None:
+        """A new motion is on its way: the browser drops the old frames at once and shows ``title`` until the
+        first new frame arrives."""
+        self._send_msg({"motion_key": motion_key, "version": version, "n_frames": n_frames, "frames": {},
+                        "title": title})
 
     def _handle_msg(self, data) -> None:
         if not isinstance(data, dict):

@@ -18,7 +18,8 @@ from bokeh.models import (BoxAnnotation, ColorBar, ColumnDataSource, HoverTool, 
 from bokeh.palettes import Category10_10, Viridis256
 from bokeh.plotting import figure
 
-from app.state import StudioState
+from app.state import MAX_ITEMS_WITH_ATTENTION, StudioState
+from app.views.jobs import WRAP_BUTTONS_CSS
 
 MEAN = -1
 WIDTH = 560
@@ -54,8 +55,12 @@ class AttentionExplorer(pn.viewable.Viewer):
         self._syncing = False
         self.info = pn.pane.Markdown("Generate a motion to see its attention.", css_classes=["attention-info"],
                                      margin=(0, 10))
+        self.rerecord = pn.widgets.Button(label="Re-record its attention", visible=False, width=200,
+                                          css_classes=["rerecord-button"], margin=(0, 10))
+        self.rerecord.on_click(lambda _: self.state.rerecord())
         self.words = pn.widgets.RadioButtonGroup(label="Word", options={}, color="primary", variant="outline",
-                                                 css_classes=["word-buttons"], margin=(4, 10))
+                                                 css_classes=["word-buttons"], margin=(4, 10), sizing_mode="stretch_width",
+                                                 stylesheets=[WRAP_BUTTONS_CSS])
         self.layer = pn.widgets.Select(label="Layer", options={"mean of layers": MEAN}, width=130,
                                        css_classes=["layer-select"])
         self.head = pn.widgets.Select(label="Head", options={"mean of heads": MEAN}, width=130,
@@ -145,10 +150,22 @@ class AttentionExplorer(pn.viewable.Viewer):
         item = self.state.item
         self._syncing = True
         try:
+            self.rerecord.visible = bool(item is not None and item.evicted and item.settings is not None)
             if record is None:
                 self.words.options = {}
-                self.info.object = ("This motion has no recorded attention (imported, or recording was off)."
-                                    if item is not None else "Generate a motion to see its attention.")
+                if item is None:
+                    self.info.object = "Generate a motion to see its attention."
+                elif item.evicted:
+                    self.info.object = (f"This motion's attention was dropped to keep memory bounded: only the "
+                                        f"{MAX_ITEMS_WITH_ATTENTION} latest generated motions keep theirs. "
+                                        + ("Re-record it: the same settings and seed give the same motion."
+                                           if item.settings is not None else "Run its job again to see it."))
+                elif item.settings is not None:
+                    self.info.object = "This motion was generated with attention recording off (Recorded steps 0)."
+                elif item.source == "generated":
+                    self.info.object = "This motion has no recorded attention: its job does not record it."
+                else:
+                    self.info.object = "This motion has no recorded attention: it was imported."
                 self.curve_src.data = dict(xs=[], ys=[], color=[], width=[], alpha=[], word=[])
                 self.heat_src.data = _no_heat()
                 self.row_src.data = dict(x=[], y=[])
@@ -283,5 +300,5 @@ class AttentionExplorer(pn.viewable.Viewer):
 
     def __panel__(self):
         selects = pn.Row(self.layer, self.head, self.step)
-        return pn.Column(self.info, self.words, self.curves_pane, selects, self.heatmap_pane, self.row_pane,
+        return pn.Column(self.info, self.rerecord, self.words, self.curves_pane, selects, self.heatmap_pane, self.row_pane,
                          css_classes=["attention-explorer"])

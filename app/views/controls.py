@@ -101,7 +101,8 @@ class GenerateControls(pn.viewable.Viewer):
         s = self.state
         with pn.io.hold():  # one message to the page per step, not one per widget
             self.progress.max = max(1, s.progress_total)
-            self.progress.value = min(s.progress, self.progress.max)
+            # the bar shows running work only: empty when idle (the status line says what finished)
+            self.progress.value = min(s.progress, self.progress.max) if s.running else 0
             self.generate.disabled = s.running or bool(s.unknown_words)
             self.generate.label = "Generating…" if s.running else "Generate"
             self.cancel.disabled = not s.running

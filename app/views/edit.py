@@ -17,8 +17,9 @@ from bokeh.plotting import figure
 
 from app.editing import KIND_HELP, KIND_LABELS, PROMPT_SOURCE, alignment
 from app.state import StudioState
-from app.views.jobs import JobBar, on_text
+from app.views.jobs import WRAP_BUTTONS_CSS, JobBar, on_text
 from app.views.guard import SyncGuard
+from engine.methods.motionclr import WEIGHT_RANGES
 
 WORD_KINDS = ("emphasize", "erase", "ground")
 WEIGHT_KINDS = ("emphasize", "ground")
@@ -39,11 +40,13 @@ class EditTab(pn.viewable.Viewer):
                                      styles={"font-size": "12px", "color": "#444"})
         self.words_label = pn.pane.Markdown("**Word** (click it in the prompt)", margin=(0, 10))
         self.words = pn.widgets.RadioButtonGroup(label="Word", options={}, value=None, color="primary",
-                                                 variant="outline", css_classes=["edit-words"], margin=(2, 10))
+                                                 variant="outline", css_classes=["edit-words"], margin=(2, 10),
+                                                 sizing_mode="stretch_width", stylesheets=[WRAP_BUTTONS_CSS])
         self.mode = pn.widgets.RadioButtonGroup(label="Mode", options={"add +w": "add", "multiply ×w": "mul"},
                                                 value=e.mode, color="primary", variant="outline",
                                                 css_classes=["edit-mode"], width=220)
-        self.weight = pn.widgets.FloatSlider(label="Weight", start=-1.0, end=1.0, step=0.05, value=e.weight,
+        lo, hi = WEIGHT_RANGES[e.mode]
+        self.weight = pn.widgets.FloatSlider(label="Weight", start=lo, end=hi, step=0.05, value=e.weight,
                                              css_classes=["edit-weight"], sizing_mode="stretch_width")
         self.frames = pn.widgets.IntRangeSlider(label="Frames", start=0, end=80, value=(0, 80), step=1,
                                                 css_classes=["edit-frames"], sizing_mode="stretch_width")
@@ -141,7 +144,7 @@ class EditTab(pn.viewable.Viewer):
         from engine.generate import frames_for
 
         try:
-            return frames_for(float(self.state.seconds))
+            return frames_for(self.state.duration())
         except Exception:
             return 80
 
@@ -221,6 +224,11 @@ class EditTab(pn.viewable.Viewer):
             self._sync(lambda: setattr(self.steps, "value", (window.start, window.end)))
             self._sync(lambda: setattr(self.layers, "value", list(e.layers)))
         self._reset_frames()
+        # a finished edit's lines belong to its kind: switching clears them (running work keeps its status)
+        if not self.state.running:
+            self.result.object = ""
+            if self.state.job in self.bar.jobs:
+                self.state.status = ""
         is_edit = kind != "count"
         self.words_label.visible = self.words.visible = kind in WORD_KINDS
         self.mode.visible = kind == "emphasize"
@@ -249,10 +257,8 @@ class EditTab(pn.viewable.Viewer):
 
     def _on_mode(self, *_):
         e = self.state.edit
-        if e.mode == "mul":
-            start, end, value = 0.0, 3.0, (e.weight if 0 <= e.weight <= 3 else 2.0)
-        else:
-            start, end, value = -1.0, 1.0, (e.weight if -1 <= e.weight <= 1 else 0.3)
+        start, end = WEIGHT_RANGES[e.mode]  # the range the method checks (engine.methods.motionclr)
+        value = e.weight if start <= e.weight <= end else (2.0 if e.mode == "mul" else 0.3)
 
         def apply():
             self.mode.value = e.mode

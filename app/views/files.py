@@ -216,6 +216,7 @@ class ImportPanel(pn.viewable.Viewer):
             self.state.show_motion(joints, title=title)
         except Exception as exc:  # any parse or window problem is the user's input, not a crash
             self.state.error(f"Could not import {name}: {exc}")
+            self._input.clear()  # the field does not go on naming a file that was refused ("Import window" retries)
             return False
         window = f" from {begin:g} s of its {seconds_of(total):.1f} s" if cut else ""
         self.state.info(f"imported {name}: {len(joints)} frames ({seconds_of(len(joints)):.1f} s){window}")

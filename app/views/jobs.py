@@ -44,7 +44,7 @@ class JobBar(pn.viewable.Viewer):
         mine = s.job in self.jobs
         with pn.io.hold():  # one message to the page, not one per widget
             self.progress.max = max(1, s.progress_total)
-            self.progress.value = min(s.progress, self.progress.max) if mine else 0
+            self.progress.value = min(s.progress, self.progress.max) if mine and s.running else 0  # empty when idle
             self.status.object = html.escape(s.status) if mine else ""
             self.cancel.disabled = not s.running
             self.run.disabled = s.running or (self._blocked is not None and bool(self._blocked()))
@@ -79,6 +79,12 @@ def flag_unknown(words: list[str], suggestions: dict[str, list[str]] | None = No
         parts.append(f"<b>{html.escape(w)}</b>" + (f" (try: {html.escape(', '.join(near))})" if near else ""))
     return f'<span class="unknown-words">unknown word{"s" * (len(words) > 1)}: {"; ".join(parts)}</span>'
 
+
+# a row of word buttons wraps inside its tab instead of running off its right edge
+WRAP_BUTTONS_CSS = """
+.bk-btn-group { flex-wrap: wrap; row-gap: 4px; }
+.bk-btn-group > .bk-btn { flex: 0 0 auto; }
+"""
 
 UNKNOWN_CSS = """
 .unknown-words { color: #a00; background: #ffecec; border: 1px solid #f3b3b3; padding: 1px 6px; border-radius: 4px;

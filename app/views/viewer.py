@@ -90,7 +90,7 @@ class SkeletonViewer(pn.viewable.Viewer):
             title = f"colour: {s.transfer.color_by} (legend in the Transfer tab)"
         return SceneSpec(motions=tuple(motions), follow=s.follow, show_path=s.show_path, frame_values=values,
                          role_colors=tuple(colors), azimuth_offset=self._azimuth, camera_serial=self._camera_serial,
-                         title=title[:70], guides=self._same_guides(tuple(guides)), together=is_duet(shown))
+                         title=_fit(title), guides=self._same_guides(tuple(guides)), together=is_duet(shown))
 
     def _same_guides(self, guides: tuple) -> tuple:
         """The previous tuple when the guides did not change (the renderer redraws them on a new object only)."""
@@ -102,7 +102,11 @@ class SkeletonViewer(pn.viewable.Viewer):
     def _refresh(self, *_):
         spec = self.spec()
         self.player.n_frames = 0 if spec is None else spec.n_frames
+        key = self.renderer.motion_key
         self.renderer.show(spec, frame=self.state.frame)
+        if spec is not None and self.renderer.motion_key != key:
+            self.player.announce(motion_key=self.renderer.motion_key, version=self.renderer.version,
+                                 n_frames=spec.n_frames, title=spec.title or " | ".join(r for r, _ in spec.motions))
 
     # ------------------------------------------------------------------ events
     def _camera(self, *, reset: bool = False, delta: float = 0.0) -> None:
@@ -174,6 +178,13 @@ class SkeletonViewer(pn.viewable.Viewer):
         selects = pn.Row(self.show_select, self.compare_select)
         return pn.Column(selects, self.player, controls, self.color, sizing_mode="stretch_width",
                          css_classes=["viewer"])
+
+
+TITLE_CHARS = 42  # what fits left of the "frame N / M" label on the 480-px picture
+
+
+def _fit(title: str) -> str:
+    return title if len(title) <= TITLE_CHARS else title[: TITLE_CHARS - 1] + "…"
 
 
 def _role(name: str, avoid: list[str] | tuple[str, ...] = ()) -> str:

@@ -8,7 +8,9 @@
 - :func:`pick_window` keeps the window ``start`` / ``seconds`` of a longer motion (``engine.io.window``: the
   one rule for the CLI's ``--start`` / ``--seconds``, the app's import and the model's length limit).
 
-Errors are :class:`MotionIOError` (a ``ValueError``); BVH problems are :class:`BVHError`.
+Errors are :class:`MotionIOError` (a ``ValueError``); BVH problems are :class:`BVHError`. What a file may
+declare (frames, duration, frame time, joints, depth) is limited and checked before anything is allocated;
+the limits are stated in :mod:`engine.io.errors` (a file holds at most MAX_IMPORT_SECONDS of motion).
 """
 from __future__ import annotations
 
@@ -19,7 +21,7 @@ from typing import Literal
 import numpy as np
 
 from engine.io.bvh import BVHData, BVHImport, format_bvh, import_bvh, load_bvh, read_bvh, save_bvh
-from engine.io.errors import DEFAULT_MAX_BYTES, BVHError, MotionIOError
+from engine.io.errors import DEFAULT_MAX_BYTES, MAX_IMPORT_SECONDS, BVHError, MotionIOError
 from engine.io.npy import classify_motion_array, load_npy, save_npy
 from engine.io.window import pick_window, seconds_of, seconds_number, window_slice
 from engine.representation import features_to_joints, joints_to_features
@@ -79,7 +81,8 @@ def save_motion(
 
 
 __all__ = [
-    "BVHData", "BVHError", "BVHImport", "DEFAULT_MAX_BYTES", "MotionIOError", "SUPPORTED_SUFFIXES",
+    "BVHData", "BVHError", "BVHImport", "DEFAULT_MAX_BYTES", "MAX_IMPORT_SECONDS", "MotionIOError",
+    "SUPPORTED_SUFFIXES",
     "format_bvh", "import_bvh", "load_bvh", "load_motion", "load_npy", "pick_window", "read_bvh", "save_bvh",
     "save_motion", "save_npy", "seconds_number", "seconds_of", "window_slice",
 ]

@@ -136,9 +136,15 @@ def import_bvh_data(
     canonical: bool = True,
     unit: str | float | None = None,
 ) -> BVHImport:
-    """:func:`import_bvh` for an already parsed file."""
+    """:func:`import_bvh` for an already parsed file.
+
+    Whatever the file's values, the result is finite joints or a :class:`BVHError` (values so large that the
+    positions overflow are refused, not returned as inf/NaN); ``fps`` and ``unit`` errors are ``ValueError``.
+    """
     if not fps > 0:
         raise ValueError(f"fps must be positive, got {fps}")
+    if isinstance(unit, str) and unit not in UNITS:
+        raise ValueError(f"unknown unit {unit!r}; use one of {', '.join(UNITS)} or metres per unit")
     found = match_joint_names(data)
     missing = missing_essentials(found)
     if missing:
@@ -149,7 +155,25 @@ def import_bvh_data(
             f"Essential joints are {', '.join(ESSENTIAL)}. Joints in the file: {present}",
             source=data.source,
         )
+    try:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            return _import(data, found, fps=fps, retarget=retarget, canonical=canonical, unit=unit)
+    except BVHError:
+        raise
+    except ValueError as exc:  # the file's content (e.g. a degenerate body) failed a later step
+        raise BVHError(f"cannot import this motion: {exc}", source=data.source) from None
+
+
+def _overflow(array: np.ndarray, data: BVHData, what: str) -> None:
+    if not np.isfinite(array).all():
+        raise BVHError(f"the {what} overflow (NaN or infinite): the file's OFFSET or channel values are too large",
+                       source=data.source)
+
+
+def _import(data: BVHData, found: dict, *, fps: float, retarget: bool, canonical: bool,
+            unit: str | float | None) -> BVHImport:
     positions = data.world_positions()
+    _overflow(positions, data, "joint positions")
     # up axis from the joints found by name, before anything assumes Y up
     probe = np.zeros((len(positions), len(JOINT_INDEX), 3))
     for name in ("head", "left_ankle", "right_ankle"):
@@ -158,6 +182,7 @@ def import_bvh_data(
     if up_axis != "+Y":
         positions = positions @ up_axis_rotation(up_axis).T
     joints, mapping = assemble_joints(data, positions, found)
+    _overflow(joints, data, "joint positions")
 
     if unit is None:
         try:
@@ -165,8 +190,6 @@ def import_bvh_data(
         except ValueError as exc:
             raise BVHError(str(exc), source=data.source) from None
     elif isinstance(unit, str):
-        if unit not in UNITS:
-            raise ValueError(f"unknown unit {unit!r}; use one of {', '.join(UNITS)} or metres per unit")
         unit_name, scale = unit, UNITS[unit]
     else:
         unit_name, scale = "custom", float(unit)
@@ -178,8 +201,10 @@ def import_bvh_data(
         joints = retarget_bone_lengths(joints)
     if canonical:
         joints = canonical_placement(joints, fps=fps)
+    joints = joints.astype(np.float32)
+    _overflow(joints, data, "joint positions in metres")
     return BVHImport(
-        joints=joints.astype(np.float32),
+        joints=joints,
         fps=float(fps),
         source_fps=source_fps,
         source_frames=data.num_frames,

@@ -16,8 +16,12 @@ The grammar read here::
 
 Joint names may contain spaces ("Bip01 L Thigh"). Keywords are matched case-insensitively,
 everything else strictly: every problem raises :class:`BVHError` naming the problem and the
-line. End Sites become joints of their own (no channels, ``end_site`` True) so forward
-kinematics returns their positions too.
+line. What a file may declare is limited (:mod:`engine.io.errors`: at most MAX_JOINTS joints
+nested at most MAX_DEPTH deep, a Frame Time from MIN_FRAME_TIME to MAX_FRAME_TIME, at most
+MAX_DECLARED_FRAMES frames lasting at most MAX_IMPORT_SECONDS, at most MAX_JOINT_FRAMES
+frames x joints); the limits are checked as the hierarchy and the ``Frames:`` / ``Frame Time:``
+lines are read, before the motion is allocated. End Sites become joints of their own (no channels,
+``end_site`` True) so forward kinematics returns their positions too.
 
 Conventions (those of BVH and of :mod:`engine.skeleton`): a joint's world rotation is
 ``G[j] = G[parent] @ R[j]`` with ``R[j]`` the product of its rotation channels in file order
@@ -36,7 +40,18 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.io.errors import DEFAULT_MAX_BYTES, BVHError, check_file_size
+from engine.io.errors import (
+    DEFAULT_MAX_BYTES,
+    MAX_DECLARED_FRAMES,
+    MAX_DEPTH,
+    MAX_FRAME_TIME,
+    MAX_IMPORT_SECONDS,
+    MAX_JOINT_FRAMES,
+    MAX_JOINTS,
+    MIN_FRAME_TIME,
+    BVHError,
+    check_file_size,
+)
 from engine.rotations import axis_rotation
 
 CHANNEL_NAMES: tuple[str, ...] = (
@@ -115,22 +130,14 @@ class BVHData:
     # ------------------------------------------------------------------ kinematics
     def local_transforms(self) -> tuple[np.ndarray, np.ndarray]:
         """Per-frame local rotations (F, J, 3, 3) and translations (F, J, 3)."""
-        frames = self.num_frames
-        rot = np.broadcast_to(np.eye(3), (frames, self.num_joints, 3, 3)).copy()
-        trans = np.broadcast_to(self.offsets, (frames, self.num_joints, 3)).copy()
-        for j, (chans, start) in enumerate(zip(self.channels, self.channel_starts)):
-            for k, chan in enumerate(chans):
-                values = self.motion[:, start + k]
-                axis = chan[0]
-                if chan.endswith("position"):
-                    trans[:, j, _AXIS[axis]] = values
-                else:
-                    rot[:, j] = rot[:, j] @ axis_rotation(axis.lower(), np.deg2rad(values))
-        return rot, trans
+        return _local(self, self.motion)
 
     def world_transforms(self) -> tuple[np.ndarray, np.ndarray]:
         """World rotations (F, J, 3, 3) and positions (F, J, 3) of every joint, End Sites included."""
-        rot, trans = self.local_transforms()
+        return self._world(self.motion)
+
+    def _world(self, motion: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        rot, trans = _local(self, motion)
         glob = np.empty_like(rot)
         pos = np.empty_like(trans)
         for j, parent in enumerate(self.parents):
@@ -143,8 +150,14 @@ class BVHData:
         return glob, pos
 
     def world_positions(self) -> np.ndarray:
-        """World positions (F, J, 3) of every joint, End Sites included, in the file's units."""
-        return self.world_transforms()[1]
+        """World positions (F, J, 3) of every joint, End Sites included, in the file's units.
+
+        Computed a block of frames at a time, so only the positions are held for the whole motion."""
+        step = max(1, _FK_BLOCK // max(1, self.num_joints))
+        out = np.empty((self.num_frames, self.num_joints, 3))
+        for first in range(0, self.num_frames, step):
+            out[first:first + step] = self._world(self.motion[first:first + step])[1]
+        return out
 
     def rest_positions(self) -> np.ndarray:
         """Positions (J, 3) of the rest pose (all rotations identity, offsets only)."""
@@ -152,6 +165,25 @@ class BVHData:
         for j, parent in enumerate(self.parents):
             pos[j] = self.offsets[j] if parent < 0 else pos[parent] + self.offsets[j]
         return pos
+
+
+_FK_BLOCK = 200_000  # joint-frames of forward kinematics computed at once by world_positions
+
+
+def _local(data: BVHData, motion: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Local rotations (F, J, 3, 3) and translations (F, J, 3) of the frames ``motion`` (F, C)."""
+    frames = len(motion)
+    rot = np.broadcast_to(np.eye(3), (frames, data.num_joints, 3, 3)).copy()
+    trans = np.broadcast_to(data.offsets, (frames, data.num_joints, 3)).copy()
+    for j, (chans, start) in enumerate(zip(data.channels, data.channel_starts)):
+        for k, chan in enumerate(chans):
+            values = motion[:, start + k]
+            axis = chan[0]
+            if chan.endswith("position"):
+                trans[:, j, _AXIS[axis]] = values
+            else:
+                rot[:, j] = rot[:, j] @ axis_rotation(axis.lower(), np.deg2rad(values))
+    return rot, trans
 
 
 # ---------------------------------------------------------------------- reading
@@ -222,7 +254,7 @@ class _Parser:
         keyword, rest = _split_keyword(text)
         if keyword.upper() != "ROOT":
             raise self.error(f"expected ROOT after HIERARCHY, found {text[:40]!r}", line)
-        self.joint(rest, parent=-1, line=line, end_site=False)
+        self.joint(rest, parent=-1, line=line, end_site=False, depth=1)
         try:
             line, text = self.next_line("MOTION")
         except BVHError:
@@ -259,8 +291,14 @@ class _Parser:
             raise self.error(f"expected '{{' to open {what}, found {text[:40]!r}", line)
         return name
 
-    def joint(self, header_rest: str, *, parent: int, line: int, end_site: bool) -> None:
+    def joint(self, header_rest: str, *, parent: int, line: int, end_site: bool, depth: int) -> None:
         what = "End Site" if end_site else "joint"
+        if depth > MAX_DEPTH:
+            raise self.error(f"the hierarchy is nested more than {MAX_DEPTH} joints deep, deeper than the limit "
+                             f"of {MAX_DEPTH}", line)
+        if len(self.names) >= MAX_JOINTS:
+            raise self.error(f"the hierarchy has more than {MAX_JOINTS} joints (End Sites included), more than the "
+                             f"limit of {MAX_JOINTS}", line)
         name = self.open_brace(header_rest, line, what)
         if end_site:
             parent_name = self.names[parent]
@@ -320,9 +358,9 @@ class _Parser:
                         raise self.error(f"expected 'End Site', found {text[:40]!r}", line_no)
                     if site.endswith("{"):
                         rest = "{"
-                    self.joint(rest, parent=index, line=line_no, end_site=True)
+                    self.joint(rest, parent=index, line=line_no, end_site=True, depth=depth + 1)
                 else:
-                    self.joint(rest, parent=index, line=line_no, end_site=False)
+                    self.joint(rest, parent=index, line=line_no, end_site=False, depth=depth + 1)
             elif upper == "ROOT":
                 raise self.error(f"ROOT inside {label}: unbalanced braces or a second skeleton", line_no)
             elif upper == "MOTION":
@@ -374,6 +412,8 @@ class _Parser:
             raise self.error(f"frame count is not an integer: {match.group(1)!r}", line) from None
         if frames <= 0:
             raise self.error(f"the file declares {frames} frames; at least one frame is needed (zero frames)", line)
+        if frames > MAX_DECLARED_FRAMES:
+            raise self.error(f"the file declares {frames} frames, more than the limit of {MAX_DECLARED_FRAMES:,}", line)
         line, text = self.next_line("'Frame Time:'")
         match = _FRAME_TIME_RE.match(text)
         if not match:
@@ -381,53 +421,83 @@ class _Parser:
         frame_time = self.number(match.group(1), "Frame Time", line)
         if frame_time <= 0:
             raise self.error(f"Frame Time must be positive, got {frame_time}", line)
+        if not MIN_FRAME_TIME <= frame_time <= MAX_FRAME_TIME:
+            raise self.error(
+                f"Frame Time {frame_time:g} s is outside the limits of {MIN_FRAME_TIME:g} s to {MAX_FRAME_TIME:g} s "
+                f"({1 / MAX_FRAME_TIME:g} to {1 / MIN_FRAME_TIME:g} fps)", line)
+        duration = (frames - 1) * frame_time
+        if duration > MAX_IMPORT_SECONDS:
+            raise self.error(
+                f"{frames} frames of {frame_time:g} s make {duration:.1f} s of motion, longer than the limit of "
+                f"{MAX_IMPORT_SECONDS:g} s ({MAX_IMPORT_SECONDS / 60:g} min); cut the file", line)
+        joints = len(self.names)
+        if frames * joints > MAX_JOINT_FRAMES:
+            raise self.error(
+                f"{frames} frames of {joints} joints (End Sites included) make {frames * joints:,} joint-frames, "
+                f"more than the limit of {MAX_JOINT_FRAMES:,}; cut the file or lower its frame rate", line)
+        # a file too short for its declared frames is refused here, before the motion array is allocated: it
+        # needs a line per frame, and every value takes at least 2 characters ("0 ")
+        rest = self.lines[self.pos:]
+        lines_left = sum(1 for text in rest if not text.isspace() and text)
+        if lines_left < frames:
+            raise self.error(
+                f"the file ends after {lines_left} of the {frames} frames declared by 'Frames:' (missing frame lines)",
+                len(self.lines),
+            )
+        if frames * num_channels * 2 - 1 > sum(len(text) + 1 for text in rest):
+            raise self.error(
+                f"the file is too short for the {frames} frames of {num_channels} values declared by 'Frames:' "
+                "(missing frame lines)", len(self.lines))
 
-        rows: list[np.ndarray] = []
+        motion = np.empty((frames, num_channels), dtype=np.float64)
         row_lines: list[int] = []
+        count = 0
         while self.pos < len(self.lines):
             raw = self.lines[self.pos]
             self.pos += 1
             tokens = raw.split()
             if not tokens:
                 continue
-            if len(rows) == frames:
+            if count == frames:
                 raise self.error(
                     f"more frame lines than the {frames} declared by 'Frames:' (extra data)", self.pos
                 )
             if len(tokens) != num_channels:
                 raise self.error(
-                    f"wrong number of values on frame {len(rows) + 1}: {len(tokens)} values, "
+                    f"wrong number of values on frame {count + 1}: {len(tokens)} values, "
                     f"expected {num_channels} (one per channel)",
                     self.pos,
                 )
-            try:
-                rows.append(np.array(tokens, dtype=np.float64))
-            except ValueError:
-                bad = next(t for t in tokens if not _is_float(t))
-                raise self.error(f"non-numeric value {bad!r} on frame {len(rows) + 1}", self.pos) from None
+            motion[count] = self.row(tokens, count + 1)
             row_lines.append(self.pos)
-        if len(rows) < frames:
+            count += 1
+        if count < frames:
             raise self.error(
-                f"the file ends after {len(rows)} of the {frames} frames declared by 'Frames:' (missing frame lines)",
+                f"the file ends after {count} of the {frames} frames declared by 'Frames:' (missing frame lines)",
                 len(self.lines),
             )
-        motion = np.stack(rows)
         finite = np.isfinite(motion).all(axis=1)
         if not finite.all():
             k = int(np.argmin(finite))
             raise self.error(f"NaN or infinite value on frame {k + 1}", row_lines[k])
         return frames, frame_time, motion
 
+    def row(self, tokens: list[str], frame: int) -> np.ndarray:
+        """One frame's values (tokens already counted); a non-number is an error naming it."""
+        try:
+            return np.array(tokens, dtype=np.float64)
+        except (ValueError, OverflowError):
+            pass
+        values = []
+        for token in tokens:  # numpy refused one: Python's float names it (or reads what numpy would not)
+            try:
+                values.append(float(token))
+            except ValueError:
+                raise self.error(f"non-numeric value {token[:40]!r} on frame {frame}", self.pos) from None
+        return np.array(values, dtype=np.float64)
+
 
 def _split_keyword(text: str) -> tuple[str, str]:
     """'JOINT Bip01 L Thigh' -> ('JOINT', 'Bip01 L Thigh'); any whitespace separates the keyword."""
     parts = text.split(None, 1)
     return (parts[0], parts[1] if len(parts) > 1 else "")
-
-
-def _is_float(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True

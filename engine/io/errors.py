@@ -2,6 +2,26 @@
 
 Every error is a ``ValueError`` subclass whose message says what is wrong and, for text
 formats, on which line, so the CLI and the app can show it to the user unchanged.
+
+The limits on what a motion file may declare live here, next to the file-size limit, and are
+checked against a file's header (BVH hierarchy and ``Frames:`` / ``Frame Time:`` lines, the
+``.npy`` header) before anything the size of the motion is allocated, so a small file cannot
+ask for gigabytes:
+
+======================  =====================================================================
+DEFAULT_MAX_BYTES       50 MiB: larger motion files are refused
+MAX_IMPORT_SECONDS      600 s (10 min): the longest motion a file may hold; a motion longer than
+                        the model's 9.8 s is imported whole up to this, then a window is picked
+                        (engine.io.window)
+MAX_IMPORT_FRAMES       12,001 poses: MAX_IMPORT_SECONDS at the project's 20 fps (+1, the first
+                        pose), the longest ``.npy`` motion (taken to be at 20 fps)
+MAX_DECLARED_FRAMES     100,000: the most frames a BVH's ``Frames:`` may declare
+MIN_FRAME_TIME          1/1000 s and MAX_FRAME_TIME 1 s: a BVH's ``Frame Time:`` (1 to 1000 fps)
+MAX_JOINTS              256 joints (End Sites included) in a BVH hierarchy
+MAX_DEPTH               64: the deepest nesting of joints in a BVH hierarchy
+MAX_JOINT_FRAMES        5,000,000: frames x joints (End Sites included) of a BVH, what forward
+                        kinematics allocates (e.g. 10 min at 120 fps of a 69-joint skeleton)
+======================  =====================================================================
 """
 from __future__ import annotations
 
@@ -10,6 +30,15 @@ import stat
 from pathlib import Path
 
 DEFAULT_MAX_BYTES = 50 * 1024 * 1024  # motion files larger than this (50 MiB) are refused
+MAX_IMPORT_SECONDS = 600.0  # the longest motion a file may hold (10 min); see the module docstring
+IMPORT_FPS = 20  # the project's frame rate (engine.generate.FPS): .npy motions are taken to be at it
+MAX_IMPORT_FRAMES = int(round(MAX_IMPORT_SECONDS * IMPORT_FPS)) + 1  # poses of a MAX_IMPORT_SECONDS motion
+MAX_DECLARED_FRAMES = 100_000  # a BVH's 'Frames:'
+MIN_FRAME_TIME = 1.0 / 1000  # s: a BVH's 'Frame Time:' from 1/1000 s (1000 fps) ...
+MAX_FRAME_TIME = 1.0  # s: ... to 1 s (1 fps)
+MAX_JOINTS = 256  # joints of a BVH hierarchy, End Sites included
+MAX_DEPTH = 64  # nesting depth of a BVH hierarchy
+MAX_JOINT_FRAMES = 5_000_000  # frames x joints of a BVH (the size of its forward kinematics)
 
 
 class MotionIOError(ValueError):

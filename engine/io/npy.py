@@ -4,17 +4,30 @@ Reading never unpickles: the header is inspected first (pickled files, ``.npz`` 
 object arrays are refused with a message saying so) and the array is then loaded with
 ``allow_pickle=False``. The kind is told by the shape: (T, 22, 3) (or flattened (T, 66)) are
 joint positions in metres, (T, 263) are HumanML3D feature vectors.
+
+Nothing the size of the array is allocated before the header has been checked: its shape and dtype
+must describe no more data than the file holds (a header claiming 10^12 elements is refused, not
+allocated) and, for a motion, the shape must be an accepted one with at most MAX_IMPORT_FRAMES
+poses (:mod:`engine.io.errors`: MAX_IMPORT_SECONDS at 20 fps).
 """
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
-from typing import Literal
+from typing import Callable, Literal
 
 import numpy as np
 import numpy.lib.format as npy_format
 
-from engine.io.errors import DEFAULT_MAX_BYTES, MotionIOError, check_file_size
+from engine.io.errors import (
+    DEFAULT_MAX_BYTES,
+    IMPORT_FPS,
+    MAX_IMPORT_FRAMES,
+    MAX_IMPORT_SECONDS,
+    MotionIOError,
+    check_file_size,
+)
 from engine.representation import FEATURE_DIM
 from engine.skeleton import NUM_JOINTS
 
@@ -23,28 +36,49 @@ _NPY_MAGIC = b"\x93NUMPY"
 _ZIP_MAGIC = b"PK\x03\x04"
 
 
-def classify_motion_array(array: np.ndarray, *, name: str = "array") -> tuple[NpyKind, np.ndarray]:
-    """Check a motion array and tell its kind; returns ("joints", (T, 22, 3)) or ("vecs", (T, 263)), float32.
-
-    Raises :class:`MotionIOError` for other shapes, non-float dtypes, zero frames, NaN or inf.
-    """
-    array = np.asarray(array)
-    if array.dtype.hasobject:
+def motion_kind(shape: tuple[int, ...], dtype: np.dtype, *, name: str = "array",
+                max_frames: int | None = None) -> NpyKind:
+    """The kind of a motion array of ``shape`` and ``dtype`` (what an .npy header declares), checked before any
+    data is read: "joints" for (T, 22, 3) or (T, 66), "vecs" for (T, 263); floats only, 1 to ``max_frames``
+    frames (None: no limit). Raises :class:`MotionIOError` saying what is wrong."""
+    dtype = np.dtype(dtype)
+    if dtype.hasobject:
         raise MotionIOError(f"{name} is an object array; only plain float arrays are accepted")
-    if not np.issubdtype(array.dtype, np.floating):
-        raise MotionIOError(f"{name} has dtype {array.dtype}; expected floating point (float16/32/64)")
-    shape = array.shape
+    if not np.issubdtype(dtype, np.floating):
+        raise MotionIOError(f"{name} has dtype {dtype}; expected floating point (float16/32/64)")
+    shape = tuple(shape)
     kind: NpyKind
-    if array.ndim == 3 and shape[1:] == (NUM_JOINTS, 3):
+    if len(shape) == 3 and shape[1:] == (NUM_JOINTS, 3):
         kind = "joints"
-    elif array.ndim == 2 and shape[1] == NUM_JOINTS * 3:
-        kind, array = "joints", array.reshape(shape[0], NUM_JOINTS, 3)
-    elif array.ndim == 2 and shape[1] == FEATURE_DIM:
+    elif len(shape) == 2 and shape[1] == NUM_JOINTS * 3:
+        kind = "joints"
+    elif len(shape) == 2 and shape[1] == FEATURE_DIM:
         kind = "vecs"
     else:
         raise MotionIOError(f"{name} has shape {shape}: {_shape_hint(shape)}")
-    if len(array) == 0:
+    if shape[0] == 0:
         raise MotionIOError(f"{name} has shape {shape}: it contains zero frames")
+    if max_frames is not None and shape[0] > max_frames:
+        raise MotionIOError(_too_long(name, shape[0], max_frames))
+    return kind
+
+
+def _too_long(name: str, frames: int, max_frames: int) -> str:
+    return (f"{name} holds {frames:,} frames ({frames / IMPORT_FPS:.1f} s at {IMPORT_FPS} fps), longer than the limit "
+            f"of {MAX_IMPORT_SECONDS:g} s ({max_frames:,} frames)")
+
+
+def classify_motion_array(array: np.ndarray, *, name: str = "array",
+                          max_frames: int | None = None) -> tuple[NpyKind, np.ndarray]:
+    """Check a motion array and tell its kind; returns ("joints", (T, 22, 3)) or ("vecs", (T, 263)), float32.
+
+    Raises :class:`MotionIOError` for other shapes, non-float dtypes, zero frames, more than ``max_frames`` frames
+    (None: no limit), NaN or inf.
+    """
+    array = np.asarray(array)
+    kind = motion_kind(array.shape, array.dtype, name=name, max_frames=max_frames)
+    if kind == "joints" and array.ndim == 2:
+        array = array.reshape(array.shape[0], NUM_JOINTS, 3)
     finite = np.isfinite(array).reshape(len(array), -1).all(axis=1)
     if not finite.all():
         raise MotionIOError(f"{name} contains NaN or infinite values (first at frame {int(np.argmin(finite))})")
@@ -73,25 +107,40 @@ def load_npy(path: str | os.PathLike[str], *, max_bytes: int = DEFAULT_MAX_BYTES
     arrays, other shapes and dtypes, empty arrays and NaN/inf, each with a clear message.
     """
     path = Path(path)
-    return classify_motion_array(read_array(path, max_bytes=max_bytes), name=path.name)
+    array = read_array(path, max_bytes=max_bytes, check=lambda shape, dtype: motion_kind(
+        shape, dtype, name=path.name, max_frames=MAX_IMPORT_FRAMES))
+    return classify_motion_array(array, name=path.name, max_frames=MAX_IMPORT_FRAMES)
 
 
 def load_duet_npy(path: str | os.PathLike[str], *, max_bytes: int = DEFAULT_MAX_BYTES) -> np.ndarray:
     """Load two people's joints (2, T, 22, 3) float32 (as ``moattn duet`` writes them), with load_npy's checks."""
     path = Path(path)
-    array = read_array(path, max_bytes=max_bytes)
-    if array.ndim != 4 or array.shape[0] != 2 or array.shape[2:] != (22, 3) or array.shape[1] < 1:
-        raise MotionIOError(f"{path.name} is not a duet: expected joints of shape (2, T, 22, 3), got {array.shape}")
-    if not np.issubdtype(array.dtype, np.floating):
-        raise MotionIOError(f"{path.name} holds {array.dtype} values; joints must be floats")
+
+    def check(shape: tuple[int, ...], dtype: np.dtype) -> None:
+        if len(shape) != 4 or shape[0] != 2 or shape[2:] != (NUM_JOINTS, 3) or shape[1] < 1:
+            raise MotionIOError(f"{path.name} is not a duet: expected joints of shape (2, T, 22, 3), got {shape}")
+        if dtype.hasobject or not np.issubdtype(dtype, np.floating):
+            raise MotionIOError(f"{path.name} holds {dtype} values; joints must be floats")
+        if shape[1] > MAX_IMPORT_FRAMES:
+            raise MotionIOError(_too_long(path.name, shape[1], MAX_IMPORT_FRAMES))
+
+    array = read_array(path, max_bytes=max_bytes, check=check)
+    check(array.shape, array.dtype)
     if not np.isfinite(array).all():
         raise MotionIOError(f"{path.name} contains NaN or infinite values")
     return array.astype(np.float32)
 
 
-def read_array(path: Path, *, max_bytes: int = DEFAULT_MAX_BYTES) -> np.ndarray:
-    """A plain array from a .npy file, never unpickled (size, magic, header and dtype checked first)."""
-    check_file_size(path, max_bytes=max_bytes, kind="NPY")
+def read_array(path: Path, *, max_bytes: int = DEFAULT_MAX_BYTES,
+               check: Callable[[tuple[int, ...], np.dtype], object] | None = None) -> np.ndarray:
+    """A plain array from a .npy file, never unpickled (size, magic, header and dtype checked first).
+
+    Before any data is read, the header's shape and dtype must describe no more bytes than the file holds after
+    the header (so a header cannot ask for more memory than the file's size, itself at most ``max_bytes``), and
+    ``check(shape, dtype)``, when given, may refuse them by raising :class:`MotionIOError`.
+    """
+    path = Path(path)
+    size = check_file_size(path, max_bytes=max_bytes, kind="NPY")
     with path.open("rb") as handle:
         head = handle.read(len(_NPY_MAGIC))
         if head.startswith(_ZIP_MAGIC):
@@ -108,19 +157,38 @@ def read_array(path: Path, *, max_bytes: int = DEFAULT_MAX_BYTES) -> np.ndarray:
             version = npy_format.read_magic(handle)
             if version == (1, 0):
                 shape, _, dtype = npy_format.read_array_header_1_0(handle)
-            else:
+            elif version in ((2, 0), (3, 0)):
                 shape, _, dtype = npy_format.read_array_header_2_0(handle)
-        except ValueError as exc:
-            raise MotionIOError(f"{path.name} has a corrupt .npy header: {exc}") from None
+            else:
+                raise ValueError(f"unsupported .npy format version {version[0]}.{version[1]}")
+        except Exception as exc:  # noqa: BLE001 - numpy's header parser raises many types (tokenize.TokenError, ...)
+            raise MotionIOError(f"{path.name} has a corrupt .npy header: {_one_line(exc)}") from None
+        data_bytes = size - handle.tell()
     if dtype.hasobject:
         raise MotionIOError(
             f"{path.name} holds an object array (dtype {dtype}), which would need pickle to load; refused"
         )
+    if any(n < 0 for n in shape):
+        raise MotionIOError(f"{path.name} has a corrupt .npy header: negative shape {shape}")
+    needed = math.prod(shape) * dtype.itemsize
+    if dtype.itemsize == 0 or needed > data_bytes:
+        declared = "items of zero size" if dtype.itemsize == 0 else f"{needed:,} bytes of data"
+        raise MotionIOError(f"{path.name} could not be read as a .npy array (truncated or corrupt?): its header "
+                            f"declares {declared} but the file holds {data_bytes:,} after the header")
+    if check is not None:
+        check(shape, dtype)
     try:
         array = np.load(path, allow_pickle=False)
-    except ValueError as exc:
-        raise MotionIOError(f"{path.name} could not be read as a .npy array (truncated or corrupt?): {exc}") from None
+    except (ValueError, OSError, EOFError, TypeError, MemoryError) as exc:
+        raise MotionIOError(
+            f"{path.name} could not be read as a .npy array (truncated or corrupt?): {_one_line(exc)}"
+        ) from None
     return array
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return text[:200] + ("..." if len(text) > 200 else "")
 
 
 def save_npy(

@@ -8,7 +8,9 @@ the studio's import, the inversion benchmark, :func:`engine.methods.inversion.in
   out: to the end of the motion); it must hold at least 2 poses and end within the motion;
 - with a model's ``max_frames`` (its config's longest sequence), a window or a whole motion may hold at most
   ``max_frames`` poses, i.e. ``max_frames / FPS`` seconds (9.8 s for the shipped model), the same limit as
-  a generated motion's.
+  a generated motion's;
+- the file itself is imported whole only up to ``MAX_IMPORT_SECONDS`` (:mod:`engine.io.errors`, 10 minutes):
+  the readers refuse a longer file from its header, naming that limit, before reading its motion.
 
 Every problem is a one-line ``ValueError`` that names the option to change (``--start`` / ``--seconds`` on the
 command line; the app passes its own field names).
@@ -20,6 +22,7 @@ import math
 import numpy as np
 
 from engine.generate import FPS
+from engine.io.errors import MAX_IMPORT_SECONDS  # noqa: F401 - the import cap, stated once (see the docstring)
 
 FLAGS = ("--start", "--seconds")
 

@@ -52,7 +52,10 @@ def motion_condition(loaded: LoadedModel, prompt: str, frames: int, *, role: str
 
 def invert(loaded: LoadedModel, joints: np.ndarray, config: InversionConfig = InversionConfig()) -> Inverted:
     pick_window(joints, max_frames=loaded.model.config.max_frames)  # a motion over the model's limit: one-line hint
-    features = joints_to_features(joints)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        features = joints_to_features(joints)
+    if not np.isfinite(features).all():
+        raise ValueError(_DEGENERATE + " (its features are NaN)")
     x0 = torch.from_numpy(loaded.normalizer.normalize(features)).float()[None]
     cond = motion_condition(loaded, config.prompt, x0.shape[1])
     denoiser = _denoiser(loaded, config)
@@ -61,7 +64,13 @@ def invert(loaded: LoadedModel, joints: np.ndarray, config: InversionConfig = In
     for state in ddim_invert(denoiser, x0, cond, schedule=CosineSchedule(), num_steps=config.steps, refine=config.refine):
         trajectory.setdefault(state.t, state.x_t)  # the first: the inversion takes x0 as the latent at the smallest t
         trajectory[state.t_next] = state.x_prev
+    if not torch.isfinite(state.x_prev).all():
+        raise ValueError(_DEGENERATE + " (the inverted noise is NaN or infinite)")
     return Inverted(noise=state.x_prev, x0=x0, features=features, cond=cond, trajectory=trajectory)
+
+
+_DEGENERATE = ("this motion cannot be inverted: it is degenerate, e.g. every joint at one point or a body without "
+               "length")
 
 
 def reconstruct(loaded: LoadedModel, inverted: Inverted, config: InversionConfig = InversionConfig()) -> np.ndarray:
@@ -80,6 +89,8 @@ def roundtrip_error(loaded: LoadedModel, joints: np.ndarray, config: InversionCo
     target = features_to_joints(inverted.features)
     back = reconstruct(loaded, inverted, config)
     err = np.linalg.norm(back - target, axis=-1)
+    if not np.isfinite(err).all():
+        raise ValueError(_DEGENERATE + " (the round trip gave NaN or infinite positions)")
     return {"mean_m": float(err.mean()), "max_m": float(err.max()), "frames": int(len(target)),
             "noise_std": float(inverted.noise.std())}
 

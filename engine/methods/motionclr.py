@@ -44,6 +44,16 @@ def halves(ctx: AttnCtx, *roles: str) -> list[tuple[int, ...]]:
 
 
 # ----------------------------------------------------------------------------- (de-)emphasis, erasing
+# The one statement of the emphasis weight's range, per mode (the CLI, the Edit tab and the checks read it).
+# Measured on the shipped model ("a person jumps twice", emphasis on "jumps", 3 seeds): the trunk's largest
+# pitch is 36 deg unedited, 55 deg at add +0.5 or mul x3, and 68 deg ("bent double") at add +1.0.
+WEIGHT_RANGES: dict[str, tuple[float, float]] = {"add": (-0.5, 0.5), "mul": (0.0, 3.0)}
+
+
+def weight_range_text() -> str:
+    return "; ".join(f"{mode}: {lo:g} to {hi:g}" for mode, (lo, hi) in WEIGHT_RANGES.items())
+
+
 @dataclass(frozen=True)
 class ReweightConfig:
     """(De-)emphasise a word: its cross-attention column gets +weight ("add") or ×weight ("mul").
@@ -63,10 +73,10 @@ class ReweightConfig:
     def __post_init__(self) -> None:
         if self.mode not in ("add", "mul"):
             raise ValueError(f"mode must be 'add' or 'mul', got {self.mode!r}")
-        if self.mode == "add" and not -1.0 <= self.weight <= 1.0:
-            raise ValueError(f"additive weights are meaningful in [-1, 1], got {self.weight}")
-        if self.mode == "mul" and not 0.0 <= self.weight <= 10.0:
-            raise ValueError(f"multiplicative weights must be in [0, 10], got {self.weight}")
+        lo, hi = WEIGHT_RANGES[self.mode]
+        if not lo <= self.weight <= hi:
+            raise ValueError(f"the {self.mode} weight must be between {lo:g} and {hi:g} (past that the body bends "
+                             f"out of shape), got {self.weight:g}")
 
 
 class Reweight(Controller):

@@ -27,16 +27,21 @@ def test_emphasis_from_the_edit_tab(browser, server_url, screens):
         jumps = page.locator(".edit-words button", has_text="jumps")
         jumps.click()
         page.locator(".edit-words button.bk-active", has_text="jumps").wait_for(timeout=10000)
-        # weight 0.30 -> 0.70 with the keyboard on the slider's handle (8 steps of 0.05)
+        # weight 0.30 -> 0.50 (the top of the add range) with the keyboard on the slider's handle (steps of 0.05)
         handle = page.locator(".edit-weight .noUi-handle")
         handle.focus()
-        for _ in range(8):
-            handle.press("ArrowRight")
-        page.locator(".edit-weight", has_text="0.7").wait_for(timeout=10000)
+        for _ in range(6):
+            handle.press("ArrowRight")  # two presses past the end stay at the end
+        page.locator(".edit-weight", has_text="0.5").wait_for(timeout=10000)
         page.wait_for_timeout(500)  # the value travels to the server before the click
         page.locator(".edit-run button").click()
         # progress, then the result: both motions in the viewer, every frame delivered
-        page.locator(".edit-result", has_text="emphasise 'jumps' +0.70").wait_for(timeout=180000)
+        page.locator(".edit-result", has_text="emphasise 'jumps' +0.50").wait_for(timeout=180000)
+        # at once the viewer drops the old motion: the new one's frames, or its title while they are drawn
+        page.wait_for_function(
+            f"window.moattnPlayer.motion_key !== {key_before} && (window.moattnPlayer.placeholder === "
+            "window.moattnPlayer.motion_key || window.moattnPlayer.motion_key in window.moattnPlayer.first_draw)",
+            timeout=3000)
         br.wait_new_motion(page, key_before)
         page.wait_for_timeout(800)
         _save = lambda name, png: (screens / name).write_bytes(png)  # noqa: E731
@@ -59,7 +64,7 @@ def test_emphasis_from_the_edit_tab(browser, server_url, screens):
         # the counting readout of the edited (now shown) motion
         readout = page.locator(".count-readout .count-box").inner_text()
         assert "attention count" in readout and "rounded" in readout and "root-height baseline" in readout, readout
-        assert "emphasise 'jumps' +0.70" in readout
+        assert "emphasise 'jumps' +0.50" in readout
         _save("edit_counting.png", page.locator(".edit-tab").screenshot())
         # (the Fast design still asks fonts.googleapis.com for Open Sans -- with or without this tab -- and that
         # fails offline as ERR_NAME_NOT_RESOLVED; anything else is an error of the page)

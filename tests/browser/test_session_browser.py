@@ -1,0 +1,68 @@
+"""The studio shows what just happened, in Debian's Chromium against a real `moattn serve` (tiny model):
+no comparison carried over to a new result, evicted attention said with a re-record button, the viewer in
+sight while a long tab scrolls. Screenshots are saved (``screens``)."""
+from __future__ import annotations
+
+import pytest
+from playwright.sync_api import expect
+
+from app import browser as br
+from app.state import MAX_ITEMS_WITH_ATTENTION
+
+pytestmark = pytest.mark.timeout(300)
+
+
+@pytest.fixture(scope="module")
+def page(browser, server_url):
+    page = br.open_studio(browser, server_url)
+    steps = page.locator(".steps-input input")
+    steps.fill("10")
+    steps.press("Enter")
+    yield page
+    page.close()
+
+
+def _select(page, css: str):
+    return page.locator(f"{css} select")
+
+
+def test_a_new_result_is_shown_alone(page, screens):
+    br.generate(page, "a person walks forward")
+    first = _select(page, ".motion-select").input_value()
+    br.generate(page, "a person jumps twice")
+    _select(page, ".compare-select").select_option(first)
+    page.wait_for_function("window.moattnPlayer.n_frames > 0")
+    br.generate(page, "a person waves")
+    expect(_select(page, ".compare-select")).to_have_value("(none)", timeout=10000)
+    assert br.player_stats(page)["n_frames"] > 0
+    (screens / "session_new_result_alone.png").write_bytes(page.screenshot(full_page=True))
+
+
+def test_evicted_attention_is_said_and_can_be_re_recorded(page, screens):
+    oldest = _select(page, ".motion-select").input_value()  # "a person waves"
+    for k in range(MAX_ITEMS_WITH_ATTENTION):
+        br.generate(page, f"a person claps {('once', 'twice', 'three times')[k]}")
+    _select(page, ".motion-select").select_option(oldest)
+    info = page.locator(".attention-info", has_text="dropped to keep memory bounded")
+    info.wait_for(timeout=15000)
+    button = page.locator(".rerecord-button button")
+    button.wait_for(state="visible", timeout=5000)
+    (screens / "session_evicted.png").write_bytes(page.screenshot(full_page=True))
+    key = br.player_stats(page)["motion_key"]
+    button.click()
+    br.wait_new_motion(page, key)
+    page.locator(".word-buttons button", has_text="waves").wait_for(timeout=30000)  # maps again
+
+
+def test_the_viewer_stays_in_sight_while_a_long_tab_scrolls(page, screens):
+    page.locator(".bk-tab", has_text="Transfer").click()
+    page.wait_for_timeout(800)
+    page.mouse.move(1100, 600)
+    for _ in range(10):
+        page.mouse.wheel(0, 400)
+        page.wait_for_timeout(80)
+    page.wait_for_timeout(600)
+    box = page.locator(".skeleton-view").bounding_box()
+    viewport = page.viewport_size
+    (screens / "session_sticky_viewer.png").write_bytes(page.screenshot())
+    assert box is not None and box["y"] >= 0 and box["y"] + box["height"] <= viewport["height"], box

@@ -1,0 +1,74 @@
+"""The studio shows what just happened: no comparison carried over to another job's motion, evicted attention
+said and re-recordable, a finished tab's lines cleared, an idle progress bar empty (no server, a tiny model)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.main import Studio
+from app.state import MAX_ITEMS_WITH_ATTENTION
+
+
+@pytest.fixture(scope="module")
+def studio(tiny_model_dir):
+    st = Studio(model_dir=tiny_model_dir, initial=None)
+    yield st
+    st.close()
+
+
+def _generate(st, prompt: str, seed: int) -> None:
+    s = st.state
+    s.param.update(prompt=prompt, seconds=2.0, steps=6, record_steps=3, seed=seed)
+    assert s.generate() and s.wait(120), s.notices[-1:]
+
+
+def test_a_new_result_is_not_compared_with_an_older_jobs_motion(studio):
+    s = studio.state
+    _generate(studio, "a person walks forward", 1)
+    first = s.current
+    _generate(studio, "a person jumps twice", 2)
+    s.compare = first  # the user compares the two
+    assert len(studio.viewer.spec().motions) == 2
+    _generate(studio, "a person waves", 3)  # a new result: shown alone
+    assert s.compare == "" and s.also == [] and len(studio.viewer.spec().motions) == 1
+    s.compare = first
+    s.show(first)  # the user picks another motion: nothing is carried over either
+    assert s.compare == ""
+
+
+def test_evicted_attention_is_said_and_re_recorded_with_the_same_motion(studio):
+    s, view = studio.state, studio.attention
+    _generate(studio, "a person kicks", 11)
+    oldest = s.current
+    joints = s.item.joints.copy()
+    for k in range(MAX_ITEMS_WITH_ATTENTION):
+        _generate(studio, "a person claps", 20 + k)
+    s.show(oldest)
+    item = s.item
+    assert item.attention is None and item.evicted
+    assert "dropped to keep memory bounded" in view.info.object and view.rerecord.visible
+    view.rerecord.clicks += 1
+    assert s.wait(120)
+    again = s.item
+    assert again.attention is not None and again.prompt == "a person kicks"
+    np.testing.assert_allclose(again.joints, joints, atol=1e-5)  # the same settings and seed: the same motion
+    assert not view.rerecord.visible and "dropped" not in view.info.object
+
+
+def test_imported_motions_say_why_they_have_no_attention(studio, real_joints):
+    s, view = studio.state, studio.attention
+    s.show_motion(real_joints[:60], title="imported: walk")
+    assert "it was imported" in view.info.object and not view.rerecord.visible
+
+
+def test_idle_bars_are_empty_and_a_kind_switch_clears_the_last_edit(studio):
+    s, edit = studio.state, studio.edit
+    _generate(studio, "a person jumps twice", 5)
+    assert studio.controls.progress.value == 0 and studio.controls.progress.max == 6
+    edit.kind.value = "emphasise"
+    edit.words.value = 2
+    assert s.run_edit() and s.wait(120)
+    assert edit.result.object and edit.status.object
+    edit.kind.value = "replace"
+    assert edit.result.object == "" and edit.status.object == ""
+    assert edit.progress.value == 0
