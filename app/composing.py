@@ -17,8 +17,8 @@ import numpy as np
 import param
 
 from app.generation import Cancelled, prompt_analysis, sampling_slot
+from engine.units import FPS
 
-FPS = 20
 INTERVAL_COLORS = ("#3a6fd8", "#2f9e5a")  # intervals alternate between these
 TRANSITION_COLOR = "#e8552e"  # handshake frames (where DoubleTake joins two intervals)
 DEFAULT_INTERVALS = (("a person walks forward", 4.0), ("a person jumps", 3.0))
@@ -60,7 +60,7 @@ class ComposeSettings(param.Parameterized):
 
     def __init__(self, *, tokenizer: Callable[[], object] | None = None, **params):
         super().__init__(**params)
-        self._tokenizer = tokenizer or (lambda: None)
+        self.tokenizer = tokenizer or (lambda: None)
         if not self.intervals:
             self.intervals = [IntervalRow(p, s) for p, s in DEFAULT_INTERVALS]
 
@@ -99,7 +99,7 @@ class ComposeSettings(param.Parameterized):
 
     def unknown_words(self) -> list[list[str]]:
         """Per interval: the words the model does not know."""
-        tokenizer = self._tokenizer()
+        tokenizer = self.tokenizer()
         return [prompt_analysis(tokenizer, row.prompt)[1] for row in self.intervals]
 
     def expected_frames(self) -> int:
@@ -186,7 +186,7 @@ def start_compose(state, settings: ComposeSettings) -> bool:
 
 def finish(state, settings: ComposeSettings, job: ComposeJob, result) -> None:
     """The long motion becomes a session motion, coloured per interval with its transitions highlighted."""
-    from app.state import MotionItem
+    from app.items import MotionItem
 
     n = len(result.joints)
     ends = [s + int(round(iv.seconds * FPS)) for s, iv in zip(result.starts, job.intervals)]
@@ -196,7 +196,7 @@ def finish(state, settings: ComposeSettings, job: ComposeJob, result) -> None:
                              n_frames=n, handshake=job.config.handshake,
                              second_take=job.config.second_take is not None, seconds_taken=result.seconds,
                              second_take_text=job.config.second_take is not None and job.config.second_take.text)
-    item = MotionItem(name=state._unique_name(title), joints=np.asarray(result.joints, dtype=np.float32),
+    item = MotionItem(name=state.unique_name(title), joints=np.asarray(result.joints, dtype=np.float32),
                       source="generated", prompt=" then ".join(iv.prompt for iv in job.intervals),
                       info={"compose": summary})
     summary.name = item.name

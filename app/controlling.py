@@ -20,6 +20,7 @@ import param
 from app.generation import Cancelled, checked_frames, prompt_analysis, sampling_slot
 from engine.methods.control import same_base
 from engine.paths import CONTROL_DIR
+from engine.units import MAX_SECONDS, MIN_SECONDS
 
 LABELS = {"root": "root path", "left_wrist": "left wrist", "right_wrist": "right wrist"}
 WRISTS = ("none", "left_wrist", "right_wrist")
@@ -101,7 +102,7 @@ class ControlSettings(param.Parameterized):
     """The Control tab's state (one per session, owned by the tab)."""
 
     prompt = param.String(default="a person walks", doc="what the person does while following the paths")
-    seconds = param.Number(default=6.0, doc="duration (1 to 9.8 s)")
+    seconds = param.Number(default=6.0, doc=f"duration ({MIN_SECONDS:g} to {MAX_SECONDS:g} s)")
     use_root = param.Boolean(default=True, doc="follow the root path drawn top-down")
     root_points = param.List(default=list(DEFAULT_ROOT), doc="(x, z) metres on the floor; the motion starts at "
                                                             "the first point, facing the direction of travel")
@@ -121,14 +122,14 @@ class ControlSettings(param.Parameterized):
     def __init__(self, *, tokenizer: Callable[[], object] | None = None, base: Callable[[], object] | None = None,
                  **params):
         super().__init__(**params)
-        self._tokenizer = tokenizer or (lambda: None)
+        self.tokenizer = tokenizer or (lambda: None)
         self._base = base or (lambda: None)  # the loaded base model (None: none loaded)
         self.param.watch(self._analyse, "prompt")
         self._analyse()
         self.discover()
 
     def _analyse(self, *_) -> None:
-        self.unknown_words = prompt_analysis(self._tokenizer(), self.prompt)[1]
+        self.unknown_words = prompt_analysis(self.tokenizer(), self.prompt)[1]
 
     def discover(self) -> None:
         """Which methods this server offers: blending only where fine-tuned models exist."""
@@ -309,11 +310,11 @@ def start_control(state, settings: ControlSettings) -> bool:
 
 def finish(state, settings: ControlSettings, job: ControlJob, summary: ControlSummary) -> None:
     """The motion (in the path's world) becomes a session motion with its target paths as guides; shown."""
-    from app.state import MotionItem
+    from app.items import MotionItem
 
     joints = summary.joints
     title = f"control · {job.prompt} · {' + '.join(LABELS[n] for n in summary.controls)} · {job.method}"
-    item = MotionItem(name=state._unique_name(title), joints=joints, source="generated", prompt=job.prompt,
+    item = MotionItem(name=state.unique_name(title), joints=joints, source="generated", prompt=job.prompt,
                       info={"control": summary, "guides": summary.guides})
     summary.name = item.name
     state.end_job(f"{job.description}: done in {summary.seconds_taken:.1f} s ({job.sample.steps} steps)"

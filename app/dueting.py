@@ -21,8 +21,8 @@ import param
 from app.generation import Cancelled, prompt_analysis, sampling_slot
 from engine.io import seconds_number
 from engine.paths import DUET_DIR
+from engine.units import FPS
 
-FPS = 20
 MODES = {"text": "from a prompt", "prefix": "complete a prefix"}
 PREFIX_COLOR = "#9a9a9a"  # the given prefix frames of a completion
 EXAMPLE = "example: "
@@ -147,14 +147,13 @@ class DuetSettings(param.Parameterized):
 
     def add_upload(self, data: bytes, filename: str) -> str:
         """An uploaded duet .npy (2, T, 22, 3), parsed as data; its name in the prefix list."""
-        from app.views.files import MAX_UPLOAD_BYTES
+        from app.items import MAX_UPLOAD_BYTES, upload_limit_text
         from engine.io.npy import load_duet_npy
 
         if not data:
             raise ValueError(f"{filename} is empty")
         if len(data) > MAX_UPLOAD_BYTES:
-            raise ValueError(f"{filename} is {len(data) / 1e6:.1f} MB; uploads are limited to "
-                             f"{MAX_UPLOAD_BYTES / 1e6:.0f} MB")
+            raise ValueError(f"{filename} is {len(data) / 2**20:.1f} MiB; uploads are limited to {upload_limit_text()}")
         if Path(filename).suffix.lower() != ".npy":
             raise ValueError(f"{filename}: a duet is a .npy of joints (2, T, 22, 3), as `moattn duet` writes")
         with tempfile.TemporaryDirectory() as tmp:
@@ -285,14 +284,14 @@ def start_duet(state, settings: DuetSettings) -> bool:
 
 def finish(state, settings: DuetSettings, job: DuetJob, duet, seconds_taken: float) -> None:
     """The two people become two session motions shown together in one scene."""
-    from app.state import MotionItem
+    from app.items import MotionItem
     from engine.evaluation.bench_duet import face_each_other
     from viz.colors import ROLE_PALETTE, default_joint_colors
 
     what = job.prompt or "completion"
     base = f"duet · {what[:40]} · seed {job.sample.seed}" + ("" if job.communicate else " · no block")
-    first = state._unique_name(base + " · a")
-    second = state._unique_name(base + " · b")
+    first = state.unique_name(base + " · a")
+    second = state.unique_name(base + " · b")
     pair = DuetPair(first=first, second=second, joints=duet.joints)
     items = [MotionItem(name=n, joints=duet.joints[k], source="generated", prompt=job.prompt or "",
                         info={"duet": pair}) for k, n in enumerate((first, second))]

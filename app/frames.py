@@ -288,9 +288,9 @@ def _draw_guides(scene, spec: SceneSpec) -> None:
     from viz.geometry import polyline
     from viz.scene import side_by_side_offsets
 
-    for name in getattr(scene, "_guide_names", []):
+    for name in scene.guide_names:
         scene.plotter.remove_actor(name, render=False)
-    scene._guide_names = []
+    scene.guide_names = []
     if not spec.show_path:  # the "root path" checkbox shows or hides the target paths too
         return
     shifts = _offsets(spec) or side_by_side_offsets(dict(spec.motions), spacing=0.6)
@@ -302,7 +302,7 @@ def _draw_guides(scene, spec: SceneSpec) -> None:
         name = f"guide/{k}"
         scene.plotter.add_mesh(polyline(pts + shifts[role]).tube(radius=0.012, n_sides=8), name=name, color=color,
                                ambient=0.5, diffuse=0.6, opacity=0.85)
-        scene._guide_names.append(name)
+        scene.guide_names.append(name)
 
 
 def _offsets(spec: SceneSpec) -> dict[str, tuple[float, float, float]] | None:

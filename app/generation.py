@@ -19,6 +19,7 @@ from engine.checkpoint import LoadedModel
 from engine.generate import Request, SampleConfig, finish, frames_for, sample_states
 from engine.duration import resolve_seconds
 from engine.text import TokenizedPrompt, split_words
+from engine.units import DEFAULT_GUIDANCE
 
 
 @dataclass(frozen=True)
@@ -27,7 +28,7 @@ class GenerationSettings:
     seconds: float | None = None  # None: predicted from the prompt (engine.duration, `--seconds auto`)
     seed: int = 0
     steps: int = 50
-    guidance: float = 2.5
+    guidance: float = DEFAULT_GUIDANCE
     record_steps: int = 10
 
 

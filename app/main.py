@@ -19,6 +19,7 @@ from app.views.files import ExportPanel, ImportPanel
 from app.views.transfer import TransferTab
 from app.views.viewer import SkeletonViewer
 from engine.paths import ASSETS, MODEL_DIR
+from app.items import MAX_UPLOAD_BYTES
 
 EXAMPLE = ASSETS / "examples" / "walk.npy"
 log = logging.getLogger("moattn.app")
@@ -113,12 +114,17 @@ def create_app(*, model_dir: Path | None = MODEL_DIR, initial: Path | None = Non
         if doc.session_context is not None:
             doc.on_session_destroyed(lambda _ctx: studio.close())
     page = studio.template()
-    page._studio = studio  # reachable for debugging
+    page.moattn_studio = studio  # reachable for debugging
     return page
+
+# one websocket message at most: an upload (base64, 4/3 of its bytes) and room for the page's own messages; a larger
+# message closes the connection before the server buffers it (a 140-MB upload used to cost the server +936 MB)
+MAX_MESSAGE_BYTES = MAX_UPLOAD_BYTES * 4 // 3 + 4 * 2**20
 
 
 def serve(*, port: int = 5006, show: bool = False, address: str = "localhost", initial: Path | None = None,
-          model_dir: Path | None = MODEL_DIR, controls_dir: Path | None = None, duet_dir: Path | None = None) -> None:
+          model_dir: Path | None = MODEL_DIR, controls_dir: Path | None = None, duet_dir: Path | None = None,
+          token: str | None = None) -> None:
     """Start the Panel server (blocks). The model is loaded once, before the first page.
 
     Each page opens ``initial`` (default: the shipped example walk) so a new user sees a motion.
@@ -139,10 +145,15 @@ def serve(*, port: int = 5006, show: bool = False, address: str = "localhost", i
         except Exception as exc:
             print(f"warning: {exc} (the studio starts without generation)")
     origins = [f"{address}:{port}", f"localhost:{port}", f"127.0.0.1:{port}"]
+    auth = {}
+    if token:  # Panel's basic auth: a login page asks for the token; the session cookie is signed per run
+        import secrets
+
+        auth = dict(basic_auth=token, cookie_secret=secrets.token_hex(32))
     pn.serve(lambda: create_app(model_dir=model_dir, initial=initial, controls_dir=controls_dir, duet_dir=duet_dir),
              port=port, address=address, show=show,
              title="Motion Attention Studio", websocket_origin=origins, threaded=False,
-             websocket_max_message_size=200 * 1024 * 1024, liveness=True)
+             websocket_max_message_size=MAX_MESSAGE_BYTES, liveness=True, **auth)
 
 
 def preload(loaded, *, controls_dir: Path | None = None, duet_dir: Path | None = None) -> None:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import threading
 import traceback
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -22,8 +22,8 @@ from app.generation import Cancelled, GenerationResult, GenerationSettings, chec
 from engine.duration import resolve_seconds
 from app.transfer import TransferSettings, paint_clusters, start_transfer
 
-MAX_ITEMS = 24  # motions are small (a 10-s motion is 140 KB); a transfer onto 8 followers adds 17
-MAX_ITEMS_WITH_ATTENTION = 3
+from app.items import MAX_ITEMS, MAX_ITEMS_WITH_ATTENTION, MotionItem  # noqa: F401  (the session core's motions)
+from engine.units import DEFAULT_GUIDANCE, MAX_SECONDS, MIN_SECONDS
 
 
 @dataclass(frozen=True)
@@ -36,36 +36,16 @@ class Job:
     note: Callable[[str], None] = lambda text: None  # a status line for a phase without steps (e.g. inversion)
 
 
-@dataclass
-class MotionItem:
-    """A motion the session can show: generated (with attention) or imported."""
-
-    name: str
-    joints: np.ndarray  # (T, 22, 3) float32
-    source: str  # "generated" | "imported"
-    prompt: str = ""
-    words: tuple[str, ...] = ()
-    attention: AttentionRecord | None = None
-    features: np.ndarray | None = None
-    settings: GenerationSettings | None = None
-    info: dict = field(default_factory=dict)
-    evicted: bool = False  # its recorded attention was dropped to keep memory bounded (re-record: same seed)
-
-    @property
-    def n_frames(self) -> int:
-        return len(self.joints)
-
-
 class StudioState(param.Parameterized):
     """Everything a session's views read; each browser session gets its own instance."""
 
     # ---- generation inputs
     prompt = param.String(default="a person jumps twice", doc="what to generate")
     seconds = param.Number(default=None, allow_None=True,
-                           doc="duration in seconds (1 to 9.8); empty: predicted from the prompt (auto)")
+                           doc=f"duration in seconds ({MIN_SECONDS:g} to {MAX_SECONDS:g}); empty: predicted from the prompt (auto)")
     seed = param.Integer(default=0, doc="noise seed (same seed, same motion)")
     steps = param.Integer(default=50, bounds=(1, 1000), doc="sampling steps (DDIM)")
-    guidance = param.Number(default=2.5, bounds=(0.0, 20.0), doc="classifier-free guidance scale")
+    guidance = param.Number(default=DEFAULT_GUIDANCE, bounds=(0.0, 20.0), doc="classifier-free guidance scale")
     record_steps = param.Integer(default=10, bounds=(0, 1000),
                                  doc="sampling steps whose attention is recorded (0 = none)")
 
@@ -121,7 +101,7 @@ class StudioState(param.Parameterized):
         if self.edit is None:
             self.edit = EditConfig()
         if self.transfer is None:
-            self.transfer = TransferSettings(tokenizer=self._tokenizer)
+            self.transfer = TransferSettings(tokenizer=self.tokenizer)
         self.transfer.param.watch(lambda *_: paint_clusters(self), ["color_by", "result", "analysed"])
         self.param.watch(self._analyse_prompt, "prompt")
         self.param.watch(self._auto_count, "current")
@@ -178,14 +158,14 @@ class StudioState(param.Parameterized):
         except Exception:
             return ()
 
-    def _tokenizer(self):
+    def tokenizer(self):
         try:
             return self.model.tokenizer
         except Exception:
             return None
 
     def _analyse_prompt(self, *_):
-        tokenizer = self._tokenizer()
+        tokenizer = self.tokenizer()
         words, unknown, suggestions = prompt_analysis(tokenizer, self.prompt)
         with param.parameterized.batch_call_watchers(self):
             self.read_as = {} if tokenizer is None else tokenizer.inflected(self.prompt)
@@ -378,7 +358,7 @@ class StudioState(param.Parameterized):
                 self._notify(level, message)
             return
         s = result.settings
-        item = MotionItem(name=self._unique_name(f"{s.prompt} · seed {s.seed}"), joints=result.joints,
+        item = MotionItem(name=self.unique_name(f"{s.prompt} · seed {s.seed}"), joints=result.joints,
                           source="generated", prompt=s.prompt, words=result.words, attention=result.attention,
                           features=result.features, settings=s,
                           info={"seconds_taken": result.seconds_taken})
@@ -404,7 +384,7 @@ class StudioState(param.Parameterized):
         seed = job.sample.seed
 
         def item(m, title: str) -> MotionItem:
-            return MotionItem(name=self._unique_name(title), joints=m.joints, source="generated", prompt=m.prompt,
+            return MotionItem(name=self.unique_name(title), joints=m.joints, source="generated", prompt=m.prompt,
                               words=m.words, attention=m.attention,
                               info={"edit": job.description, "role": m.role, "seed": seed})
 
@@ -492,7 +472,7 @@ class StudioState(param.Parameterized):
         return start_transfer(self)
 
     # ------------------------------------------------------------------ motions
-    def _unique_name(self, base: str) -> str:
+    def unique_name(self, base: str) -> str:
         name, k = base, 2
         while name in self.items:
             name, k = f"{base} ({k})", k + 1
@@ -545,7 +525,7 @@ class StudioState(param.Parameterized):
             raise ValueError(f"a motion must have shape (T, 22, 3), got {joints.shape}")
         if not np.isfinite(joints).all():
             raise ValueError("the motion contains NaN or infinite values")
-        item = MotionItem(name=self._unique_name(title), joints=joints, source=source)
+        item = MotionItem(name=self.unique_name(title), joints=joints, source=source)
         self.add_item(item)
         return item
 

@@ -39,12 +39,12 @@ class SourceSettings(param.Parameterized):
 
     def __init__(self, *, tokenizer: Callable[[], object] | None = None, **params):
         super().__init__(**params)
-        self._tokenizer = tokenizer or (lambda: None)
+        self.tokenizer = tokenizer or (lambda: None)
         self.param.watch(self.analyse, "prompt")
         self.analyse()
 
     def analyse(self, *_) -> None:
-        words, unknown, _ = prompt_analysis(self._tokenizer(), self.prompt)
+        words, unknown, _ = prompt_analysis(self.tokenizer(), self.prompt)
         self.param.update(words=words, unknown_words=unknown)
 
 
@@ -295,7 +295,7 @@ def start_transfer(state) -> bool:
 def finish(state, job: TransferJob, view: TransferView) -> None:
     """Session motions (leader, follower, out, then follower k / out k of any extra follower) side by side in
     the viewer; the analysis on the tab."""
-    from app.state import MotionItem
+    from app.items import MotionItem
 
     titles = {"leader": f"leader · {job.labels['leader']}"}
     prompts = {"leader": job.leader.prompt or ""}
@@ -306,7 +306,7 @@ def finish(state, job: TransferJob, view: TransferView) -> None:
                        f"out{n}": f"out{n} · {_short(label)} ← {_short(job.labels['leader'])}"})
         prompts.update({f"follower{n}": src.prompt or "", f"out{n}": src.prompt or ""})
     for role in view.joints:
-        item = MotionItem(name=state._unique_name(titles[role]), joints=view.joints[role], source="generated",
+        item = MotionItem(name=state.unique_name(titles[role]), joints=view.joints[role], source="generated",
                           prompt=prompts[role], info={"transfer": job.description, "role": role,
                                                       "inversion": view.inversion.get(role)})
         state.add_item(item, show=False)

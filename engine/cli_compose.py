@@ -8,6 +8,7 @@ from pathlib import Path
 from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
+from engine.units import DEFAULT_GUIDANCE
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -27,7 +28,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "authors' code)")
     p.add_argument("--seed", type=seed_argument, default=0)
     p.add_argument("--steps", type=int, default=50)
-    p.add_argument("--guidance", type=float, default=2.5)
+    p.add_argument("--guidance", type=float, default=DEFAULT_GUIDANCE)
     p.add_argument("--model", type=Path, default=MODEL_DIR)
     p.add_argument("--out", type=Path, required=True, help="the long motion (.npy or .bvh)")
     p.add_argument("--render", type=Path, default=None, help="a render (.gif, .mp4 or .png)")
@@ -92,7 +93,7 @@ def add_control_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seconds", type=float, default=6.0)
     p.add_argument("--seed", type=seed_argument, default=0)
     p.add_argument("--steps", type=int, default=50)
-    p.add_argument("--guidance", type=float, default=2.5)
+    p.add_argument("--guidance", type=float, default=DEFAULT_GUIDANCE)
     p.add_argument("--model", type=Path, default=MODEL_DIR)
     p.add_argument("--controls", type=Path, default=CONTROL_DIR, help=f"control model folders (default {CONTROL_DIR})")
     p.add_argument("--out", type=Path, required=True, help="the motion (.npy or .bvh), in the path's world frame")

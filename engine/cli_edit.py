@@ -10,6 +10,7 @@ from engine.methods.edit_options import KINDS
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 from engine.methods.motionclr import weight_range_text
+from engine.units import DEFAULT_GUIDANCE
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -36,7 +37,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seconds", type=float, default=4.0)
     p.add_argument("--seed", type=seed_argument, default=0)
     p.add_argument("--steps", type=int, default=50)
-    p.add_argument("--guidance", type=float, default=2.5)
+    p.add_argument("--guidance", type=float, default=DEFAULT_GUIDANCE)
     p.add_argument("--model", type=Path, default=MODEL_DIR)
     p.add_argument("--out", type=Path, default=Path("edited.npy"), help="edited motion (.npy or .bvh)")
     p.add_argument("--render", type=Path, default=None, help="before/after render (.gif, .mp4 or .png)")

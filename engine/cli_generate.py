@@ -10,6 +10,7 @@ from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, CLIError, check_outputs
 from engine.duration import AUTO, resolve_seconds, seconds_argument
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
+from engine.units import DEFAULT_GUIDANCE, MAX_SECONDS, MIN_SECONDS
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -19,10 +20,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("prompt", help='e.g. "a person jumps twice"')
     p.add_argument("--out", type=Path, action="append", required=True, help="output file; repeat for several")
     p.add_argument("--seconds", type=seconds_argument, default=AUTO,
-                   help="length in seconds (1 to 9.8), or auto: predicted from the prompt (default: auto)")
+                   help=f"length in seconds ({MIN_SECONDS:g} to {MAX_SECONDS:g}), or auto: predicted from the prompt (default: auto)")
     p.add_argument("--seed", type=seed_argument, default=0)
     p.add_argument("--steps", type=int, default=50)
-    p.add_argument("--guidance", type=float, default=2.5)
+    p.add_argument("--guidance", type=float, default=DEFAULT_GUIDANCE)
     p.add_argument("--sampler", choices=("ddim", "ddpm"), default="ddim")
     p.add_argument("--model", type=Path, default=MODEL_DIR)
     p.add_argument("--vecs", action="store_true", help="write .npy outputs as 263-dim features instead of joints")

@@ -8,6 +8,7 @@ from pathlib import Path
 from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, check_output_folder, check_outputs, seed_argument
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
+from engine.units import DEFAULT_GUIDANCE
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -33,7 +34,7 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="also keep the leader's footwork (foot contacts, feet and ankle positions); not in the paper")
     p.add_argument("--seed", type=seed_argument, default=0)
     p.add_argument("--steps", type=int, default=50)
-    p.add_argument("--guidance", type=float, default=2.5)
+    p.add_argument("--guidance", type=float, default=DEFAULT_GUIDANCE)
     p.add_argument("--model", type=Path, default=MODEL_DIR)
     add_runtime_arguments(p)
 

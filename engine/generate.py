@@ -15,17 +15,16 @@ from engine.diffusion.sampler import StepHook
 from engine.model.denoiser import Condition
 from engine.representation import features_to_joints
 from engine.text import TokenizedPrompt
+from engine.units import DEFAULT_GUIDANCE, DEFAULT_STEPS, FPS, MAX_SECONDS, MIN_SECONDS  # noqa: F401 (re-exported)
 
-FPS = 20
-MIN_SECONDS, MAX_SECONDS = 1.0, 9.8
 
 
 @dataclass(frozen=True)
 class SampleConfig:
     """How to sample. ``guidance`` 1.0 = no classifier-free guidance; MotionCLR uses 2.5."""
 
-    steps: int = 50
-    guidance: float = 2.5
+    steps: int = DEFAULT_STEPS
+    guidance: float = DEFAULT_GUIDANCE
     eta: float = 0.0
     sampler: str = "ddim"  # "ddim" | "ddpm"
     seed: int = 0

@@ -61,7 +61,7 @@ def test_import_bytes_parses_npy_and_refuses_bad_files(real_joints):
         import_bytes(b"", "x.npy")
     with pytest.raises(ValueError, match="only .bvh and .npy"):
         import_bytes(b"abc", "x.txt")
-    with pytest.raises(ValueError, match="limited"):
+    with pytest.raises(ValueError, match="uploads are limited to 20 MiB"):  # the limit the import box states
         import_bytes(b"0" * (MAX_UPLOAD_BYTES + 1), "big.bvh")
     pickled = io.BytesIO()
     np.save(pickled, np.array([{"a": 1}], dtype=object), allow_pickle=True)

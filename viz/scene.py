@@ -185,6 +185,7 @@ class SkeletonScene:
         self._bone_radius = bone_radius
         self._frame = 0
         self._followed_root = np.zeros(3)
+        self.guide_names: list[str] = []  # actors a caller added beside the skeletons (drawn target paths)
 
         self.plotter = pv.Plotter(off_screen=off_screen, window_size=list(size))
         self.plotter.set_background("white", top="#cfdcec")

@@ -17,6 +17,7 @@ from bokeh.plotting import figure
 from app.composing import (FPS, INTERVAL_COLORS, TRANSITION_COLOR, ComposeSettings, start_compose, transition_at)
 from app.state import StudioState
 from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown, on_text
+from engine.units import MAX_SECONDS
 
 HELP = ("Each interval is generated as its own clip; consecutive clips share a **handshake** (the end of one is the "
         "start of the next), so the long motion lasts the sum of the intervals minus one handshake per transition. "
@@ -32,7 +33,7 @@ class IntervalRowView:
         self.index = index
         self.prompt = pn.widgets.TextInput(value=row.prompt, placeholder="a person walks forward",
                                            css_classes=["compose-prompt"], sizing_mode="stretch_width")
-        self.seconds = pn.widgets.FloatInput(value=row.seconds, start=0.5, end=9.8, step=0.5, width=70,
+        self.seconds = pn.widgets.FloatInput(value=row.seconds, start=0.5, end=MAX_SECONDS, step=0.5, width=70,
                                              css_classes=["compose-seconds"])
         self.up = pn.widgets.Button(label="↑", width=34, css_classes=["compose-up"])
         self.down = pn.widgets.Button(label="↓", width=34, css_classes=["compose-down"])
@@ -54,7 +55,7 @@ class ComposeTab(pn.viewable.Viewer):
 
     def __init__(self, **params):
         super().__init__(**params)
-        self.settings = ComposeSettings(tokenizer=self.state._tokenizer)
+        self.settings = ComposeSettings(tokenizer=self.state.tokenizer)
         c = self.settings
         self._syncing = False
         self.rows: list[IntervalRowView] = []
@@ -122,7 +123,7 @@ class ComposeTab(pn.viewable.Viewer):
                 view.remove.disabled = len(rows) == 1
         finally:
             self._syncing = False
-        tokenizer = self.settings._tokenizer()
+        tokenizer = self.settings.tokenizer()
         suggestions = {}
         for view, unknown in zip(self.rows, self.settings.unknown_words()):
             if tokenizer is not None:

@@ -17,6 +17,7 @@ from app.state import StudioState
 from app.views.control_canvas import FrontCanvas, TopDownCanvas
 from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown, on_text, table_rows
 from engine.methods.paths import MAX_ROOT_SPEED
+from engine.units import MAX_SECONDS, MIN_SECONDS
 
 HELP = ("Draw the **root path** on the floor (top-down, metres; drag to draw, or pick the point tool to add and "
         "drag points): the person starts at its first point (green) and walks along it at constant speed. A "
@@ -32,10 +33,10 @@ class ControlTab(pn.viewable.Viewer):
         super().__init__(**params)
         extra = {} if controls_dir is None else {"controls_dir": controls_dir}
         base = lambda: self.state.model if self.state.has_model else None  # noqa: E731
-        self.settings = k = ControlSettings(tokenizer=self.state._tokenizer, base=base, **extra)
+        self.settings = k = ControlSettings(tokenizer=self.state.tokenizer, base=base, **extra)
         self.prompt = pn.widgets.TextInput(label="Prompt", value=k.prompt, css_classes=["control-prompt"],
                                            sizing_mode="stretch_width")
-        self.seconds = pn.widgets.FloatInput(label="Seconds", value=k.seconds, start=1.0, end=9.8, step=0.5, width=90,
+        self.seconds = pn.widgets.FloatInput(label="Seconds", value=k.seconds, start=MIN_SECONDS, end=MAX_SECONDS, step=0.5, width=90,
                                              css_classes=["control-seconds"])
         self.flag = pn.pane.HTML("", margin=(0, 10), stylesheets=[UNKNOWN_CSS], css_classes=["control-flag"])
         self.use_root = pn.widgets.Checkbox(label="follow the root path", value=k.use_root,
@@ -101,7 +102,7 @@ class ControlTab(pn.viewable.Viewer):
     # ------------------------------------------------------------------ settings -> widgets
     def _on_unknown(self, *_):
         k = self.settings
-        tokenizer = k._tokenizer()
+        tokenizer = k.tokenizer()
         suggestions = {w: tokenizer.suggest(w) for w in k.unknown_words} if tokenizer is not None else {}
         self.flag.object = flag_unknown(k.unknown_words, suggestions)
         self.flag.visible = bool(k.unknown_words)

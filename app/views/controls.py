@@ -10,6 +10,7 @@ from app.attention_record import estimate_bytes
 from app.state import StudioState
 from engine.duration import auto_seconds
 from engine.intent import parse_intent
+from engine.units import FPS, MAX_SECONDS, MIN_SECONDS
 
 
 class GenerateControls(pn.viewable.Viewer):
@@ -120,7 +121,7 @@ class GenerateControls(pn.viewable.Viewer):
         if self.seconds.placeholder != placeholder:
             self.seconds.placeholder = placeholder
         seconds = s.seconds if s.seconds is not None else auto
-        frames = int(round(min(max(seconds, 1.0), 9.8) * 20))
+        frames = int(round(min(max(seconds, MIN_SECONDS), MAX_SECONDS) * FPS))
         words = max(1, len(s.prompt_words))
         size = estimate_bytes(num_steps=max(1, s.steps), record_steps=s.record_steps, layers=layers, heads=heads,
                               frames=frames, words=words) if s.record_steps else 0

@@ -15,6 +15,7 @@ import param
 from app.dueting import MODES, DuetSettings, describe, duet_model, start_duet
 from app.state import StudioState
 from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown, on_text, table_rows
+from engine.units import MAX_SECONDS, MIN_SECONDS
 
 HELP = ("Two copies of the base model, one per person, exchange what they are doing through a small trained "
         "**communication block** (ComMDM), which also places the two people. Turn it off to see the base model run "
@@ -30,12 +31,12 @@ class DuetTab(pn.viewable.Viewer):
     def __init__(self, *, duet_dir=None, **params):
         super().__init__(**params)
         extra = {} if duet_dir is None else {"duet_dir": duet_dir}
-        self.settings = d = DuetSettings(tokenizer=self.state._tokenizer, **extra)
+        self.settings = d = DuetSettings(tokenizer=self.state.tokenizer, **extra)
         self.mode = pn.widgets.RadioButtonGroup(options=MODE_LABELS, value=d.mode, color="primary",
                                                 variant="outline", css_classes=["duet-mode"])
         self.prompt = pn.widgets.TextInput(label="Prompt (both people)", value=d.prompt, css_classes=["duet-prompt"],
                                            sizing_mode="stretch_width")
-        self.seconds = pn.widgets.FloatInput(label="Seconds", value=d.seconds, start=1.0, end=9.8, step=0.5, width=90,
+        self.seconds = pn.widgets.FloatInput(label="Seconds", value=d.seconds, start=MIN_SECONDS, end=MAX_SECONDS, step=0.5, width=90,
                                              css_classes=["duet-seconds"])
         self.flag = pn.pane.HTML("", margin=(0, 10), stylesheets=[UNKNOWN_CSS], css_classes=["duet-flag"])
         self.prefix = pn.widgets.Select(label="Prefix (both people)", options=[d.prefix], value=d.prefix,

@@ -11,9 +11,9 @@ import panel as pn
 import param
 
 from app.model_cache import VTK_LOCK
-from app.state import MotionItem, StudioState
+from app.items import MAX_UPLOAD_BYTES, MotionItem, upload_limit_text
+from app.state import StudioState
 
-MAX_UPLOAD_BYTES = 20 * 1024 * 1024
 
 EXPORTS = {
     "bvh": "BVH",
@@ -33,7 +33,7 @@ def import_bytes(data: bytes, filename: str):
     if not data:
         raise ValueError(f"{filename} is empty")
     if len(data) > MAX_UPLOAD_BYTES:
-        raise ValueError(f"{filename} is {len(data) / 1e6:.1f} MB; uploads are limited to {MAX_UPLOAD_BYTES / 1e6:.0f} MB")
+        raise ValueError(f"{filename} is {len(data) / 2**20:.1f} MiB; uploads are limited to {upload_limit_text()}")
     suffix = Path(filename).suffix.lower()
     if suffix not in (".bvh", ".npy"):
         raise ValueError(f"{filename}: only .bvh and .npy files can be imported")
@@ -193,7 +193,11 @@ class ImportPanel(pn.viewable.Viewer):
         return ModelConfig().max_frames
 
     def _on_upload(self, event):
-        if not event.new:
+        if event.new is None:
+            return
+        if not event.new:  # an empty file is bytes too: say so (it used to pass without a word)
+            self.state.error(f"Could not import {self._input.filename or 'the file'}: it is empty")
+            self._input.clear()
             return
         self._upload = (event.new, self._input.filename or "upload")
         self.again.disabled = False
@@ -224,7 +228,7 @@ class ImportPanel(pn.viewable.Viewer):
 
     def __panel__(self):
         return pn.Column("#### Import", "BVH, joints (T,22,3) or HumanML3D vectors (T,263) as .npy "
-                         f"(up to {MAX_UPLOAD_BYTES // 2**20} MB); a file over the model's {self.limit_s:.1f} s: "
+                         f"(up to {upload_limit_text()}); a file over the model's {self.limit_s:.1f} s: "
                          "pick its window (Start, Seconds)", self._input,
                          pn.Row(self.start, self.seconds), self.again, sizing_mode="stretch_width")
 

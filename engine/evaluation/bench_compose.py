@@ -47,6 +47,7 @@ from engine.evaluation.metrics import fid, foot_skate, jerk
 from engine.generate import FPS, SampleConfig
 from engine.methods.doubletake import DoubleTakeConfig, Interval, compose
 from engine.representation import joints_to_features
+from engine.units import DEFAULT_GUIDANCE
 
 METHODS = ("doubletake", "first_take", "naive")
 
@@ -56,7 +57,7 @@ class ComposeBenchConfig:
     sequences: int = 64  # ~160 transitions: the FID floor (truth_redraw) is 0.03 here, 0.11-0.20 with 16
     window: int = 40  # frames around each transition
     steps: int = 50
-    guidance: float = 2.5
+    guidance: float = DEFAULT_GUIDANCE
     seed: int = 0
     long_intervals: int = 15  # 15 × 5 s with 1-s handshakes = 61 s
 

@@ -48,6 +48,7 @@ from engine.methods.control import Control, control_dims, controlled, load_contr
 from engine.methods.drawn_paths import DrawnPath, drawn_letters, drawn_root_paths
 from engine.methods.paths import to_world
 from engine.representation import features_to_joints, joints_to_features
+from engine.units import DEFAULT_GUIDANCE
 
 TASKS = {"root": ("root",), "left_wrist": ("left_wrist",), "right_wrist": ("right_wrist",),
          "root+left_wrist": ("root", "left_wrist")}
@@ -57,7 +58,7 @@ TASKS = {"root": ("root",), "left_wrist": ("left_wrist",), "right_wrist": ("righ
 class ControlBenchConfig:
     motions: int = 64  # the FID floor (truth_redraw_fid) is 0.18 here, 0.43-0.45 with 24
     steps: int = 50
-    guidance: float = 2.5
+    guidance: float = DEFAULT_GUIDANCE
     seed: int = 0
     min_seconds: float = 3.0
     drawn_paths: int = 9  # drawn root paths, and letters per wrist (0: true paths only)

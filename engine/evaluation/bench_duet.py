@@ -32,6 +32,8 @@ from engine.methods.duet_contact import ContactConfig
 from engine.methods.duet_data import few_shot
 from engine.representation import facing_direction
 from engine.skeleton import JOINT_INDEX
+from engine.units import DEFAULT_GUIDANCE
+from engine.units import MAX_SECONDS
 
 # method -> (the block communicates, contact guidance)
 METHODS: dict[str, tuple[bool, ContactConfig | None]] = {
@@ -50,7 +52,7 @@ HANDS_TOUCH, HUG_REACH, PUSH_REACH = 0.1, 0.22, 0.25
 class DuetBenchConfig:
     per_interaction: int = 3
     steps: int = 50
-    guidance: float = 2.5
+    guidance: float = DEFAULT_GUIDANCE
     seeds: int = 1
     seed: int = 0
 
@@ -151,7 +153,7 @@ def bench_duet(model: DuetModel, config: DuetBenchConfig = DuetBenchConfig(), *,
                     d = complete(model, s.joints_a, s.joints_b, communicate=communicate,
                                  sample=SampleConfig(steps=config.steps, guidance=1.0, seed=seed_value))
                     errs.append(_prefix_errors(d.joints, s.joints_a, s.joints_b, given))
-                seconds = min(9.8, (len(s.joints_a) - 1) / FPS)
+                seconds = min(MAX_SECONDS, (len(s.joints_a) - 1) / FPS)
                 d = text_to_duet(model, s.captions[0], seconds=seconds, communicate=communicate, contact=contact,
                                  sample=SampleConfig(steps=config.steps, guidance=config.guidance, seed=seed_value))
                 dist, ang = placement_error(d.joints, s.joints_a, s.joints_b)

@@ -40,6 +40,7 @@ from engine.methods.edit_options import EditOptions, calibrated_layers, run_edit
 from engine.methods.motionclr import ExampleConfig, ReplaceConfig, ShiftConfig
 from engine.representation import SLICES, joints_to_features
 from engine.skeleton import JOINT_INDEX
+from engine.units import DEFAULT_GUIDANCE
 
 REPEATED_ACTIONS = ("jump", "hop", "squat", "clap", "kick", "punch", "wave", "bow", "jumping_jacks")
 VERBS = ("jumps", "kicks", "claps", "waves", "punches", "squats", "bows")
@@ -58,7 +59,7 @@ class EditBenchConfig:
     examples: int = 4
     outputs_per_example: int = 4
     steps: int = 50
-    guidance: float = 2.5
+    guidance: float = DEFAULT_GUIDANCE
     seconds: float = 5.0
     reference_samples: int = 128
 

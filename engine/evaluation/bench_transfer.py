@@ -74,6 +74,7 @@ from engine.methods.momo_baselines import inpaint_upper_body, latent_nn, motion_
 from engine.representation import SLICES, foot_contacts, joints_to_features
 from engine.skeleton import JOINT_NAMES, NUM_JOINTS
 from engine.synth.splits import ARM_STYLES
+from engine.units import DEFAULT_GUIDANCE
 
 LEADER_ACTIONS = ("walk", "run", "jog", "jump", "jump_forward", "dance", "side_step", "walk_backward", "hop")
 FOLLOWER_ACTIONS = ("walk", "run", "jog", "dance", "jump", "side_step")
@@ -116,7 +117,7 @@ class TransferBenchConfig:
     pairs: int = 32
     ood_pairs: int = 16
     steps: int = 50
-    guidance: float = 2.5
+    guidance: float = DEFAULT_GUIDANCE
     distractors: int = 31
     min_seconds: float = 2.5
     seed: int = 0

@@ -22,6 +22,7 @@ from engine.generate import SampleConfig
 from engine.methods import edits
 from engine.methods.motionclr import ReweightConfig
 from engine.methods.windows import Window
+from engine.units import DEFAULT_GUIDANCE
 
 
 @dataclass(frozen=True)
@@ -36,7 +37,7 @@ class CalibrationConfig:
     #: sample as the studio, ``moattn edit`` and ``moattn bench --edits`` do (50): a 10-step calibration measures another
     #: regime (on the step-16000 model the bench's emphasis figure is 0.28 at 10 steps, 0.75 at 50)
     steps: int = SampleConfig().steps
-    guidance: float = 2.5
+    guidance: float = DEFAULT_GUIDANCE
     seconds: float = 5.0
     threshold: float = 0.3
     min_gain: float = 0.02

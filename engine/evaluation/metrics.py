@@ -5,8 +5,8 @@ import numpy as np
 from scipy import linalg
 
 from engine.skeleton import FOOT_JOINTS
+from engine.units import FPS
 
-FPS = 20
 
 
 def fid(a: np.ndarray, b: np.ndarray) -> float:

@@ -19,6 +19,7 @@ from engine.evaluation.metrics import diversity, fid, foot_skate, mm_dist, multi
 from engine.generate import Request, SampleConfig, generate
 from engine.representation import features_to_joints
 from engine.text import PromptError, Tokenizer
+from engine.units import DEFAULT_GUIDANCE
 
 R_PRECISION_POOL = 32  # metrics.r_precision's default pool: a split needs at least this many items
 MAX_SKIPS = 1000  # an endless source that skips this many items in a row has a vocabulary problem
@@ -28,7 +29,7 @@ MAX_SKIPS = 1000  # an endless source that skips this many items in a row has a 
 class EvalConfig:
     samples: int = 512
     steps: int = 50
-    guidance: float = 2.5
+    guidance: float = DEFAULT_GUIDANCE
     batch: int = 32
     mm_texts: int = 32
     mm_repeats: int = 10

@@ -31,7 +31,7 @@ from pathlib import Path
 
 DEFAULT_MAX_BYTES = 50 * 1024 * 1024  # motion files larger than this (50 MiB) are refused
 MAX_IMPORT_SECONDS = 600.0  # the longest motion a file may hold (10 min); see the module docstring
-IMPORT_FPS = 20  # the project's frame rate (engine.generate.FPS): .npy motions are taken to be at it
+from engine.units import FPS as IMPORT_FPS  # noqa: E402 (.npy motions are taken to be at the project's frame rate)
 MAX_IMPORT_FRAMES = int(round(MAX_IMPORT_SECONDS * IMPORT_FPS)) + 1  # poses of a MAX_IMPORT_SECONDS motion
 MAX_DECLARED_FRAMES = 100_000  # a BVH's 'Frames:'
 MIN_FRAME_TIME = 1.0 / 1000  # s: a BVH's 'Frame Time:' from 1/1000 s (1000 fps) ...

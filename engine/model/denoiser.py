@@ -14,8 +14,8 @@ from engine.attention.controller import AttentionController
 from engine.model.blocks import Block
 from engine.representation import FEATURE_DIM
 from engine.text import TextEncoder, sinusoidal
+from engine.units import MAX_FRAMES
 
-MAX_FRAMES = 196
 
 
 @dataclass(frozen=True)

@@ -9,9 +9,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from engine.synth.rig import ANKLE_HEIGHT, ankle_from_toe, toe_from_ankle
+from engine.units import FPS
 
 GRAVITY = 9.81
-FPS = 20.0
 _BOX5 = np.ones(5) / 5
 
 

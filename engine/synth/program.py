@@ -7,9 +7,8 @@ synthesis (``engine.synth.compose.synthesize``) is a pure function of the progra
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from engine.units import FPS, MAX_FRAMES
 
-FPS = 20.0
-MAX_FRAMES = 196
 
 LOCOMOTION = ("walk", "run", "jog", "walk_backward", "side_step", "turn")
 JUMPS = ("jump", "jump_forward", "hop", "jumping_jacks")

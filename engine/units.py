@@ -1,0 +1,14 @@
+"""One home for units and defaults: frames per second, the longest motion, the default sampling settings.
+
+The CLI, the studio, the corpus and the benches all read these; nothing else states them.
+"""
+from __future__ import annotations
+
+FPS = 20  # frames per second of every motion (HumanML3D's rate)
+MAX_FRAMES = 196  # the longest motion a model sees (HumanML3D's crop)
+MAX_SECONDS = MAX_FRAMES / FPS  # 9.8 s
+MIN_SECONDS = 1.0  # the shortest motion the studio and the CLI generate
+
+# the default sampling config (engine.generate.SampleConfig and every bench and tab read these)
+DEFAULT_STEPS = 50
+DEFAULT_GUIDANCE = 2.5  # classifier-free guidance scale (MotionCLR's)
