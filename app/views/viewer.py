@@ -153,8 +153,13 @@ class SkeletonViewer(pn.viewable.Viewer):
             self._refresh()
 
     def _on_playhead(self, frame: int) -> None:
-        self._playhead = frame
-        self.state.pick_frame(frame)
+        # a custom message from the page arrives outside the document's lock: the change is scheduled on the
+        # session's document (changing it here raised "_pending_writes should be non-None" during playback)
+        def apply() -> None:
+            self._playhead = frame
+            self.state.pick_frame(frame)
+
+        self.state.post(apply)
 
     def _on_frame(self, event):
         self.renderer.prioritize(event.new)
