@@ -6,6 +6,8 @@ from pathlib import Path
 
 import panel as pn
 
+from app.hosts import allowed_hosts, host_guard
+from app.items import MAX_UPLOAD_BYTES
 from app.state import StudioState
 from app.theme import Fast as OfflineFast
 from app.views.attention import AttentionExplorer
@@ -19,7 +21,6 @@ from app.views.files import ExportPanel, ImportPanel
 from app.views.transfer import TransferTab
 from app.views.viewer import SkeletonViewer
 from engine.paths import ASSETS, MODEL_DIR
-from app.items import MAX_UPLOAD_BYTES
 
 EXAMPLE = ASSETS / "examples" / "walk.npy"
 log = logging.getLogger("moattn.app")
@@ -153,7 +154,8 @@ def serve(*, port: int = 5006, show: bool = False, address: str = "localhost", i
     pn.serve(lambda: create_app(model_dir=model_dir, initial=initial, controls_dir=controls_dir, duet_dir=duet_dir),
              port=port, address=address, show=show,
              title="Motion Attention Studio", websocket_origin=origins, threaded=False,
-             websocket_max_message_size=MAX_MESSAGE_BYTES, liveness=True, **auth)
+             websocket_max_message_size=MAX_MESSAGE_BYTES, liveness=True,
+             transforms=[host_guard(allowed_hosts(address, port))], **auth)
 
 
 def preload(loaded, *, controls_dir: Path | None = None, duet_dir: Path | None = None) -> None:

@@ -79,3 +79,39 @@ def test_a_token_puts_a_login_page_in_front_of_the_studio():
             assert b"password" in page.read().lower()
     finally:
         _stop(proc)
+
+
+def test_only_the_configured_host_names_reach_the_studio():
+    """DNS rebinding: a page on evil.example resolving to 127.0.0.1 sends that Host (and Origin) -- refused."""
+    import asyncio
+
+    from tornado.httpclient import HTTPRequest
+    from tornado.websocket import websocket_connect
+
+    proc, url = _serve()
+    port = url.rsplit(":", 1)[1].strip("/")
+
+    def get(host: str) -> int:
+        req = urllib.request.Request(f"http://127.0.0.1:{port}/liveness", headers={"Host": host})
+        try:
+            with urllib.request.urlopen(req, timeout=20) as r:
+                return r.status
+        except urllib.error.HTTPError as exc:
+            return exc.code
+
+    async def websocket(host: str) -> str:
+        req = HTTPRequest(f"ws://127.0.0.1:{port}/ws", headers={"Origin": f"http://{host}", "Host": host})
+        try:
+            conn = await websocket_connect(req)
+            conn.close()
+            return "open"
+        except Exception as exc:  # noqa: BLE001 - the refusal is the point
+            return str(exc)
+
+    try:
+        assert get(f"localhost:{port}") == 200 and get(f"127.0.0.1:{port}") == 200
+        assert get(f"evil.example:{port}") == 403 and get("localhost:1") == 403
+        assert "403" in asyncio.run(websocket(f"evil.example:{port}"))
+        assert asyncio.run(websocket(f"localhost:{port}")) == "open"
+    finally:
+        _stop(proc)
