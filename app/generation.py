@@ -57,19 +57,17 @@ class Cancelled(Exception):
 
 
 @contextlib.contextmanager
-def sampling_slot(cancel: threading.Event | None = None, on_wait: Callable[[], None] | None = None) -> Iterator[None]:
-    """Hold the process-wide sampling slot (one sampling run at a time; other sessions queue).
+def sampling_slot(cancel: threading.Event | None = None,
+                  on_wait: Callable[[int], None] | None = None) -> Iterator[None]:
+    """Hold the process-wide sampling slot (one sampling run at a time; other sessions queue, first come first
+    served).
 
-    ``on_wait`` is called once if the slot is busy; raises :class:`Cancelled` if ``cancel`` is set
-    while waiting.
+    ``on_wait(place)`` is called while queued, whenever the number of runs ahead changes; raises
+    :class:`Cancelled` if ``cancel`` is set while waiting (a closed session's job leaves the queue at once).
     """
     cancel = cancel or threading.Event()
-    if not SAMPLING_SLOT.acquire(blocking=False):
-        if on_wait is not None:
-            on_wait()
-        while not SAMPLING_SLOT.acquire(timeout=0.2):
-            if cancel.is_set():
-                raise Cancelled()
+    if not SAMPLING_SLOT.acquire(cancelled=cancel.is_set, on_place=on_wait):
+        raise Cancelled()
     try:
         yield
     finally:

@@ -8,6 +8,7 @@ queue on that device (and two sessions on a two-core laptop do not thrash each o
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from pathlib import Path
 
 from engine.checkpoint import LoadedModel, load_model
@@ -17,8 +18,50 @@ _lock = threading.Lock()
 _cache: dict[Path, LoadedModel] = {}
 _runtime: list[Runtime] = [CPU]  # the server's device, set once by `moattn serve` before any model loads
 
-#: One generation at a time per process (sessions queue for it).
-SAMPLING_SLOT = threading.BoundedSemaphore(1)
+class SamplingQueue:
+    """One sampling run at a time per process; waiting sessions are served first come, first served, and each
+    is told its place in the queue whenever it changes."""
+
+    def __init__(self) -> None:
+        self._cond = threading.Condition()
+        self._waiting: list[object] = []
+        self._busy = False
+
+    def acquire(self, *, cancelled: Callable[[], bool], on_place: Callable[[int], None] | None = None) -> bool:
+        """Wait for the slot (True), or give up when ``cancelled()`` turns true (False). ``on_place(n)``: n
+        runs are ahead (the running one included), called when n changes, never for an immediate slot."""
+        ticket = object()
+        with self._cond:
+            self._waiting.append(ticket)
+            told = None
+            try:
+                while self._busy or self._waiting[0] is not ticket:
+                    if cancelled():
+                        return False
+                    place = self._waiting.index(ticket) + int(self._busy)
+                    if place != told and on_place is not None:
+                        on_place(place)
+                        told = place
+                    self._cond.wait(timeout=0.2)
+                self._busy = True
+                return True
+            finally:
+                self._waiting.remove(ticket)
+                self._cond.notify_all()
+
+    def release(self) -> None:
+        with self._cond:
+            self._busy = False
+            self._cond.notify_all()
+
+    @property
+    def waiting(self) -> int:
+        with self._cond:
+            return len(self._waiting)
+
+
+#: One generation at a time per process (sessions queue for it, in order).
+SAMPLING_SLOT = SamplingQueue()
 
 #: VTK is not thread safe across scenes sharing globals (fonts, EGL displays): every scene build,
 #: frame render and file render in the app holds this lock.

@@ -32,7 +32,7 @@ class Job:
 
     cancel: threading.Event
     step: Callable[[int, int], None]
-    waiting: Callable[[], None]
+    waiting: Callable[[int], None]  # called with the number of runs ahead while queued
     note: Callable[[str], None] = lambda text: None  # a status line for a phase without steps (e.g. inversion)
 
 
@@ -112,8 +112,16 @@ class StudioState(param.Parameterized):
         """Bind the session's Bokeh document: posted callbacks then run on its event loop."""
         self._doc = doc
 
+    @property
+    def served(self) -> bool:
+        """Whether this session has a live document (a browser page), so that work may leave its thread."""
+        return self._doc is not None and self._doc.session_context is not None
+
     def post(self, fn: Callable[[], None]) -> None:
-        """Run ``fn`` on the session's document thread (served) or right away (no server)."""
+        """Run ``fn`` on the session's document thread (served) or right away (no server); dropped once the
+        session is closed (its document is gone: a late worker result must not touch it)."""
+        if self._closed:
+            return
         doc = self._doc
         if doc is None or doc.session_context is None:
             fn()
@@ -290,8 +298,9 @@ class StudioState(param.Parameterized):
                     self.param.update(progress=done, status=f"{verb}: step {done} / {total}")
             self.post(show)
 
-        def on_wait() -> None:
-            self.post(lambda: setattr(self, "status", f"waiting for another session's {what} to finish"))
+        def on_wait(place: int = 1) -> None:
+            ahead = "another session's run" if place <= 1 else f"{place} runs of other sessions"
+            self.post(lambda: setattr(self, "status", f"queued: waiting for {ahead} to finish ({what})"))
 
         def note(text: str) -> None:
             self.post(lambda: setattr(self, "status", text) if cancel is self._cancel and self.running else None)

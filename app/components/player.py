@@ -211,10 +211,11 @@ export function render({ model, el }) {
         self.on_need: Callable[[int], None] | None = None
         self.on_frame: Callable[[int], None] | None = None  # the playhead while playing (no property change)
         self.sent_batches = 0
+        self.closed = False  # the session ended: late frames from the renderer's thread are dropped
 
     def push(self, batch: FrameBatch) -> None:
         """Send rendered frames to the browser (safe from any thread: Panel schedules it on the session)."""
-        if not batch.frames:
+        if not batch.frames or self.closed:
             return
         self.sent_batches += 1
         self._send_msg({
@@ -225,6 +226,8 @@ export function render({ model, el }) {
     def announce(self, *, motion_key: int, version: int, n_frames: int, title: str) -> None:
         """A new motion is on its way: the browser drops the old frames at once and shows ``title`` until the
         first new frame arrives."""
+        if self.closed:
+            return
         self._send_msg({"motion_key": motion_key, "version": version, "n_frames": n_frames, "frames": {},
                         "title": title})
 

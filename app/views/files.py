@@ -5,6 +5,7 @@ import asyncio
 import io
 import re
 import tempfile
+import threading
 from pathlib import Path
 
 import panel as pn
@@ -204,22 +205,44 @@ class ImportPanel(pn.viewable.Viewer):
         self.import_upload()
 
     def import_upload(self) -> bool:
-        """Import the last upload in the window Start / Seconds; False (and a one-line message) if refused."""
-        from engine.io.window import seconds_of
+        """Import the last upload in the window Start / Seconds; False (and a one-line message) if refused.
 
+        Served, the file is parsed on a worker thread (a large BVH no longer blocks every session's event loop)
+        and the result is applied on the session's document; True then means it was started."""
         if self._upload is None:
             self.state.error("upload a .bvh or .npy file first")
             return False
         data, name = self._upload
         start, seconds = self.start.value, self.seconds.value
-        try:
-            joints, total = import_window(data, name, start=start, seconds=seconds, max_frames=self.max_frames)
+
+        def parse():
+            try:
+                return import_window(data, name, start=start, seconds=seconds, max_frames=self.max_frames), None
+            except Exception as exc:  # any parse or window problem is the user's input, not a crash
+                return None, exc
+
+        if not self.state.served:
+            return self._apply_import(name, start, *parse())
+        self.again.disabled = True
+        threading.Thread(target=lambda: self.state.post(lambda: self._apply_import(name, start, *parse())),
+                         name="moattn-import", daemon=True).start()
+        return True
+
+    def _apply_import(self, name: str, start, parsed, error: Exception | None) -> bool:
+        from engine.io.window import seconds_of
+
+        self.again.disabled = self._upload is None
+        if error is None:
+            joints, total = parsed
             cut = len(joints) < total
             begin = float(start or 0.0)
             title = f"imported: {name}" + (f" [{begin:g}–{begin + seconds_of(len(joints)):g} s]" if cut else "")
-            self.state.show_motion(joints, title=title)
-        except Exception as exc:  # any parse or window problem is the user's input, not a crash
-            self.state.error(f"Could not import {name}: {exc}")
+            try:
+                self.state.show_motion(joints, title=title)
+            except ValueError as exc:
+                error = exc
+        if error is not None:
+            self.state.error(f"Could not import {name}: {error}")
             self._input.clear()  # the field does not go on naming a file that was refused ("Import window" retries)
             return False
         window = f" from {begin:g} s of its {seconds_of(total):.1f} s" if cut else ""

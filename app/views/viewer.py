@@ -176,6 +176,7 @@ class SkeletonViewer(pn.viewable.Viewer):
             self.state.pick_frame(event.new)
 
     def close(self) -> None:
+        self.player.closed = True
         self.renderer.close()
 
     def __panel__(self):
