@@ -16,25 +16,12 @@ import param
 
 from app.attention_record import AttentionRecord, estimate_bytes, plan_steps
 from app.generation import Cancelled, sampling_slot
+from engine.methods.edit_kinds import REGISTRY
 from engine.methods.motionclr import WEIGHT_RANGES, weight_range_text
 
-#: label shown in the tab -> ``moattn edit`` kind
-KIND_LABELS = {
-    "emphasise": "emphasize", "erase": "erase", "replace": "replace", "shift": "shift",
-    "example-based": "example", "style transfer": "style", "ground": "ground", "count": "count",
-}
-KIND_HELP = {
-    "emphasize": "Add the weight to (or multiply) the picked word's cross-attention column: positive = more of "
-                 "that action, negative = less. Paper range ±0.5; beyond that maps break.",
-    "erase": "Multiply the picked word's cross-attention by 0.1 inside the frame window (default: last half).",
-    "replace": "Generate the prompt and the edited prompt together; the edited one takes the reference's "
-               "attention maps in the first steps, so its new action lands in the reference's time slots.",
-    "shift": "Roll the reference's Q, K, V in time: the first part of the motion moves to the end.",
-    "example": "Several new motions whose self-attention queries are the example's, shuffled in 1-s chunks.",
-    "style": "Q of the output from the style motion, K and V from the content motion.",
-    "ground": "Emphasise the picked word inside the frame window and de-emphasise it outside (when it happens).",
-    "count": "Count repetitions from the self-attention map (peaks), beside the root-height baseline.",
-}
+#: label shown in the tab -> ``moattn edit`` kind, and each kind's help: both from the engine's registry
+KIND_LABELS = {k.label: name for name, k in REGISTRY.items()}
+KIND_HELP = {name: k.help for name, k in REGISTRY.items()}
 PROMPT_SOURCE = "(the prompt)"
 RECORD_BUDGET = 400 * 1024 * 1024  # the edit's AttentionStore keeps 512 MB at most: stay below it
 

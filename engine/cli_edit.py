@@ -6,29 +6,35 @@ import json
 from pathlib import Path
 
 from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
-from engine.methods.edit_options import KINDS
+from engine.methods.edit_kinds import KINDS, REGISTRY, kinds_reading
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 from engine.methods.motionclr import weight_range_text
 from engine.units import DEFAULT_GUIDANCE
 
 
+def _reads(field: str) -> str:
+    return "read by " + ", ".join(kinds_reading(field))
+
+
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("edit", help="training-free attention edits (MotionCLR): " + ", ".join(KINDS),
                        description="Run an attention edit and write the edited motion (.npy/.bvh) and a side-by-side "
-                       "before/after render (.gif/.mp4/.png).")
+                       "before/after render (.gif/.mp4/.png). Kinds: "
+                       + " ".join(f"{name}: {k.help}" for name, k in REGISTRY.items()))
     p.add_argument("kind", choices=KINDS)
     p.add_argument("prompt", nargs="?", default=None,
                    help="the prompt (the reference prompt for replace); a .bvh/.npy file works as the example/content")
-    p.add_argument("--word", help="the word to (de-)emphasise, erase or ground")
+    p.add_argument("--word", help=f"the word the edit acts on ({_reads('word')})")
     p.add_argument("--weight", type=float, default=0.3, help=f"emphasis weight ({weight_range_text()})")
     p.add_argument("--mode", choices=("add", "mul"), default="add")
     p.add_argument("--from-frame", type=int, default=None, help="first frame the edit touches")
     p.add_argument("--to-frame", type=int, default=None, help="frame after the last one the edit touches")
-    p.add_argument("--edited", help="replace: the edited prompt, aligned word by word")
-    p.add_argument("--fraction", type=float, default=0.5, help="shift: the part of the motion moved to the end")
-    p.add_argument("--style", help="style: the style source (prompt or .bvh/.npy)")
-    p.add_argument("--count", type=int, default=4, help="example: how many outputs")
+    p.add_argument("--edited", help=f"the edited prompt, aligned word by word ({_reads('edited')})")
+    p.add_argument("--fraction", type=float, default=0.5,
+                   help=f"the part of the motion moved to the end ({_reads('fraction')})")
+    p.add_argument("--style", help=f"the style source, a prompt or .bvh/.npy ({_reads('style')})")
+    p.add_argument("--count", type=int, default=4, help=f"how many outputs ({_reads('count')})")
     p.add_argument("--step-window", type=float, nargs=2, default=None, metavar=("START", "END"),
                    help="fractions of the sampling steps the edit acts in (default: the method's)")
     p.add_argument("--layers", type=int, nargs="+", default=None, metavar="LAYER",

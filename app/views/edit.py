@@ -19,11 +19,9 @@ from app.editing import KIND_HELP, KIND_LABELS, PROMPT_SOURCE, alignment
 from app.state import StudioState
 from app.views.jobs import WRAP_BUTTONS_CSS, JobBar, on_text
 from app.views.guard import SyncGuard
+from engine.methods.edit_kinds import REGISTRY
 from engine.methods.motionclr import WEIGHT_RANGES
 
-WORD_KINDS = ("emphasize", "erase", "ground")
-WEIGHT_KINDS = ("emphasize", "ground")
-FRAME_KINDS = ("emphasize", "erase", "ground")
 
 
 class EditTab(pn.viewable.Viewer):
@@ -229,21 +227,23 @@ class EditTab(pn.viewable.Viewer):
             self.result.object = ""
             if self.state.job in self.bar.jobs:
                 self.state.status = ""
-        is_edit = kind != "count"
-        self.words_label.visible = self.words.visible = kind in WORD_KINDS
-        self.mode.visible = kind == "emphasize"
-        self.weight.visible = kind in WEIGHT_KINDS
-        self.frames.visible = kind in FRAME_KINDS
+        entry = REGISTRY[kind]
+        reads = entry.inputs  # the fields this kind reads, by the engine's registry
+        is_edit = entry.is_edit
+        self.words_label.visible = self.words.visible = "word" in reads
+        self.mode.visible = "mode" in reads
+        self.weight.visible = "weight" in reads
+        self.frames.visible = "frames" in reads
         self.frames.label = "Frames (grounding mask)" if kind == "ground" else "Frames"
         self.steps.visible = self.layers.visible = is_edit
-        self.fraction.visible = kind == "shift"
-        self.count.visible = kind == "example"
-        self.edited.visible = self.alignment.visible = kind == "replace"
-        self.source.visible = kind in ("example", "style")
+        self.fraction.visible = "fraction" in reads
+        self.count.visible = "count" in reads
+        self.edited.visible = self.alignment.visible = "edited" in reads
+        self.source.visible = entry.source
         self.source.label = "Example" if kind == "example" else "Content"
-        self.style_source.visible = self.style_prompt.visible = kind == "style"
-        self.run.label = "Count this motion" if kind == "count" else f"Run {e.kind}"
-        self.help.object = KIND_HELP[kind] + ("" if kind not in ("example", "style") else
+        self.style_source.visible = self.style_prompt.visible = "style" in reads
+        self.run.label = "Count this motion" if not is_edit else f"Run {e.kind}"
+        self.help.object = KIND_HELP[kind] + ("" if not entry.source else
                                               " Sources: the prompt, or a session motion (a generated one is "
                                               "re-generated from its prompt, an imported one is DDIM-inverted).")
         if kind == "ground" and self.weight.value < 0:

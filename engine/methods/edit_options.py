@@ -9,16 +9,14 @@ through :mod:`engine.methods.edits`. Counting is not an edit (see ``edits.count_
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # imported lazily below: the CLI reads KINDS without loading torch
     from engine.methods.windows import Window
 
-#: every kind ``moattn edit`` takes; all but "count" are edits run by :func:`run_edit`
-KINDS = ("emphasize", "erase", "replace", "shift", "example", "style", "count", "ground")
-EDIT_KINDS = tuple(k for k in KINDS if k != "count")
+from engine.methods.edit_kinds import EDIT_KINDS, KINDS, REGISTRY  # noqa: F401 (the registry's names, re-exported)
 
 Source = Any  # a prompt (str), or joints (T, 22, 3) of a real motion (DDIM-inverted by the edit)
 
@@ -54,14 +52,8 @@ class EditOptions:
             raise ValueError(f"unknown edit kind {self.kind!r}; one of {', '.join(KINDS)}")
 
 
-def _need(value, what: str, kind: str):
-    if value is None or (isinstance(value, str) and not value.strip()):
-        raise ValueError(f"the {kind} edit needs {what}")
-    return value
-
-
 #: edit kinds whose default layers come from the model's calibration (``config.json`` "edits")
-CALIBRATED_KINDS = ("emphasize", "ground")
+CALIBRATED_KINDS = tuple(k for k, v in REGISTRY.items() if v.calibrated)
 
 
 def calibrated_layers(model_config: dict | None) -> tuple[int, ...] | None:
@@ -76,14 +68,14 @@ def default_window(kind: str, model_config: dict | None = None) -> Window:
     ``model_config`` (a loaded model's config) supplies calibrated emphasis layers, see
     :mod:`engine.evaluation.calibrate_edits`.
     """
-    from engine.methods.motionclr import ExampleConfig, ReplaceConfig, ShiftConfig, StyleTransferConfig
     from engine.methods.windows import Window
 
-    defaults = {"replace": ReplaceConfig().window, "shift": ShiftConfig().window, "example": ExampleConfig().window,
-                "style": StyleTransferConfig().window}
+    entry = REGISTRY.get(kind)
     if kind in CALIBRATED_KINDS:
         return Window(layers=calibrated_layers(model_config))
-    return defaults.get(kind, Window())
+    if entry is not None and entry.window is not None:
+        return entry.window(model_config)
+    return Window()
 
 
 def window(options: EditOptions, default: Window) -> Window:
@@ -97,59 +89,16 @@ def window(options: EditOptions, default: Window) -> Window:
 
 def build_config(options: EditOptions, *, frames: int, model_config: dict | None = None):
     """The typed method config for ``options`` (a motion of ``frames`` frames; ``model_config``: see default_window)."""
-    from engine.methods.motionclr import (
-        ExampleConfig, GroundingConfig, ReplaceConfig, ReweightConfig, ShiftConfig, StyleTransferConfig, erase_config,
-    )
-
-    o, kind = options, options.kind
-    span = None
-    if o.frames is not None:
-        lo, hi = int(o.frames[0]), int(o.frames[1])
-        if not 0 <= lo < hi:
-            raise ValueError(f"the frame window must satisfy 0 <= start < end, got ({lo}, {hi})")
-        span = (lo, min(hi, frames))
-    steps = window(o, default_window(kind, model_config))
-    if kind == "emphasize":
-        return ReweightConfig(word=_need(o.word, "a word", kind), weight=float(o.weight), mode=o.mode, frames=span,
-                              window=steps, occurrence=int(o.occurrence))
-    if kind == "erase":
-        cfg = erase_config(_need(o.word, "a word", kind), frames=span or (frames // 2, frames), window=steps)
-        return replace(cfg, occurrence=int(o.occurrence))
-    if kind == "ground":
-        lo, hi = span or (0, frames)
-        return GroundingConfig(word=_need(o.word, "a word", kind), mask=tuple(lo <= i < hi for i in range(frames)),
-                               weight=abs(float(o.weight)), window=steps)
-    if kind == "replace":
-        return replace(ReplaceConfig(), window=steps)
-    if kind == "shift":
-        return ShiftConfig(fraction=float(o.fraction), window=steps)
-    if kind == "example":
-        return replace(ExampleConfig(seed=int(o.seed)), window=steps)
-    if kind == "style":
-        return replace(StyleTransferConfig(), window=steps)
-    raise ValueError(f"{kind!r} is not an edit (counting is edits.count_generated / count_motion)")
+    entry = REGISTRY[options.kind]
+    if not entry.is_edit:
+        raise ValueError(f"{options.kind!r} is not an edit (counting is edits.count_generated / count_motion)")
+    return entry.build(options, frames=frames, steps=window(options, default_window(options.kind, model_config)))
 
 
 def run_edit(loaded, options: EditOptions, *, frames: int, sample, record: bool = False,
              on_step: Callable | None = None):
     """Build the config and run the edit -> ``edits.EditOutput`` (``on_step(StepState)`` after every step)."""
-    from engine.methods import edits
-
-    o, kind = options, options.kind
-    cfg = build_config(o, frames=frames, model_config=loaded.config)
+    cfg = build_config(options, frames=frames, model_config=loaded.config)
     cfg.window.check_layers(loaded.model.num_layers)  # the user's layers, or the calibrated ones
-    common = dict(frames=frames, sample=sample, record=record, on_step=on_step)
-    if kind in ("emphasize", "erase"):
-        return edits.reweight(loaded, _need(o.prompt, "a prompt", kind), cfg, **common)
-    if kind == "ground":
-        return edits.ground(loaded, _need(o.prompt, "a prompt", kind), cfg, **common)
-    if kind == "replace":
-        return edits.replace(loaded, _need(o.prompt, "the reference prompt", kind), _need(o.edited, "an edited prompt",
-                                                                                          kind), cfg, **common)
-    if kind == "shift":
-        return edits.shift(loaded, _need(o.prompt, "a prompt", kind), cfg, **common)
-    if kind == "example":
-        return edits.example_based(loaded, _need(o.prompt, "an example prompt or motion", kind), cfg,
-                                   count=int(o.count), **common)
-    return edits.style_transfer(loaded, style=_need(o.style, "a style source", kind),
-                                content=_need(o.prompt, "a content prompt or motion", kind), config=cfg, **common)
+    return REGISTRY[options.kind].run(loaded, options, cfg, frames=frames, sample=sample, record=record,
+                                      on_step=on_step)

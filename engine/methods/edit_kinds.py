@@ -1,0 +1,203 @@
+"""The one registry of MotionCLR edit kinds: name, label, help, the inputs it reads, its config and its run.
+
+``moattn edit`` (its kind choices and help), the studio's Edit tab (its buttons, help text and which fields show)
+and the benches read this table; :mod:`engine.methods.edit_options` builds and runs an edit through it. Adding an
+edit kind means adding one ``EditKind`` here and its method in :mod:`engine.methods.edits`.
+
+Counting is listed last as a kind the CLI and the tab offer; it is not an edit (no config, no run).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+#: the fields of ``EditOptions`` an edit kind can read besides the prompt, the step window and the layers
+INPUTS = frozenset({"word", "weight", "mode", "frames", "edited", "fraction", "style", "count", "seed"})
+
+
+@dataclass(frozen=True)
+class EditKind:
+    """One edit: ``build(options, frames=, steps=) -> config`` and ``run(loaded, options, config, **common)``.
+
+    ``inputs``: what the kind reads (the tab shows those fields, the CLI's help names them). ``window``: the
+    method's default step/layer window as ``(model_config) -> Window`` (None: the whole run, every layer).
+    ``calibrated``: its default layers come from the model's emphasis calibration. ``source``: the prompt box
+    may also name a session motion (example, style).
+    """
+
+    name: str
+    label: str
+    help: str
+    inputs: frozenset[str] = frozenset()
+    build: Callable[..., Any] | None = None
+    run: Callable[..., Any] | None = None
+    window: Callable[[dict | None], Any] | None = None
+    calibrated: bool = False
+    source: bool = False
+
+    def __post_init__(self) -> None:
+        unknown = set(self.inputs) - INPUTS
+        if unknown:
+            raise ValueError(f"edit kind {self.name!r} reads unknown inputs {sorted(unknown)}")
+
+    @property
+    def is_edit(self) -> bool:
+        return self.run is not None
+
+
+# ------------------------------------------------------------------------------------------- the edits
+def _need(value, what: str, kind: str):
+    if value is None or (isinstance(value, str) and not value.strip()):
+        raise ValueError(f"the {kind} edit needs {what}")
+    return value
+
+
+def _span(options, frames: int) -> tuple[int, int] | None:
+    if options.frames is None:
+        return None
+    lo, hi = int(options.frames[0]), int(options.frames[1])
+    if not 0 <= lo < hi:
+        raise ValueError(f"the frame window must satisfy 0 <= start < end, got ({lo}, {hi})")
+    return lo, min(hi, frames)
+
+
+def _emphasize_config(o, *, frames, steps):
+    from engine.methods.motionclr import ReweightConfig
+
+    return ReweightConfig(word=_need(o.word, "a word", o.kind), weight=float(o.weight), mode=o.mode,
+                          frames=_span(o, frames), window=steps, occurrence=int(o.occurrence))
+
+
+def _erase_config(o, *, frames, steps):
+    from dataclasses import replace
+
+    from engine.methods.motionclr import erase_config
+
+    cfg = erase_config(_need(o.word, "a word", o.kind), frames=_span(o, frames) or (frames // 2, frames), window=steps)
+    return replace(cfg, occurrence=int(o.occurrence))
+
+
+def _ground_config(o, *, frames, steps):
+    from engine.methods.motionclr import GroundingConfig
+
+    lo, hi = _span(o, frames) or (0, frames)
+    return GroundingConfig(word=_need(o.word, "a word", o.kind), mask=tuple(lo <= i < hi for i in range(frames)),
+                           weight=abs(float(o.weight)), window=steps)
+
+
+def _replace_config(o, *, frames, steps):
+    from dataclasses import replace
+
+    from engine.methods.motionclr import ReplaceConfig
+
+    return replace(ReplaceConfig(), window=steps)
+
+
+def _shift_config(o, *, frames, steps):
+    from engine.methods.motionclr import ShiftConfig
+
+    return ShiftConfig(fraction=float(o.fraction), window=steps)
+
+
+def _example_config(o, *, frames, steps):
+    from dataclasses import replace
+
+    from engine.methods.motionclr import ExampleConfig
+
+    return replace(ExampleConfig(seed=int(o.seed)), window=steps)
+
+
+def _style_config(o, *, frames, steps):
+    from dataclasses import replace
+
+    from engine.methods.motionclr import StyleTransferConfig
+
+    return replace(StyleTransferConfig(), window=steps)
+
+
+def _method_window(config_name: str) -> Callable[[dict | None], Any]:
+    def window(model_config: dict | None):
+        from engine.methods import motionclr
+
+        return getattr(motionclr, config_name)().window
+    return window
+
+
+def _run(method: str, *, prompt_what: str = "a prompt", extra: Callable[[Any], dict] | None = None):
+    """A run function calling ``engine.methods.edits.<method>(loaded, prompt, config, **common)``."""
+    def run(loaded, options, config, **common):
+        from engine.methods import edits
+
+        kwargs = extra(options) if extra is not None else {}
+        return getattr(edits, method)(loaded, _need(options.prompt, prompt_what, options.kind), config,
+                                      **kwargs, **common)
+    return run
+
+
+def _run_replace(loaded, options, config, **common):
+    from engine.methods import edits
+
+    return edits.replace(loaded, _need(options.prompt, "the reference prompt", options.kind),
+                         _need(options.edited, "an edited prompt", options.kind), config, **common)
+
+
+def _run_style(loaded, options, config, **common):
+    from engine.methods import edits
+
+    return edits.style_transfer(loaded, style=_need(options.style, "a style source", options.kind),
+                                content=_need(options.prompt, "a content prompt or motion", options.kind),
+                                config=config, **common)
+
+
+REGISTRY: dict[str, EditKind] = {k.name: k for k in (
+    EditKind("emphasize", "emphasise",
+             "Add the weight to (or multiply) the picked word's cross-attention column: positive = more of that "
+             "action, negative = less. Paper range ±0.5; beyond that maps break.",
+             inputs=frozenset({"word", "weight", "mode", "frames"}), build=_emphasize_config,
+             run=_run("reweight"), calibrated=True),
+    EditKind("erase", "erase",
+             "Multiply the picked word's cross-attention by 0.1 inside the frame window (default: last half).",
+             inputs=frozenset({"word", "frames"}), build=_erase_config, run=_run("reweight")),
+    EditKind("replace", "replace",
+             "Generate the prompt and the edited prompt together; the edited one takes the reference's attention "
+             "maps in the first steps, so its new action lands in the reference's time slots.",
+             inputs=frozenset({"edited"}), build=_replace_config, run=_run_replace,
+             window=_method_window("ReplaceConfig")),
+    EditKind("shift", "shift", "Roll the reference's Q, K, V in time: the first part of the motion moves to the end.",
+             inputs=frozenset({"fraction"}), build=_shift_config, run=_run("shift"),
+             window=_method_window("ShiftConfig")),
+    EditKind("example", "example-based",
+             "Several new motions whose self-attention queries are the example's, shuffled in 1-s chunks.",
+             inputs=frozenset({"count", "seed"}), build=_example_config,
+             run=_run("example_based", prompt_what="an example prompt or motion",
+                      extra=lambda o: {"count": int(o.count)}),
+             window=_method_window("ExampleConfig"), source=True),
+    EditKind("style", "style transfer", "Q of the output from the style motion, K and V from the content motion.",
+             inputs=frozenset({"style"}), build=_style_config, run=_run_style,
+             window=_method_window("StyleTransferConfig"), source=True),
+    EditKind("ground", "ground",
+             "Emphasise the picked word inside the frame window and de-emphasise it outside (when it happens).",
+             inputs=frozenset({"word", "weight", "frames"}), build=_ground_config, run=_run("ground"),
+             calibrated=True),
+    EditKind("count", "count", "Count repetitions from the self-attention map (peaks), beside the root-height "
+             "baseline."),
+)}
+
+#: every kind ``moattn edit`` takes; all but "count" are edits
+KINDS: tuple[str, ...] = tuple(REGISTRY)
+EDIT_KINDS: tuple[str, ...] = tuple(k for k, v in REGISTRY.items() if v.is_edit)
+
+
+def kind(name: str) -> EditKind:
+    try:
+        return REGISTRY[name]
+    except KeyError:
+        raise ValueError(f"unknown edit kind {name!r}; one of {', '.join(KINDS)}") from None
+
+
+def kinds_reading(field: str) -> tuple[str, ...]:
+    """The kinds whose settings include ``field`` (the tab shows it for those)."""
+    if field not in INPUTS:
+        raise ValueError(f"{field!r} is not an edit input")
+    return tuple(k for k, v in REGISTRY.items() if field in v.inputs)
