@@ -138,8 +138,14 @@ def _one_line(text: object) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    from engine.cli_train import legacy_argv
+
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(legacy_argv(list(sys.argv[1:] if argv is None else argv)))
+    if extra:  # name the (sub)command whose flags these are not
+        where = " ".join(filter(None, ["moattn", getattr(args, "command", None), getattr(args, "trainer", None)]))
+        print(f"{where}: error: unrecognized arguments: {' '.join(extra)} (see {where} --help)", file=sys.stderr)
+        return 2
     try:
         if getattr(args, "device", None) is not None:  # one device rule: refused before any work starts
             from engine.runtime import runtime_from_args

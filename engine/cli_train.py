@@ -1,19 +1,27 @@
-"""`moattn train`: flags map one-to-one onto TrainConfig / ModelConfig fields (and, with --commdm,
-onto ComTrainConfig's). A flag left out takes the default of the run's kind."""
+"""`moattn train base|control|duet`: one subcommand per trainer, each with only its own flags.
+
+Flags map one-to-one onto the trainer's config fields (TrainConfig and ModelConfig for base and control,
+ComTrainConfig for duet); a flag left out takes that trainer's default. ``moattn train --...`` without a
+subcommand still works as before: it is read as ``base``, ``control`` (with ``--control``) or ``duet`` (with
+``--commdm``), so the commands in every TRAINING.md keep running.
+"""
 from __future__ import annotations
 
 import argparse
 import json
 from dataclasses import fields
+from pathlib import Path
 
 from engine.model.denoiser import ModelConfig
 from engine.runtime import DEVICE_HELP, PRECISION_HELP, autocast_dtype, resolve_device
 
-
+TRAINERS = ("base", "control", "duet")
 _RUNTIME_HELP = {
     "device": DEVICE_HELP.replace("(default: auto)", "(default: auto; under torchrun on CUDA, rank r uses cuda:LOCAL_RANK)"),
     "precision": PRECISION_HELP,
 }
+# base-trainer fields a control fine-tune does not take (it keeps its base's architecture and data)
+_NOT_FOR_CONTROL = ("data", "underspecified")
 
 
 def _configs():
@@ -23,37 +31,22 @@ def _configs():
     return TrainConfig, ComTrainConfig
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    from pathlib import Path
-
-    base_type, com_type = _configs()
-    p = sub.add_parser(
-        "train",
-        help="train the denoiser on the procedural corpus (or a HumanML3D folder), or the ComMDM block",
-        description="Train the motion denoiser. Checkpoints, log.jsonl and snapshots go to --out; "
-        "--resume continues from the last checkpoint there (under any number of processes). Run under torchrun for "
-        "data parallel: NCCL on CUDA, gloo on the CPU. "
-        "With --commdm: train the two-person ComMDM block on a few corpus duets, the base model (--prior) frozen.",
-    )
-    base, com = base_type(), com_type()
-    base_names = {f.name for f in fields(base_type)}
-    for f in [*fields(base_type), *[g for g in fields(com_type) if g.name not in base_names]]:
-        if f.name in ("model", "com"):
+def _add_config_flags(p: argparse.ArgumentParser, config_type, *, skip: tuple[str, ...] = ()) -> None:
+    default = config_type()
+    for f in fields(config_type):
+        if f.name in ("model", "com", *skip):
             continue
-        value = getattr(base, f.name) if f.name in base_names else getattr(com, f.name)
-        if f.name not in base_names:
-            shown = f"--commdm only; default: {value}"
-        elif hasattr(com, f.name) and getattr(com, f.name) != value:
-            shown = f"default: {value}; with --commdm: {getattr(com, f.name)}"
-        else:
-            shown = f"default: {value}"
+        value = getattr(default, f.name)
         flag = f"--{f.name.replace('_', '-')}"
         if f.name in _RUNTIME_HELP:
             p.add_argument(flag, default=None, help=_RUNTIME_HELP[f.name])
         elif isinstance(value, bool):
-            p.add_argument(flag, action=argparse.BooleanOptionalAction, default=None, help=f"({shown})")
+            p.add_argument(flag, action=argparse.BooleanOptionalAction, default=None, help=f"(default: {value})")
         else:
-            p.add_argument(flag, type=type(value), default=None, help=f"({shown})")
+            p.add_argument(flag, type=type(value), default=None, help=f"(default: {value})")
+
+
+def _add_model_flags(p: argparse.ArgumentParser) -> None:
     model_defaults = ModelConfig()
     for f in fields(ModelConfig):
         if f.name in ("feature_dim", "vocab_size", "max_frames"):
@@ -61,16 +54,52 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         value = getattr(model_defaults, f.name)
         p.add_argument(f"--{f.name.replace('_', '-')}", dest=f"model_{f.name}", type=type(value), default=value,
                        help=f"model {f.name} (default: {value})")
-    p.add_argument("--commdm", action="store_true",
-                   help="train the ComMDM two-person block (few-shot, the base model frozen)")
-    p.add_argument("--commdm-after", type=int, default=0,
-                   help="--commdm: the base layer the block follows (0 = the last, as in the paper)")
-    p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
-    p.add_argument("--init-from", type=Path, default=None,
-                   help="start from a shipped model folder (e.g. assets/model): its weights, vocabulary, stats "
-                        "and step; a fresh optimizer (used when no checkpoint in --out exists)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar (logs still written)")
-    p.set_defaults(run=run)
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    base_type, com_type = _configs()
+    p = sub.add_parser("train", help="train the base denoiser, a control model, or the ComMDM duet block",
+                       description="moattn train base|control|duet [flags]. Checkpoints, log.jsonl and snapshots go to "
+                       "--out; --resume continues from the last checkpoint there (under any number of processes). "
+                       "Run base under torchrun for data parallel: NCCL on CUDA, gloo on the CPU.")
+    trainers = p.add_subparsers(dest="trainer", metavar="TRAINER")
+    trainers.required = True
+
+    b = trainers.add_parser("base", help="the denoiser on the procedural corpus (or a HumanML3D folder, --data)")
+    _add_config_flags(b, base_type, skip=("control",))
+    _add_model_flags(b)
+    b.add_argument("--init-from", type=Path, default=None,
+                   help="start from a shipped model folder (e.g. assets/model): its weights, vocabulary, stats and "
+                        "step; a fresh optimizer (used when no checkpoint in --out exists)")
+
+    c = trainers.add_parser("control", help="fine-tune a control model from a base (PriorMDM Algorithm 1)")
+    c.add_argument("--control", required=True, choices=("root", "left_wrist", "right_wrist"),
+                   help="the features the model receives noise-free")
+    c.add_argument("--init-from", type=Path, required=True, help="the base model folder it is fine-tuned from")
+    _add_config_flags(c, base_type, skip=("control", *_NOT_FOR_CONTROL))
+
+    d = trainers.add_parser("duet", help="the ComMDM two-person block on a few corpus duets, the base (--prior) frozen")
+    _add_config_flags(d, com_type)
+    d.add_argument("--commdm-after", type=int, default=0,
+                   help="the base layer the block follows (0 = the last, as in the paper)")
+
+    for t in (b, c, d):
+        t.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
+        t.add_argument("--no-progress", action="store_true", help="no progress bar (logs still written)")
+        t.set_defaults(run=run)
+
+
+def legacy_argv(argv: list[str]) -> list[str]:
+    """``train --...`` as before the subcommands: ``train base|control|duet --...`` (``--commdm`` -> duet,
+    ``--control X`` -> control)."""
+    if not argv or argv[0] != "train" or len(argv) > 1 and argv[1] in (*TRAINERS, "-h", "--help"):
+        return argv
+    rest = argv[1:]
+    if "--commdm" in rest:
+        return ["train", "duet", *[a for a in rest if a != "--commdm"]]
+    if any(a == "--control" or a.startswith("--control=") for a in rest):
+        return ["train", "control", *rest]
+    return ["train", "base", *rest]
 
 
 def _given(args: argparse.Namespace, config_type) -> dict:
@@ -79,34 +108,28 @@ def _given(args: argparse.Namespace, config_type) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    base_type, com_type = _configs()
-    base_given, com_given = _given(args, base_type), _given(args, com_type)
-    if args.commdm:
-        return _run_commdm(args, com_given, sorted(set(base_given) - set(com_given)))
-    foreign = sorted(set(com_given) - set(base_given))
-    if foreign:
-        raise SystemExit(f"--{foreign[0].replace('_', '-')} applies to --commdm only")
+    if args.trainer == "duet":
+        return _run_duet(args)
     from engine.train import train
 
+    base_type, _ = _configs()
+    given = _given(args, base_type)
     # refuse an unusable device or precision before any data is built
-    autocast_dtype(resolve_device(base_given.get("device", "auto")), base_given.get("precision", "auto"), training=True)
+    autocast_dtype(resolve_device(given.get("device", "auto")), given.get("precision", "auto"), training=True)
     model = ModelConfig(**{f.name: getattr(args, f"model_{f.name}") for f in fields(ModelConfig)
                            if hasattr(args, f"model_{f.name}")})
-    config = base_type(model=model, **base_given)
+    config = base_type(model=model, **given)
     result = train(config, resume=args.resume, progress=not args.no_progress, init_from=args.init_from,
-                   given=tuple(base_given))
+                   given=tuple(given))
     print(json.dumps(result))
     return 0
 
 
-def _run_commdm(args: argparse.Namespace, given: dict, unused: list[str]) -> int:
+def _run_duet(args: argparse.Namespace) -> int:
     from engine.methods.commdm import ComConfig
     from engine.train_commdm import ComTrainConfig, train_commdm
 
-    if unused or args.init_from is not None:
-        flag = unused[0].replace("_", "-") if unused else "init-from"
-        raise SystemExit(f"--{flag} does not apply to --commdm (the frozen base model is --prior)")
-    config = ComTrainConfig(com=ComConfig(after=args.commdm_after), **given)
+    config = ComTrainConfig(com=ComConfig(after=args.commdm_after), **_given(args, ComTrainConfig))
     result = train_commdm(config, resume=args.resume, progress=not args.no_progress)
     print(json.dumps(result))
     return 0

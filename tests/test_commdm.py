@@ -385,10 +385,14 @@ def test_duet_prefix_file_is_checked(tmp_path, tiny_model_dir, tiny_duet_dir):
 
 
 def test_train_flags_belong_to_their_kind():
-    done = _moattn("train", "--shots", "3", "--steps", "1")
-    assert done.returncode != 0 and "--shots applies to --commdm only" in done.stderr
-    done = _moattn("train", "--commdm", "--data", "somewhere")
-    assert done.returncode != 0 and "--data does not apply to --commdm" in done.stderr
+    """Each trainer takes only its own flags (`moattn train base|control|duet`); the old spelling still maps."""
+    done = _moattn("train", "--shots", "3", "--steps", "1")  # no --commdm: the base trainer, which has no --shots
+    assert done.returncode == 2 and "moattn train base" in done.stderr and "--shots" in done.stderr
+    done = _moattn("train", "--commdm", "--data", "somewhere")  # the duet trainer reads no folder
+    assert done.returncode == 2 and "moattn train duet" in done.stderr and "--data" in done.stderr
+    done = _moattn("train", "control", "--control", "root", "--init-from", "x", "--underspecified", "2")
+    assert done.returncode == 2 and "--underspecified" in done.stderr  # a control fine-tune keeps its base's data
+    assert len(done.stderr.strip().splitlines()) == 1
 
 
 def test_bench_seeds_flag_goes_with_duet(capsys):
