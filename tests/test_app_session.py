@@ -47,8 +47,10 @@ def test_evicted_attention_is_said_and_re_recorded_with_the_same_motion(studio):
     item = s.item
     assert item.attention is None and item.evicted
     assert "dropped to keep memory bounded" in view.info.object and view.rerecord.visible
+    s.param.update(seed=99, steps=8)  # other settings in the boxes: Re-record restores the motion's own
     view.rerecord.clicks += 1
     assert s.wait(120)
+    assert studio.controls.seed.value == 11 and studio.controls.steps.value == 6  # the boxes show what ran
     again = s.item
     assert again.attention is not None and again.prompt == "a person kicks"
     np.testing.assert_allclose(again.joints, joints, atol=1e-5)  # the same settings and seed: the same motion

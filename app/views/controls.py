@@ -40,9 +40,12 @@ class GenerateControls(pn.viewable.Viewer):
         self.record = pn.widgets.IntInput(label="Recorded steps", value=s.record_steps, start=0, end=1000, width=120,
                                           css_classes=["record-input"])
         self.memory = pn.pane.Markdown("", css_classes=["record-memory"], margin=(0, 10))
-        for widget, name in ((self.seconds, "seconds"), (self.seed, "seed"), (self.steps, "steps"),
-                             (self.guidance, "guidance"), (self.record, "record_steps")):
+        self._fields = {"seconds": self.seconds, "seed": self.seed, "steps": self.steps, "guidance": self.guidance,
+                        "record_steps": self.record}
+        for name, widget in self._fields.items():
             widget.param.watch(lambda e, name=name: self._set(name, e.new), "value")
+        # and back: settings the session changes itself (Re-record) show in the boxes
+        s.param.watch(self._on_settings, list(self._fields))
         self.generate = pn.widgets.Button(label="Generate", color="primary", sizing_mode="stretch_width",
                                           css_classes=["generate-button"])
         self.cancel = pn.widgets.Button(label="Cancel", color="warning", disabled=True, width=90,
@@ -64,6 +67,12 @@ class GenerateControls(pn.viewable.Viewer):
         self._on_progress()
         self._on_memory()
         self._describe_model()
+
+    def _on_settings(self, *events) -> None:
+        for e in events:
+            widget = self._fields[e.name]
+            if widget.value != e.new:
+                widget.value = e.new
 
     def _set(self, name: str, value) -> None:
         if value is None:
