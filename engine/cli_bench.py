@@ -1,6 +1,8 @@
 """`moattn bench`: benchmark commands (tables or --json), never timed tests.
 
 --app        the studio in Chromium against a real server (app/bench.py)
+--soak       several browser sessions against one real server for minutes: generate, edit, play, reload, close;
+             server-log errors, memory and threads, worst time to result, cross-talk (app/bench_soak.py)
 --edits      MotionCLR edits against corpus ground truth (engine/evaluation/bench_edits.py)
 --inversion  DDIM inversion round trip (m) and the inverted noise's std on corpus motions, the shared real
              motions (../shared/data/real/) and given files (engine/evaluation/bench_inversion.py)
@@ -29,11 +31,14 @@ from engine.runtime import add_runtime_arguments, runtime_from_args
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("bench", help="benchmarks: --app (studio in Chromium), --edits (MotionCLR), --inversion, --transfer (MoMo), "
-                       "--compose / --control (PriorMDM), --duet (ComMDM)",
+    p = sub.add_parser("bench", help="benchmarks: --app (studio in Chromium), --soak (browser sessions for minutes), "
+                       "--edits (MotionCLR), --inversion, --transfer (MoMo), --compose / --control (PriorMDM), --duet (ComMDM)",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     mode = p.add_mutually_exclusive_group()
     mode.add_argument("--app", action="store_true", help="click -> first frame, playback fps, layer switch in Chromium")
+    mode.add_argument("--soak", action="store_true",
+                      help="--sessions browser sessions for --minutes against one server: server errors, memory, "
+                           "threads, worst time to result, cross-talk")
     mode.add_argument("--edits", action="store_true", help="score the MotionCLR edits against corpus ground truth")
     mode.add_argument("--inversion", action="store_true",
                       help="inversion round-trip error (m) and noise std: corpus, shared real files, given files")
@@ -55,9 +60,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     app = p.add_argument_group("--app")
     app.add_argument("--prompt", default="a person jumps twice")
     app.add_argument("--seconds", type=float, default=3.0, help="playback measuring window")
-    app.add_argument("--log", type=Path, default=None, help="write the server's output here")
+    app.add_argument("--log", type=Path, default=None, help="write the server's output here (also --soak)")
     app.add_argument("--compositing", choices=["swiftshader", "software", "both"], default="both",
                      help="Chromium compositing: SwiftShader GPU emulation, CPU (--disable-gpu), or both (default)")
+    soak = p.add_argument_group("--soak")
+    soak.add_argument("--sessions", type=int, default=None, help="browser sessions at once (default 5)")
+    soak.add_argument("--minutes", type=float, default=None, help="how long the sessions go on (default 10)")
     edits = p.add_argument_group("--edits / --inversion / --transfer")
     edits.add_argument("--quick", action="store_true", help="fewer samples and steps")
     edits.add_argument("--evaluator", type=Path, default=EVALUATOR_DIR)
@@ -79,7 +87,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                             "prompts people type)")
     edits.add_argument("--steps", type=int, default=None,
                        help="sampling steps for every benchmark but --app and --train (default: the benchmark's "
-                            "preset, 50; --quick: its own); --train: timed training steps per row (default 5)")
+                            "preset, 50; --quick: its own; --soak: 10); --train: timed training steps per row (default 5)")
     edits.add_argument("--no-real-data", action="store_true",
                        help="--inversion: skip the motion files of the shared real-data folder (../shared/data/real/)")
     edits.add_argument("files", nargs="*", type=Path, help="--inversion: real motions (.bvh/.npy) to invert as well")
@@ -104,10 +112,18 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--no-real-data goes with --inversion")
     if args.write and not args.calibrate:
         raise ValueError("--write stores a calibration: add --calibrate")
+    if (args.sessions is not None or args.minutes is not None) and not args.soak:
+        raise ValueError("--sessions and --minutes go with --soak")
     if args.train:
         if args.control:
             raise ValueError("--train goes alone")
         return run_train(args)
+    if args.soak:
+        if args.control:
+            raise ValueError("--soak goes alone")
+        from app.bench_soak import run_soak_bench
+
+        return run_soak_bench(args)
     if args.compose or args.control:
         if args.app or args.edits or args.inversion or args.transfer or args.duet:
             raise ValueError("--control goes alone or with --compose")
@@ -119,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
     if args.sampling:
         return run_sampling(args)
     if not (args.app or args.edits or args.inversion or args.transfer):
-        raise ValueError("choose a benchmark: --app, --edits, --inversion, --transfer, --compose and/or --control, "
+        raise ValueError("choose a benchmark: --app, --soak, --edits, --inversion, --transfer, --compose and/or --control, "
                          "--duet, --adherence, --sampling, --train")
     if args.app:
         from app.bench import run_app_bench

@@ -8,11 +8,14 @@ from pathlib import Path
 def add_parser(sub: argparse._SubParsersAction) -> None:
     convert = sub.add_parser(
         "convert",
-        help="convert a motion between BVH and .npy (joints (T,22,3) or HumanML3D vectors (T,263))",
-        description="Read a .bvh or .npy motion and write .npy (joints or 263-dim vectors) or .bvh.",
+        help="convert a motion between BVH and .npy (joints (T,22,3) or HumanML3D vectors (T,263)), or to an "
+             "animated .glb",
+        description="Read a .bvh or .npy motion and write .npy (joints or 263-dim vectors), .bvh, or .glb (an "
+                    "animated glTF binary for Blender and three.js: a node, sphere and bones per joint, rotation "
+                    "and translation keys at 20 fps).",
     )
     convert.add_argument("input", type=Path, help="input .bvh or .npy")
-    convert.add_argument("output", type=Path, help="output .npy or .bvh")
+    convert.add_argument("output", type=Path, help="output .npy, .bvh or .glb")
     convert.add_argument("--to", choices=("joints", "vecs"), default="joints",
                          help="what an .npy output holds (default: joints)")
     add_window_args(convert, what="the part of the input to write")
@@ -51,9 +54,10 @@ def run_convert(args: argparse.Namespace) -> int:
     from engine.generate import FPS
     from engine.io import save_motion
 
-    check_outputs([args.output], MOTION_SUFFIXES, flag="output")
-    if args.to == "vecs" and args.output.suffix.lower() == ".bvh":
-        raise CLIError("--to vecs writes 263-dim features to .npy; a .bvh output holds joints")
+    check_outputs([args.output], MOTION_SUFFIXES + (".glb",), flag="output")  # .glb: written by convert only
+    suffix = args.output.suffix.lower()
+    if args.to == "vecs" and suffix in (".bvh", ".glb"):
+        raise CLIError(f"--to vecs writes 263-dim features to .npy; a {suffix} output holds joints")
     joints = load_window(args.input, args)
     save_motion(joints, args.output, to=args.to)
     print(f"wrote {args.output} ({len(joints)} frames at {FPS} fps)")

@@ -20,6 +20,7 @@ EXPORTS = {
     "bvh": "BVH",
     "joints.npy": "joints .npy",
     "vecs.npy": "vectors .npy",
+    "glb": "GLB",
     "gif": "GIF",
     "mp4": "MP4",
     "attention.png": "attention PNG",
@@ -83,7 +84,8 @@ def _duet(item: MotionItem):
 
 
 def export_duet_bytes(pair, fmt: str, *, title: str) -> bytes:
-    """A duet's export: both people in one frame (.npy (2, T, ...), a zip of two BVH files, one scene on video)."""
+    """A duet's export: both people in one frame (.npy (2, T, ...), a zip of two BVH files, one GLB scene with a
+    skeleton each, one scene on video)."""
     import zipfile
 
     from engine.io import format_bvh
@@ -103,6 +105,11 @@ def export_duet_bytes(pair, fmt: str, *, title: str) -> bytes:
         buf = io.BytesIO()
         np.save(buf, np.asarray(data, dtype=np.float32), allow_pickle=False)
         return buf.getvalue()
+    if fmt == "glb":
+        from engine.io import format_glb
+        from engine.units import FPS
+
+        return format_glb(joints, fps=FPS, name=title[:60] or "duet")
     if fmt in ("gif", "mp4"):
         from engine.methods.duet import by_person
         from viz.render import render_together
@@ -130,6 +137,11 @@ def export_bytes(item: MotionItem, fmt: str, *, selection: dict | None = None) -
         return export_duet_bytes(pair, fmt, title=item.name.removesuffix(" · a").removesuffix(" · b"))
     if fmt == "bvh":
         return format_bvh(joints, fps=20.0).encode()
+    if fmt == "glb":  # an animated glTF binary for Blender / three.js (engine.io.glb)
+        from engine.io import format_glb
+        from engine.units import FPS
+
+        return format_glb(joints, fps=FPS, name=item.name[:60] or "motion")
     if fmt.startswith("attention."):
         if item.attention is None:
             raise ValueError(f"{item.name!r} has no recorded attention (only generated motions do)")

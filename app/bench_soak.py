@@ -1,0 +1,499 @@
+"""The soak benchmark (``moattn bench --soak``): several real browser sessions against one real server for minutes.
+
+``moattn bench --soak [--sessions 5] [--minutes 10] [--model DIR] [--log FILE] [--json]`` starts ``moattn serve``
+on a free port and opens one Debian Chromium with one page per session. Each session, over and over until the
+minutes are up (a cycle under way is finished, and every session does at least one):
+
+- generates its own prompt (a distinct one per session, 10 steps) and checks that the Motion list shows it;
+- emphasises its prompt's action word on the Edit tab and checks the result is its own;
+- plays the motion for a second;
+- reloads the page (a new server session: none of the prompts may be listed) and, every other cycle, closes it
+  (the next cycle opens a new page).
+
+The sessions run round-robin in one thread (Playwright's sync API is not thread-safe): each does one step and
+hands over, and its waits are polls, so the server works on several sessions' jobs at once.
+
+Reported: the server log's errors (``server_errors``: tracebacks, ERROR / Error: / Exception lines, deduplicated
+with counts), the server's resident memory (its children included) and thread count before the pages, once every
+session finished its first cycle (``warm``), at the end after closed sessions had time to be discarded
+(``after``) and the peak; each session's worst time to result (click -> first frame of the generated or edited
+motion, page clock); cross-talk (a session listing a motion of another prompt); failures (a step that raised or
+timed out); page errors in the browser. ``ok``: no server error, no cross-talk, no failure, no page error, and
+every session finished a cycle.
+
+The command line lives in ``engine/cli_bench.py``; this module drives the browsers and prints.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import tempfile
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+#: one prompt per session and the word its edit emphasises; no prompt is the start of another
+PROMPTS = [
+    ("a person jumps twice", "jumps"), ("a person waves", "waves"), ("someone kicks", "kicks"),
+    ("a person walks forward", "walks"), ("a person claps three times", "claps"), ("a man squats slowly", "squats"),
+    ("a woman spins", "spins"), ("a person punches", "punches"), ("someone hops on one foot", "hops"),
+    ("a person bows", "bows"), ("a robot dances", "dances"), ("an old man jogs", "jogs"),
+]
+MAX_SESSIONS = len(PROMPTS)
+
+#: server log lines that are errors; the VTK warning of a machine without an X server is not one
+ERROR_PATTERN = re.compile(r"Traceback|ERROR|Error:|Exception")
+HARMLESS = ("bad X server connection",)
+#: browser console messages that are not the page's errors (the design's font request fails offline)
+PAGE_HARMLESS = ("ERR_NAME_NOT_RESOLVED",)
+_TIMESTAMP = re.compile(r"^\s*\d{4}-\d\d-\d\d[ T][\d:,.]+\s*")
+
+
+# ------------------------------------------------------------------ the server process
+
+
+def _children(pid: int) -> list[int]:
+    kids = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            stat = Path(f"/proc/{entry}/stat").read_text()
+        except OSError:
+            continue
+        if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+            kids.append(int(entry))
+    return kids
+
+
+def process_tree(pid: int) -> list[int]:
+    """``pid`` and all its descendants that are alive."""
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        out.append(p)
+        todo.extend(_children(p))
+    return out
+
+
+def sample_process(pid: int) -> dict:
+    """Resident memory (MB) and threads of ``pid`` and its descendants (from /proc)."""
+    rss_kb = threads = 0
+    for p in process_tree(pid):
+        try:
+            status = Path(f"/proc/{p}/status").read_text()
+        except OSError:
+            continue
+        fields = dict(line.split(":", 1) for line in status.splitlines() if ":" in line)
+        rss_kb += int(fields.get("VmRSS", "0 kB").split()[0])
+        threads += int(fields.get("Threads", "0").strip())
+    return {"rss_mb": round(rss_kb / 1024, 1), "threads": threads}
+
+
+def _server_pid(port: int) -> int:
+    """The pid of our child ``moattn serve --port port`` (started by ``app.browser.studio_server``)."""
+    for p in _children(os.getpid()):
+        try:
+            cmd = Path(f"/proc/{p}/cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if b"serve" in cmd and str(port).encode() in cmd:
+            return p
+    raise RuntimeError(f"the server on port {port} is not a child of this process")
+
+
+# ------------------------------------------------------------------ the server log
+
+
+def scan_log(text: str) -> list[dict]:
+    """Error lines of a server log, deduplicated with counts, in order of first appearance. A traceback counts once,
+    as ``Traceback: <its exception line>``."""
+    found: Counter = Counter()
+    lines = text.splitlines()
+    i = 0
+    while i < len(lines):
+        line = lines[i]
+        if any(h in line for h in HARMLESS):
+            i += 1
+            continue
+        if "Traceback (most recent call last)" in line:
+            j = i + 1
+            while j < len(lines) and (lines[j].startswith((" ", "\t")) or not lines[j].strip()):
+                j += 1
+            last = lines[j].strip() if j < len(lines) else "(cut off)"
+            found[f"Traceback: {last}"] += 1
+            i = j + 1
+            continue
+        if ERROR_PATTERN.search(line):
+            found[_TIMESTAMP.sub("", line).strip()] += 1
+        i += 1
+    return [{"line": k, "count": v} for k, v in found.items()]
+
+
+# ------------------------------------------------------------------ one session
+
+
+@dataclass
+class Session:
+    index: int
+    prompt: str
+    word: str
+    page: object = None
+    cycles: int = 0
+    generations: int = 0
+    edits: int = 0
+    plays: int = 0
+    reloads: int = 0
+    closes: int = 0
+    generate_s: list = field(default_factory=list)
+    edit_s: list = field(default_factory=list)
+    cross_talk: list = field(default_factory=list)
+    failures: list = field(default_factory=list)
+    page_errors: Counter = field(default_factory=Counter)
+
+    @property
+    def name(self) -> str:
+        return f"{self.index}: {self.prompt}"
+
+
+def _is_navigation_error(exc: Exception) -> bool:
+    text = str(exc)
+    return any(s in text for s in ("Execution context was destroyed", "navigation", "Target closed",
+                                   "Cannot find context"))
+
+
+def _until(page, js: str, timeout_s: float, what: str):
+    """Yield until ``js`` is true in the page (polled once per round); a TimeoutError after ``timeout_s``."""
+    end = time.monotonic() + timeout_s
+    while True:
+        try:
+            if page.evaluate(js):
+                return
+        except Exception as exc:  # the page is being (re)loaded
+            if not _is_navigation_error(exc):
+                raise
+        if time.monotonic() > end:
+            raise TimeoutError(f"{what}: not within {timeout_s:.0f} s")
+        yield
+
+
+def _until_text(locator, text: str, timeout_s: float, what: str):
+    end = time.monotonic() + timeout_s
+    while True:
+        if locator.count() and text in locator.first.inner_text():
+            return
+        if time.monotonic() > end:
+            raise TimeoutError(f"{what}: not within {timeout_s:.0f} s")
+        yield
+
+
+def _pause(seconds: float):
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        yield
+
+
+_DRAWN = "window.moattnPlayer.motion_key in window.moattnPlayer.first_draw"
+_NEW_DRAWN = ("window.moattnPlayer && window.moattnPlayer.motion_key !== {key} && "
+              "window.moattnPlayer.motion_key >= 0 && " + _DRAWN)
+
+
+def _ready(page, timeout_s: float):
+    """After a goto or reload: the player is mounted, the helpers are installed, the opening motion is drawn."""
+    from app import browser as br
+
+    yield from _until(page, "window.moattnPlayer !== undefined", timeout_s, "the player to mount")
+    page.evaluate(br.PAGE_HELPERS)
+    yield from _until(page, f"window.moattnPlayer.motion_key >= 0 && {_DRAWN}", timeout_s, "the opening motion")
+
+
+def _open(session: Session, browser, url: str, timeout_s: float):
+    from app import browser as br
+
+    page = browser.new_page(viewport=br.VIEWPORT)
+    page.set_default_timeout(timeout_s * 1000)
+    session.page = page
+
+    def console(m):
+        if m.type == "error" and not any(h in m.text for h in PAGE_HARMLESS):
+            session.page_errors[f"console error: {m.text[:300]}"] += 1
+
+    def pageerror(e):
+        session.page_errors[f"pageerror: {str(e)[:300]}"] += 1
+
+    page.on("console", console)
+    page.on("pageerror", pageerror)
+    page.goto(url, wait_until="commit")
+    yield from _ready(page, timeout_s)
+
+
+def _close(session: Session) -> None:
+    page, session.page = session.page, None
+    if page is not None:
+        try:
+            page.close()
+        except Exception:
+            pass
+
+
+def _motion_names(page) -> list[str]:
+    return [t.strip() for t in page.locator(".motion-select select option").all_inner_texts()]
+
+
+def _check_shown(session: Session, cycle: int, step: str) -> None:
+    """The Motion list's current entry is this session's prompt."""
+    shown = session.page.locator(".motion-select select").input_value()
+    if not shown.startswith(session.prompt + " ·"):
+        session.cross_talk.append({"session": session.name, "cycle": cycle, "step": step,
+                                   "expected": session.prompt, "shown": shown})
+
+
+def _click_to_first_frame_s(page, key) -> float:
+    t = page.evaluate(f"window.moattnPlayer.first_draw[{int(key)}] - window.moattnLastClick")
+    return round(float(t) / 1000.0, 3)
+
+
+def run_session(session: Session, browser, url: str, *, keep_going, others: list[str], steps: int,
+                close_every: int, timeout_s: float):
+    """One session's cycles as a generator: each ``next`` does one step (or one poll) and returns."""
+    while keep_going(session):
+        cycle, step = session.cycles, "open"
+        try:
+            if session.page is None:
+                yield from _open(session, browser, url, timeout_s)
+            page = session.page
+            step = "settings"
+            box = page.locator(".steps-input input")
+            box.fill(str(steps))
+            box.press("Enter")
+            yield
+
+            step = "generate"
+            key = page.evaluate("window.moattnPlayer.motion_key")
+            page.locator(".prompt-input input").fill(session.prompt)
+            page.locator(".generate-button button").click()
+            yield from _until(page, _NEW_DRAWN.format(key=key), timeout_s, "the generated motion")
+            session.generate_s.append(_click_to_first_frame_s(page, page.evaluate("window.moattnPlayer.motion_key")))
+            session.generations += 1
+            _check_shown(session, cycle, "generate")
+            yield
+
+            step = "edit"
+            page.locator(".bk-tab", has_text="Edit").click()
+            page.locator(".edit-kind button", has_text="emphasise").click()
+            page.locator(".edit-words button", has_text=session.word).first.click()
+            active = page.locator(".edit-words button.bk-active", has_text=session.word)
+            end = time.monotonic() + 30
+            while not active.count():
+                if time.monotonic() > end:
+                    raise TimeoutError(f"the word {session.word!r} was not picked")
+                yield
+            yield from _pause(0.3)  # the word travels to the server before the click
+            key = page.evaluate("window.moattnPlayer.motion_key")
+            page.locator(".edit-run button").click()
+            yield from _until_text(page.locator(".edit-result"), f"emphasise '{session.word}'", timeout_s,
+                                   "the edit's result")
+            yield from _until(page, _NEW_DRAWN.format(key=key), timeout_s, "the edited motion")
+            session.edit_s.append(_click_to_first_frame_s(page, page.evaluate("window.moattnPlayer.motion_key")))
+            session.edits += 1
+            _check_shown(session, cycle, "edit")
+            yield
+
+            step = "play"
+            play = page.locator(".skeleton-view .moattn-play")
+            before = page.evaluate("window.moattnPlayer.distinct")
+            play.click()
+            yield from _until(page, "window.moattnPlayer.playing", 10, "playing")
+            yield from _pause(1.0)
+            played = page.evaluate("window.moattnPlayer.distinct") - before
+            play.click()
+            if played < 2:
+                raise RuntimeError(f"playing for a second drew {played} frames")
+            session.plays += 1
+
+            step = "reload"
+            page.reload(wait_until="commit")
+            yield from _ready(page, timeout_s)
+            session.reloads += 1
+            names = _motion_names(page)
+            listed = [n for n in names for p in [session.prompt, *others] if n.startswith(p + " ·")]
+            if listed:
+                session.cross_talk.append({"session": session.name, "cycle": cycle, "step": "reload",
+                                           "expected": "a new session's list", "shown": listed})
+
+            step = "close"
+            if (cycle + 1) % close_every == 0:
+                _close(session)
+                session.closes += 1
+            session.cycles += 1
+            yield
+        except Exception as exc:
+            session.failures.append({"session": session.name, "cycle": cycle, "step": step,
+                                     "error": f"{type(exc).__name__}: {str(exc).splitlines()[0][:300] if str(exc) else ''}"})
+            _close(session)
+            session.cycles += 1  # a failed cycle counts, so a broken session cannot loop forever
+            yield
+
+
+# ------------------------------------------------------------------ the soak
+
+
+def bench_soak(model_dir: Path, *, sessions: int = 5, minutes: float = 10.0, log_path: Path | None = None,
+               steps: int = 10, close_every: int = 2, settle_s: float = 40.0, timeout_s: float = 300.0,
+               log=None) -> dict:
+    """Drive ``sessions`` browser sessions against one server for ``minutes``; see the module's docstring.
+
+    ``settle_s``: after the last page is closed, wait this long before the final memory sample (Bokeh discards a
+    closed session after about 15-30 s). ``timeout_s``: the longest wait for one result.
+    """
+    from playwright.sync_api import sync_playwright
+
+    from app import browser as br
+
+    if not 1 <= sessions <= MAX_SESSIONS:
+        raise ValueError(f"--sessions must be between 1 and {MAX_SESSIONS}, got {sessions}")
+    if not minutes > 0:
+        raise ValueError(f"--minutes must be more than 0, got {minutes}")
+    if not Path(model_dir).exists():
+        raise FileNotFoundError(f"no model at {model_dir}")
+    if not br.chromium_available():
+        raise FileNotFoundError(f"{br.CHROMIUM} not found: apt-get install chromium")
+    say = log or (lambda line: None)
+    if log_path is None:
+        log_path = Path(tempfile.mkdtemp(prefix="moattn-soak-")) / "serve.log"
+    log_path = Path(log_path)
+    group = [Session(i, *PROMPTS[i]) for i in range(sessions)]
+    prompts = [s.prompt for s in group]
+
+    port = br.free_port()
+    t_start = time.monotonic()
+    with br.studio_server(model_dir, port=port, log_path=log_path) as url, sync_playwright() as pw:
+        pid = _server_pid(port)
+        before = sample_process(pid)
+        peak = dict(before)
+        warm = None
+        say(f"server {url} (pid {pid}): {before['rss_mb']} MB, {before['threads']} threads; "
+            f"{sessions} sessions for {minutes:g} min")
+        deadline = time.monotonic() + minutes * 60
+        browser = br.launch(pw)
+        try:
+            def keep_going(s: Session) -> bool:
+                return s.cycles == 0 or time.monotonic() < deadline
+
+            running = {s.index: run_session(s, browser, url, keep_going=keep_going,
+                                            others=[p for p in prompts if p != s.prompt], steps=steps,
+                                            close_every=close_every, timeout_s=timeout_s) for s in group}
+            last_sample = last_say = 0.0
+            while running:
+                for s in group:
+                    gen = running.get(s.index)
+                    if gen is None:
+                        continue
+                    try:
+                        next(gen)
+                    except StopIteration:
+                        del running[s.index]
+                now = time.monotonic()
+                if now - last_sample > 1.0:
+                    last_sample = now
+                    cur = sample_process(pid)
+                    peak = {k: max(peak[k], cur[k]) for k in peak}
+                    if warm is None and all(s.cycles for s in group):
+                        warm = cur
+                    if now - last_say > 30:
+                        last_say = now
+                        say(f"{now - t_start:5.0f} s: {cur['rss_mb']} MB, {cur['threads']} threads; cycles "
+                            + ", ".join(str(s.cycles) for s in group))
+                time.sleep(0.05)
+        finally:
+            for s in group:
+                _close(s)
+            browser.close()
+        soak_s = time.monotonic() - t_start
+        if settle_s > 0:
+            say(f"pages closed; {settle_s:.0f} s for the server to discard the sessions")
+            end = time.monotonic() + settle_s
+            while time.monotonic() < end:
+                cur = sample_process(pid)
+                peak = {k: max(peak[k], cur[k]) for k in peak}
+                time.sleep(1.0)
+        after = sample_process(pid)
+        peak = {k: max(peak[k], after[k]) for k in peak}
+    server_errors = scan_log(log_path.read_text(errors="replace"))
+
+    def worst(xs):
+        return max(xs) if xs else None
+
+    page_errors = Counter()
+    for s in group:
+        page_errors.update(s.page_errors)
+    cross_talk = [c for s in group for c in s.cross_talk]
+    failures = [f for s in group for f in s.failures]
+    per_session = {s.name: {"cycles": s.cycles, "generations": s.generations, "edits": s.edits, "plays": s.plays,
+                            "reloads": s.reloads, "closes": s.closes, "worst_generate_s": worst(s.generate_s),
+                            "worst_edit_s": worst(s.edit_s)} for s in group}
+    result = {
+        "sessions": sessions, "minutes": minutes, "model": str(model_dir), "steps": steps,
+        "cycles": sum(s.cycles for s in group),
+        "soak_s": round(soak_s, 1), "settle_s": settle_s,
+        "server_log": str(log_path),
+        "server_errors": server_errors,
+        "rss_mb": {"before": before["rss_mb"], "warm": None if warm is None else warm["rss_mb"],
+                   "after": after["rss_mb"], "peak": peak["rss_mb"]},
+        "threads": {"before": before["threads"], "warm": None if warm is None else warm["threads"],
+                    "after": after["threads"], "peak": peak["threads"]},
+        "worst_time_to_result_s": {s.name: worst(s.generate_s + s.edit_s) for s in group},
+        "per_session": per_session,
+        "cross_talk": cross_talk,
+        "failures": failures,
+        "page_errors": [{"line": k, "count": v} for k, v in page_errors.items()],
+        "cpus": os.cpu_count(), "load_average": [round(x, 2) for x in os.getloadavg()],
+        "when": time.strftime("%Y-%m-%d %H:%M:%S"),
+    }
+    result["ok"] = (not server_errors and not cross_talk and not failures and not page_errors
+                    and all(s.generations and s.edits for s in group))
+    return result
+
+
+def format_table(r: dict) -> str:
+    def num(x, unit=""):
+        return "-" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:g}{unit}"
+
+    out = [f"soak: {r['sessions']} sessions, {r['minutes']:g} min ({r['soak_s']:.0f} s), {r['cycles']} cycles, "
+           f"{r['steps']} steps; model {r['model']}; load average {r['load_average']}",
+           "", f"{'session':34} {'cycles':>6} {'gen':>4} {'edit':>4} {'reload':>6} {'close':>5} "
+               f"{'worst gen':>9} {'worst edit':>10} {'worst result':>12}"]
+    for name, s in r["per_session"].items():
+        out.append(f"{name[:34]:34} {s['cycles']:>6} {s['generations']:>4} {s['edits']:>4} {s['reloads']:>6} "
+                   f"{s['closes']:>5} {num(s['worst_generate_s'], ' s'):>9} {num(s['worst_edit_s'], ' s'):>10} "
+                   f"{num(r['worst_time_to_result_s'][name], ' s'):>12}")
+    m, t = r["rss_mb"], r["threads"]
+    out += ["", f"server memory   before {num(m['before'])} MB, warm {num(m['warm'])} MB, after {num(m['after'])} MB "
+                f"({r['settle_s']:g} s after the last page closed), peak {num(m['peak'])} MB",
+            f"server threads  before {num(t['before'])}, warm {num(t['warm'])}, after {num(t['after'])}, "
+            f"peak {num(t['peak'])}"]
+    for title, rows in (("server errors", r["server_errors"]), ("page errors", r["page_errors"])):
+        out.append(f"{title}: {'none' if not rows else len(rows)}")
+        out += [f"  {row['count']:>3} x {row['line']}" for row in rows]
+    out.append(f"cross-talk: {'none' if not r['cross_talk'] else len(r['cross_talk'])}")
+    out += [f"  {c['session']} cycle {c['cycle']} {c['step']}: shows {c['shown']!r}" for c in r["cross_talk"]]
+    out.append(f"failures: {'none' if not r['failures'] else len(r['failures'])}")
+    out += [f"  {f['session']} cycle {f['cycle']} {f['step']}: {f['error']}" for f in r["failures"]]
+    out.append(f"server log: {r['server_log']}")
+    out.append("OK" if r["ok"] else "NOT OK")
+    return "\n".join(out)
+
+
+def run_soak_bench(args) -> int:
+    import sys
+
+    sessions = 5 if args.sessions is None else args.sessions
+    minutes = 10.0 if args.minutes is None else args.minutes
+    steps = 10 if args.steps is None else args.steps
+    result = bench_soak(args.model, sessions=sessions, minutes=minutes, log_path=args.log, steps=steps,
+                        log=lambda line: print(line, file=sys.stderr, flush=True))
+    print(json.dumps(result, indent=2) if args.json else format_table(result))
+    return 0 if result["ok"] else 1
