@@ -193,13 +193,14 @@ def build_controls(args: argparse.Namespace):
 
 def run_control(args: argparse.Namespace) -> int:
     from engine.checkpoint import load_model
-    from engine.generate import SampleConfig
+    from engine.generate import SampleConfig, frames_for
     from engine.io import save_motion
     from engine.methods.control import controlled, load_controls, same_base
     from engine.methods.paths import path_error, to_world
 
     check_outputs([args.out], MOTION_SUFFIXES)
     check_outputs([args.render], RENDER_SUFFIXES, flag="--render")
+    frames_for(args.seconds)  # the length first: a path is resampled to it (--seconds 1e9 must not allocate)
     controls, frame = build_controls(args)
     loaded = load_model(args.model, runtime=runtime_from_args(args))
     loaded.tokenizer.encode(args.prompt)

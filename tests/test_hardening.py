@@ -527,3 +527,15 @@ def test_npy_with_zero_size_items_is_refused(tmp_path):
     path = tmp_path / "v0.npy"
     path.write_bytes(_npy_header((10**9, 22, 3), "|V0"))
     _bounded(lambda: load_npy(path))
+
+
+def test_control_checks_its_length_before_building_a_path(tmp_path, capsys):
+    """`--seconds 1e9` used to resample the drawn path to a billion frames before any check."""
+    from engine.cli import main
+
+    path = tmp_path / "p.json"
+    path.write_text('{"points": [[0, 0], [1, 0], [2, 1]]}')
+    assert main(["control", "--prompt", "a person walks", "--root", str(path), "--seconds", "1e9",
+                 "--out", str(tmp_path / "c.npy")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "the duration must be between" in err
