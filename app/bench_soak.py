@@ -6,15 +6,15 @@ minutes are up (a cycle under way is finished, and every session does at least o
 
 - generates its own prompt (a distinct one per session, 10 steps) and checks that the Motion list shows it;
 - emphasises its prompt's action word on the Edit tab and checks the result is its own;
-- plays the motion for a second;
-- reloads the page (a new server session: none of the prompts may be listed) and, every other cycle, closes it
-  (the next cycle opens a new page).
+- plays the motion for a second once all its frames have arrived (at least two frames must be drawn);
+- reloads the page (a new server session: none of the prompts may be listed) and closes it (the next cycle opens
+  a new page).
 
 The sessions run round-robin in one thread (Playwright's sync API is not thread-safe): each does one step and
 hands over, and its waits are polls, so the server works on several sessions' jobs at once.
 
 Reported: the server log's errors (``server_errors``: tracebacks, ERROR / Error: / Exception lines, deduplicated
-with counts), the server's resident memory (its children included) and thread count before the pages, once every
+with counts) and, apart, its warnings (``server_warnings``, not failing), the server's resident memory (its children included) and thread count before the pages, once every
 session finished its first cycle (``warm``), at the end after closed sessions had time to be discarded
 (``after``) and the peak; each session's worst time to result (click -> first frame of the generated or edited
 motion, page clock); cross-talk (a session listing a motion of another prompt); failures (a step that raised or
@@ -46,6 +46,7 @@ MAX_SESSIONS = len(PROMPTS)
 
 #: server log lines that are errors; the VTK warning of a machine without an X server is not one
 ERROR_PATTERN = re.compile(r"Traceback|ERROR|Error:|Exception")
+WARNING_PATTERN = re.compile(r"WARNING|WARN\b|[Ww]arning:")
 HARMLESS = ("bad X server connection",)
 #: browser console messages that are not the page's errors (the design's font request fails offline)
 PAGE_HARMLESS = ("ERR_NAME_NOT_RESOLVED",)
@@ -108,10 +109,11 @@ def _server_pid(port: int) -> int:
 # ------------------------------------------------------------------ the server log
 
 
-def scan_log(text: str) -> list[dict]:
+def scan_log(text: str, *, warnings: bool = False) -> list[dict]:
     """Error lines of a server log, deduplicated with counts, in order of first appearance. A traceback counts once,
-    as ``Traceback: <its exception line>``."""
+    as ``Traceback: <its exception line>``. ``warnings``: the warning lines instead (no tracebacks)."""
     found: Counter = Counter()
+    pattern = WARNING_PATTERN if warnings else ERROR_PATTERN
     lines = text.splitlines()
     i = 0
     while i < len(lines):
@@ -124,10 +126,11 @@ def scan_log(text: str) -> list[dict]:
             while j < len(lines) and (lines[j].startswith((" ", "\t")) or not lines[j].strip()):
                 j += 1
             last = lines[j].strip() if j < len(lines) else "(cut off)"
-            found[f"Traceback: {last}"] += 1
+            if not warnings:
+                found[f"Traceback: {last}"] += 1
             i = j + 1
             continue
-        if ERROR_PATTERN.search(line):
+        if pattern.search(line) and not (warnings and ERROR_PATTERN.search(line)):
             found[_TIMESTAMP.sub("", line).strip()] += 1
         i += 1
     return [{"line": k, "count": v} for k, v in found.items()]
@@ -180,10 +183,12 @@ def _until(page, js: str, timeout_s: float, what: str):
         yield
 
 
-def _until_text(locator, text: str, timeout_s: float, what: str):
+def _until_text(page, css: str, text: str, timeout_s: float, what: str):
+    """Yield until an element ``css`` shows ``text`` (its shadow root included)."""
     end = time.monotonic() + timeout_s
+    locator = page.locator(css, has_text=text)
     while True:
-        if locator.count() and text in locator.first.inner_text():
+        if locator.count():
             return
         if time.monotonic() > end:
             raise TimeoutError(f"{what}: not within {timeout_s:.0f} s")
@@ -294,15 +299,16 @@ def run_session(session: Session, browser, url: str, *, keep_going, others: list
             yield from _pause(0.3)  # the word travels to the server before the click
             key = page.evaluate("window.moattnPlayer.motion_key")
             page.locator(".edit-run button").click()
-            yield from _until_text(page.locator(".edit-result"), f"emphasise '{session.word}'", timeout_s,
-                                   "the edit's result")
+            yield from _until_text(page, ".edit-result", f"emphasise '{session.word}'", timeout_s, "the edit's result")
             yield from _until(page, _NEW_DRAWN.format(key=key), timeout_s, "the edited motion")
             session.edit_s.append(_click_to_first_frame_s(page, page.evaluate("window.moattnPlayer.motion_key")))
             session.edits += 1
             _check_shown(session, cycle, "edit")
             yield
 
-            step = "play"
+            step = "play"  # once every frame has arrived (the player never shows a frame early)
+            yield from _until(page, "window.moattnPlayer.n_frames > 0 && "
+                              "window.moattnPlayer.loaded >= window.moattnPlayer.n_frames", timeout_s, "all frames")
             play = page.locator(".skeleton-view .moattn-play")
             before = page.evaluate("window.moattnPlayer.distinct")
             play.click()
@@ -342,7 +348,7 @@ def run_session(session: Session, browser, url: str, *, keep_going, others: list
 
 
 def bench_soak(model_dir: Path, *, sessions: int = 5, minutes: float = 10.0, log_path: Path | None = None,
-               steps: int = 10, close_every: int = 2, settle_s: float = 40.0, timeout_s: float = 300.0,
+               steps: int = 10, close_every: int = 1, settle_s: float = 40.0, timeout_s: float = 300.0,
                log=None) -> dict:
     """Drive ``sessions`` browser sessions against one server for ``minutes``; see the module's docstring.
 
@@ -397,11 +403,12 @@ def bench_soak(model_dir: Path, *, sessions: int = 5, minutes: float = 10.0, log
                     except StopIteration:
                         del running[s.index]
                 now = time.monotonic()
-                if now - last_sample > 1.0:
+                first_cycles_done = warm is None and all(s.cycles for s in group)
+                if now - last_sample > 1.0 or first_cycles_done:
                     last_sample = now
                     cur = sample_process(pid)
                     peak = {k: max(peak[k], cur[k]) for k in peak}
-                    if warm is None and all(s.cycles for s in group):
+                    if first_cycles_done:
                         warm = cur
                     if now - last_say > 30:
                         last_say = now
@@ -422,7 +429,8 @@ def bench_soak(model_dir: Path, *, sessions: int = 5, minutes: float = 10.0, log
                 time.sleep(1.0)
         after = sample_process(pid)
         peak = {k: max(peak[k], after[k]) for k in peak}
-    server_errors = scan_log(log_path.read_text(errors="replace"))
+    log_text = log_path.read_text(errors="replace")
+    server_errors, server_warnings = scan_log(log_text), scan_log(log_text, warnings=True)
 
     def worst(xs):
         return max(xs) if xs else None
@@ -441,6 +449,7 @@ def bench_soak(model_dir: Path, *, sessions: int = 5, minutes: float = 10.0, log
         "soak_s": round(soak_s, 1), "settle_s": settle_s,
         "server_log": str(log_path),
         "server_errors": server_errors,
+        "server_warnings": server_warnings,
         "rss_mb": {"before": before["rss_mb"], "warm": None if warm is None else warm["rss_mb"],
                    "after": after["rss_mb"], "peak": peak["rss_mb"]},
         "threads": {"before": before["threads"], "warm": None if warm is None else warm["threads"],
@@ -475,7 +484,8 @@ def format_table(r: dict) -> str:
                 f"({r['settle_s']:g} s after the last page closed), peak {num(m['peak'])} MB",
             f"server threads  before {num(t['before'])}, warm {num(t['warm'])}, after {num(t['after'])}, "
             f"peak {num(t['peak'])}"]
-    for title, rows in (("server errors", r["server_errors"]), ("page errors", r["page_errors"])):
+    for title, rows in (("server errors", r["server_errors"]), ("server warnings (not failing)", r["server_warnings"]),
+                        ("page errors", r["page_errors"])):
         out.append(f"{title}: {'none' if not rows else len(rows)}")
         out += [f"  {row['count']:>3} x {row['line']}" for row in rows]
     out.append(f"cross-talk: {'none' if not r['cross_talk'] else len(r['cross_talk'])}")

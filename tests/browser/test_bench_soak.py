@@ -1,0 +1,66 @@
+"""`moattn bench --soak` for one short cycle: one browser session against a real server (tiny model) generates,
+edits, plays, reloads and closes; the report says so, with finite numbers and no cross-talk."""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+import pytest
+
+from app.bench_soak import PROMPTS, bench_soak, format_table, scan_log
+
+pytestmark = pytest.mark.timeout(300)
+
+
+def test_scan_log_counts_errors_and_tracebacks_once():
+    log = "\n".join([
+        "Launching server at http://localhost:5006",
+        "\x1b[33m2026-11-25 08:11:54.212 (4.487s) [7F0F]vtkXOpenGLRenderWindow.:1452  WARN| bad X server connection.",
+        "WARNING:bokeh.server.views.ws:Failed sending message as connection was closed",
+        "2026-11-25 08:12:00,001 ERROR:app.main:callback failed",
+        "Traceback (most recent call last):",
+        '  File "x.py", line 1, in <module>',
+        "    raise ValueError('boom')",
+        "ValueError: boom",
+        "2026-11-25 08:12:05,002 ERROR:app.main:callback failed",
+        "Traceback (most recent call last):",
+        '  File "x.py", line 1, in <module>',
+        "ValueError: boom",
+    ])
+    assert scan_log(log) == [{"line": "ERROR:app.main:callback failed", "count": 2},
+                             {"line": "Traceback: ValueError: boom", "count": 2}]
+    assert scan_log(log, warnings=True) == [
+        {"line": "WARNING:bokeh.server.views.ws:Failed sending message as connection was closed", "count": 1}]
+
+
+def test_one_short_soak_cycle(tiny_model_dir, tmp_path):
+    r = bench_soak(tiny_model_dir, sessions=1, minutes=0.05, log_path=tmp_path / "serve.log", settle_s=0,
+                   timeout_s=120)
+    json.dumps(r)  # the --json output
+    name = f"0: {PROMPTS[0][0]}"
+    assert r["sessions"] == 1 and r["cycles"] == 1, r
+    assert r["failures"] == [] and r["cross_talk"] == [] and r["page_errors"] == [], r
+    assert r["server_errors"] == [], r["server_errors"]
+    s = r["per_session"][name]
+    assert (s["generations"], s["edits"], s["plays"], s["reloads"], s["closes"]) == (1, 1, 1, 1, 1), s
+    worst = r["worst_time_to_result_s"][name]
+    assert math.isfinite(worst) and 0 < worst < 120, worst
+    for key in ("rss_mb", "threads"):
+        for when in ("before", "warm", "after", "peak"):
+            assert math.isfinite(r[key][when]) and r[key][when] > 0, (key, r[key])
+        assert r[key]["peak"] >= max(r[key]["before"], r[key]["after"])
+    assert r["ok"] is True
+    table = format_table(r)
+    assert "cross-talk: none" in table and table.endswith("OK")
+
+
+def test_soak_flags_go_with_soak_only():
+    from engine.cli_bench import add_parser, run
+
+    parser = argparse.ArgumentParser()
+    add_parser(parser.add_subparsers())
+    with pytest.raises(ValueError, match="go with --soak"):
+        run(parser.parse_args(["bench", "--edits", "--sessions", "2"]))
+    with pytest.raises(ValueError, match="--sessions must be between"):
+        run(parser.parse_args(["bench", "--soak", "--sessions", "0"]))
