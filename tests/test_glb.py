@@ -265,5 +265,17 @@ def test_studio_exports_glb(tmp_path):
     assert button.label == "GLB" and button.disabled
     state.show_motion(walk, title="imported: walk")
     assert not button.disabled and button.filename.endswith(".glb")
-    downloaded = asyncio.run(button.callback())
+    downloaded = run_coroutine(button.callback())
     assert downloaded.getvalue()[:4] == b"glTF"
+
+
+def run_coroutine(coro):
+    """Run ``coro`` on a fresh event loop in its own thread (another test may have left a loop running here)."""
+    import asyncio
+    import threading
+
+    out = {}
+    thread = threading.Thread(target=lambda: out.setdefault("value", asyncio.run(coro)))
+    thread.start()
+    thread.join(120)
+    return out["value"]

@@ -178,8 +178,10 @@ def test_control_fine_tune_starts_from_the_base_and_zeroes_the_control_noise(tin
     assert code == 0
     config = json.loads((out / "config.json").read_text())
     assert config["train"]["control"] == "root" and config["step"] == 3
-    assert main(["train", "--control", "wrist", "--init-from", str(tiny_model_dir), "--out", str(tmp_path / "x"),
-                 "--steps", "1", "--threads", "1", "--no-progress"]) == 2
+    with pytest.raises(SystemExit) as refused:  # `train control` takes only the three control names
+        main(["train", "--control", "wrist", "--init-from", str(tiny_model_dir), "--out", str(tmp_path / "x"),
+              "--steps", "1", "--threads", "1", "--no-progress"])
+    assert refused.value.code == 2 and not (tmp_path / "x").exists()
 
 
 def test_cli_compose_and_control(tiny_model_dir, tmp_path, capsys):
