@@ -49,6 +49,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                       help="prompt adherence (action, count, side, direction, order) of the model and the ground truth")
     mode.add_argument("--sampling", action="store_true",
                       help="sampling speed per step count with adherence and FID, and attention-recording overhead")
+    mode.add_argument("--exports", action="store_true",
+                      help="seconds to export a 9.8-s motion as the studio's Export buttons do (GIF, MP4, GLB, BVH, npy)")
     mode.add_argument("--train", action="store_true",
                       help="training step speed and GFLOP/s vs the matmul peak (two model shapes), and the corpus "
                            "generator's samples/s with DataLoader workers")
@@ -118,6 +120,10 @@ def run(args: argparse.Namespace) -> int:
         if args.control:
             raise ValueError("--train goes alone")
         return run_train(args)
+    if args.exports:
+        if args.control:
+            raise ValueError("--exports goes alone")
+        return run_exports(args)
     if args.soak:
         if args.control:
             raise ValueError("--soak goes alone")
@@ -136,7 +142,7 @@ def run(args: argparse.Namespace) -> int:
         return run_sampling(args)
     if not (args.app or args.edits or args.inversion or args.transfer):
         raise ValueError("choose a benchmark: --app, --soak, --edits, --inversion, --transfer, --compose and/or --control, "
-                         "--duet, --adherence, --sampling, --train")
+                         "--duet, --adherence, --sampling, --train, --exports")
     if args.app:
         from app.bench import run_app_bench
 
@@ -278,6 +284,14 @@ def run_inversion(args: argparse.Namespace) -> int:
     if args.no_real_data:
         config = replace(config, real_data=None)
     result = bench_inversion(_model(args), config, args.files, log=_log)
+    print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
+    return 0
+
+
+def run_exports(args: argparse.Namespace) -> int:
+    from app.bench_exports import bench_exports, format_table
+
+    result = bench_exports(_model(args), log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0
 
