@@ -66,7 +66,21 @@ export function render({ model, el }) {
   slider.className = "moattn-scrub";
   const label = document.createElement("span");
   label.className = "moattn-frame-label";
-  bar.append(play, slider, label);
+  const save = document.createElement("button");
+  save.className = "moattn-save-png"; save.type = "button"; save.textContent = "\u2913 PNG";
+  save.title = "save the current view as a PNG (in the browser, nothing is sent to the server)";
+  save.addEventListener("click", () => {
+    canvas.toBlob((blob) => {
+      if (!blob) return;
+      const a = document.createElement("a");
+      a.href = URL.createObjectURL(blob);
+      a.download = `motion_frame_${current}.png`;
+      document.body.appendChild(a); a.click(); a.remove();
+      setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+      stats.saved_png = (stats.saved_png || 0) + 1;
+    }, "image/png");
+  });
+  bar.append(play, slider, label, save);
   root.append(canvas, bar);
 
   const cache = new Map();          // frame -> {bmp, version}
@@ -203,6 +217,7 @@ export function render({ model, el }) {
 .moattn-play { min-width: 84px; padding: 4px 8px; cursor: pointer; }
 .moattn-scrub { flex: 1; }
 .moattn-frame-label { font: 12px monospace; color: #445; min-width: 170px; }
+.moattn-save-png { padding: 4px 8px; cursor: pointer; }
 """]
 
     def __init__(self, **params):

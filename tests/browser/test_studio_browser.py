@@ -64,6 +64,19 @@ def test_the_studio_needs_no_network(page, generated):
     assert br.external_requests(page) == []
 
 
+def test_the_viewer_saves_a_png_of_the_current_view_in_the_browser(page, generated, screens, tmp_path):
+    with page.expect_download(timeout=15000) as info:
+        page.locator(".moattn-save-png").click()
+    download = info.value
+    assert download.suggested_filename.startswith("motion_frame_") and download.suggested_filename.endswith(".png")
+    path = tmp_path / download.suggested_filename
+    download.save_as(path)
+    img = _img(path.read_bytes())
+    _save(screens, "viewer_saved.png", path.read_bytes())
+    assert abs(img.shape[0] - 360) <= 2 and abs(img.shape[1] - 480) <= 2
+    assert _skeleton_pixels(img) > 300, "the saved PNG shows no skeleton"
+
+
 def test_generate_shows_skeleton_heatmap_and_word_curves(page, generated, screens):
     assert generated["click_to_first_frame_ms"] > 0
     stats = br.player_stats(page)
