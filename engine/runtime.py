@@ -42,7 +42,8 @@ def resolve_device(spec: str | torch.device | None = "auto") -> torch.device:
         spec = str(spec)
     text = (spec or "auto").strip().lower()
     if text == "auto":
-        return torch.device("cuda") if torch.cuda.is_available() else torch.device("cpu")
+        # with its index: torch.cuda.set_device and DDP's device_ids need one
+        return torch.device("cuda", torch.cuda.current_device()) if torch.cuda.is_available() else torch.device("cpu")
     if text == "cpu":
         return torch.device("cpu")
     match = re.fullmatch(r"cuda(?::(\d+))?", text)
@@ -52,7 +53,7 @@ def resolve_device(spec: str | torch.device | None = "auto") -> torch.device:
         build = "a CPU-only build" if torch.version.cuda is None else f"a CUDA {torch.version.cuda} build"
         raise DeviceError(f"--device {text}: no CUDA GPU is available (torch {torch.__version__}, {build}); "
                           "use --device cpu or auto")
-    index = int(match[1] or 0)
+    index = int(match[1]) if match[1] is not None else torch.cuda.current_device()
     count = torch.cuda.device_count()
     if index >= count:
         raise DeviceError(f"--device {text}: this machine has {count} CUDA device(s) (cuda:0..cuda:{count - 1})")

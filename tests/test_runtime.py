@@ -38,7 +38,10 @@ def test_cuda_asked_for_and_absent_is_a_clear_error(monkeypatch):
 def test_a_cuda_index_past_the_last_gpu_is_refused(monkeypatch):
     monkeypatch.setattr(torch.cuda, "is_available", lambda: True)
     monkeypatch.setattr(torch.cuda, "device_count", lambda: 2)
+    monkeypatch.setattr(torch.cuda, "current_device", lambda: 0)
     assert resolve_device("cuda:1") == torch.device("cuda", 1)
+    # always with an index: torch.cuda.set_device and DDP's device_ids refuse a bare "cuda"
+    assert resolve_device("cuda") == torch.device("cuda", 0) and resolve_device("auto") == torch.device("cuda", 0)
     with pytest.raises(DeviceError, match="has 2 CUDA device"):
         resolve_device("cuda:2")
 
