@@ -49,6 +49,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                       help="prompt adherence (action, count, side, direction, order) of the model and the ground truth")
     mode.add_argument("--sampling", action="store_true",
                       help="sampling speed per step count with adherence and FID, and attention-recording overhead")
+    p.add_argument("--lengths", choices=("auto", "truth"), default=None,
+                   help="--adherence: the model's lengths, auto (predicted from the prompt, what a user gets; default) "
+                        "or truth (each seed's ground-truth length)")
     mode.add_argument("--exports", action="store_true",
                       help="seconds to export a 9.8-s motion as the studio's Export buttons do (GIF, MP4, GLB, BVH, npy)")
     mode.add_argument("--train", action="store_true",
@@ -106,6 +109,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--drawn goes with --control")
     if args.drawn is not None and args.drawn < 0:
         raise ValueError("--drawn must be 0 or more")
+    if args.lengths is not None and not args.adherence:
+        raise ValueError("--lengths goes with --adherence")
     if args.prompts is not None and not (args.adherence or args.sampling):
         raise ValueError("--prompts goes with --adherence or --sampling")
     if (args.calibrate or args.write) and not args.edits:
@@ -246,7 +251,7 @@ def run_priormdm(args: argparse.Namespace) -> int:
 def run_adherence(args: argparse.Namespace) -> int:
     from engine.evaluation.bench_adherence import AdherenceBenchConfig, bench_adherence, format_table, read_prompts
 
-    config = preset(AdherenceBenchConfig, args, seeds=args.seeds)  # bad settings fail before the model loads
+    config = preset(AdherenceBenchConfig, args, seeds=args.seeds, lengths=args.lengths)  # fails before the model loads
     prompts = read_prompts(args.prompts) if args.prompts is not None else None
     result = bench_adherence(_model(args), config, prompts=prompts, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))

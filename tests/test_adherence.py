@@ -107,3 +107,30 @@ def test_bench_refuses_an_empty_prompts_file(tmp_path, capsys):
     empty.write_text("# only a comment\n\n")
     assert main(["bench", "--adherence", "--prompts", str(empty), "--model", "/nonexistent"]) == 2
     assert "holds no prompts" in capsys.readouterr().err
+
+
+def test_the_model_row_uses_the_lengths_a_user_gets(monkeypatch, tiny_model_dir):
+    from engine.evaluation.bench_adherence import AdherenceBenchConfig
+    """By default the model is sampled at the length predicted from the prompt (the studio's and the CLI's
+    default), not at the ground truth's length; `--lengths truth` gives the old row."""
+    import engine.evaluation.bench_adherence as bench
+    from engine.checkpoint import load_model
+    from engine.duration import auto_seconds
+
+    seen = []
+    real = bench._model_motions
+
+    def spy(loaded, prompt, lengths, config):
+        seen.append(list(lengths))
+        return real(loaded, prompt, lengths, config)
+
+    monkeypatch.setattr(bench, "_model_motions", spy)
+    loaded = load_model(tiny_model_dir)
+    prompt = "a person jumps twice"
+    bench.bench_adherence(loaded, AdherenceBenchConfig(seeds=2, steps=2, validation_motions=10), prompts=[prompt])
+    assert seen[-1] == [round(auto_seconds(prompt) * 20) + 1] * 2
+    result = bench.bench_adherence(loaded, AdherenceBenchConfig(seeds=2, steps=2, validation_motions=10,
+                                                                 lengths="truth"), prompts=[prompt])
+    assert result["settings"]["lengths"] == "truth" and seen[-1] != seen[-2]
+    with pytest.raises(ValueError, match="lengths must be"):
+        AdherenceBenchConfig(lengths="long")

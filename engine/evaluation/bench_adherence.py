@@ -51,10 +51,15 @@ class AdherenceBenchConfig:
     guidance: float = SampleConfig().guidance
     validation_motions: int = 1000  # corpus test motions the detectors are validated on (the issue asks >= 500)
     seed: int = 0
+    # the model's lengths: "auto" = what a user gets (the length predicted from the prompt, the studio's and the
+    # CLI's default, engine.duration); "truth" = each seed's ground-truth length (the model at its best window)
+    lengths: str = "auto"
 
     def __post_init__(self) -> None:
         if self.seeds < 1:
             raise ValueError("--seeds must be at least 1")
+        if self.lengths not in ("auto", "truth"):
+            raise ValueError(f"lengths must be 'auto' or 'truth', got {self.lengths!r}")
         if self.validation_motions < 1:
             raise ValueError("the validation needs at least one corpus motion")
 
@@ -100,7 +105,14 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
                 refused.append({"prompt": prompt, "unknown": unknown})
                 model_checks = [{a: (False if v is not None else None) for a, v in c.items()} for c in truth_checks]
             else:
-                motions = _model_motions(loaded, prompt, [len(j) for j in truths], config)
+                if config.lengths == "auto":
+                    from engine.duration import auto_seconds
+                    from engine.generate import frames_for
+
+                    lengths = [frames_for(auto_seconds(prompt)) + 1] * config.seeds
+                else:
+                    lengths = [len(j) for j in truths]
+                motions = _model_motions(loaded, prompt, lengths, config)
                 model_checks = [check_motion(j, intent, reliable=reliable) for j in motions]
                 row["counts"] = _counts(motions, intent)
             model_rows += model_checks
@@ -114,6 +126,7 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
             "model": score(model_rows) if loaded is not None else None, "ground_truth": score(truth_rows),
             "unparsed": unparsed, "refused": refused, "per_prompt": per_prompt,
             "settings": {"seeds": config.seeds, "steps": config.steps, "guidance": config.guidance,
+                         "lengths": config.lengths,
                          "prompts": len(prompts), "validation_motions": config.validation_motions},
             "seconds": time.perf_counter() - t0}
 
@@ -176,6 +189,8 @@ def format_table(result: dict) -> str:
         lines.append("refused by the model (unknown words; scored as failures): " + "; ".join(
             f"{r['prompt']!r} ({', '.join(r['unknown'])})" for r in result["refused"]))
     s = result["settings"]
-    lines.append(f"{s['prompts']} prompts x {s['seeds']} seeds, {s['steps']} steps, guidance {s['guidance']}; "
+    lengths = ("model lengths predicted from each prompt (what a user gets)" if s.get("lengths", "auto") == "auto"
+               else "model lengths = the ground truth's")
+    lines.append(f"{s['prompts']} prompts x {s['seeds']} seeds, {s['steps']} steps, guidance {s['guidance']}, {lengths}; "
                  f"validation on {s['validation_motions']} corpus test motions; {result['seconds']:.0f} s")
     return "\n".join(lines)
