@@ -51,6 +51,10 @@ def test_duet_from_a_prompt_is_shown_in_one_scene(studio):
     # showing one other motion ends the shared scene
     s.show_motion(np.zeros((10, 22, 3), dtype=np.float32) + np.arange(22)[None, :, None] * 0.05, title="x")
     assert not studio.viewer.spec().together
+    # the finished job's status line belongs to its mode: switching to completion clears it
+    assert tab.bar.status.object
+    tab.mode.value = "prefix"
+    assert tab.bar.status.object == "" and s.status == ""
 
 
 def test_completion_of_an_example_keeps_and_greys_the_prefix(studio):

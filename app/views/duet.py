@@ -86,6 +86,7 @@ class DuetTab(pn.viewable.Viewer):
         self.bar.refresh()
 
     def _on_mode(self, *_):
+        self.bar.clear()
         prefix = self.settings.mode == "prefix"
         self.prefix_box.visible = prefix
         self.contact.visible = not prefix  # completion has no contact guidance

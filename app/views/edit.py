@@ -225,8 +225,7 @@ class EditTab(pn.viewable.Viewer):
         # a finished edit's lines belong to its kind: switching clears them (running work keeps its status)
         if not self.state.running:
             self.result.object = ""
-            if self.state.job in self.bar.jobs:
-                self.state.status = ""
+        self.bar.clear()
         entry = REGISTRY[kind]
         reads = entry.inputs  # the fields this kind reads, by the engine's registry
         is_edit = entry.is_edit

@@ -39,6 +39,12 @@ class JobBar(pn.viewable.Viewer):
         self.state.param.watch(self.refresh, ["running", "progress", "progress_total", "status", "job"])
         self.refresh()
 
+    def clear(self) -> None:
+        """The tab's mode changed: its finished job's status line goes (running work keeps its own)."""
+        s = self.state
+        if not s.running and s.job in self.jobs:
+            s.status = ""
+
     def refresh(self, *_):
         s = self.state
         mine = s.job in self.jobs
