@@ -116,3 +116,19 @@ def hml_run(hml_folder, tmp_path_factory) -> Path:
                       log_every=10, ckpt_every=30, snapshot_every=0, stats_samples=20, threads=1, workers=0,
                       precision="fp32", device="cpu", model=ModelConfig(**HML_TINY_MODEL)), progress=False)
     return out
+
+
+@pytest.fixture(scope="session")
+def run_coroutine():
+    """Run a coroutine on a fresh event loop in its own thread (another test may have left a loop running)."""
+    import asyncio
+    import threading
+
+    def run(coro):
+        out = {}
+        thread = threading.Thread(target=lambda: out.setdefault("value", asyncio.run(coro)))
+        thread.start()
+        thread.join(120)
+        return out["value"]
+
+    return run

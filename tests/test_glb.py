@@ -242,7 +242,7 @@ def test_convert_writes_glb_and_errors_stay_one_line(tmp_path, capsys):
         assert err.startswith("moattn convert: error: ") and message in err and err.count("\n") == 1
 
 
-def test_studio_exports_glb(tmp_path):
+def test_studio_exports_glb(tmp_path, run_coroutine):
     from app.dueting import DuetPair
     from app.items import MotionItem
     from app.state import StudioState
@@ -267,15 +267,3 @@ def test_studio_exports_glb(tmp_path):
     assert not button.disabled and button.filename.endswith(".glb")
     downloaded = run_coroutine(button.callback())
     assert downloaded.getvalue()[:4] == b"glTF"
-
-
-def run_coroutine(coro):
-    """Run ``coro`` on a fresh event loop in its own thread (another test may have left a loop running here)."""
-    import asyncio
-    import threading
-
-    out = {}
-    thread = threading.Thread(target=lambda: out.setdefault("value", asyncio.run(coro)))
-    thread.start()
-    thread.join(120)
-    return out["value"]

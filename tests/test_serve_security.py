@@ -81,7 +81,7 @@ def test_a_token_puts_a_login_page_in_front_of_the_studio():
         _stop(proc)
 
 
-def test_only_the_configured_host_names_reach_the_studio():
+def test_only_the_configured_host_names_reach_the_studio(run_coroutine):
     """DNS rebinding: a page on evil.example resolving to 127.0.0.1 sends that Host (and Origin) -- refused."""
     import asyncio
 
@@ -115,15 +115,3 @@ def test_only_the_configured_host_names_reach_the_studio():
         assert run_coroutine(websocket(f"localhost:{port}")) == "open"
     finally:
         _stop(proc)
-
-
-def run_coroutine(coro):
-    """Run ``coro`` on a fresh event loop in its own thread (another test may have left a loop running here)."""
-    import asyncio
-    import threading
-
-    out = {}
-    thread = threading.Thread(target=lambda: out.setdefault("value", asyncio.run(coro)))
-    thread.start()
-    thread.join(120)
-    return out["value"]
