@@ -22,7 +22,7 @@ from app.generation import Cancelled, GenerationResult, GenerationSettings, chec
 from engine.duration import resolve_seconds
 from app.transfer import TransferSettings, paint_clusters, start_transfer
 
-from app.items import MAX_ITEMS, MAX_ITEMS_WITH_ATTENTION, MotionItem  # noqa: F401  (the session core's motions)
+from app.items import MAX_ITEMS, MAX_ITEMS_WITH_ATTENTION, MotionItem  # the session core's motions
 from engine.units import DEFAULT_GUIDANCE, MAX_SECONDS, MIN_SECONDS
 
 

@@ -222,11 +222,7 @@ class _Packed:
 def _pinned(batch: Batch) -> Batch:
     from dataclasses import replace
 
-    c = batch.cond
-    extras = {k: v.pin_memory() if isinstance(v, torch.Tensor) else v for k, v in c.extras.items()}
-    cond = replace(c, text_ids=c.text_ids.pin_memory(), text_mask=c.text_mask.pin_memory(),
-                   frame_mask=c.frame_mask.pin_memory(), use_text=c.use_text.pin_memory(), extras=extras)
-    return replace(batch, x0=batch.x0.pin_memory(), cond=cond)
+    return replace(batch, x0=batch.x0.pin_memory(), cond=batch.cond.map_tensors(lambda t: t.pin_memory()))
 
 
 def _as_is(item):

@@ -11,7 +11,7 @@
   motion the same on every CPU.
 
 The model lives on the device; everything else (the sampling loop, controllers' bookkeeping, motion
-arrays) lives on the CPU and tensors cross at the model's call (:func:`to_device`). Checkpoints stay
+arrays) lives on the CPU and tensors cross at the model's call (``Denoiser.enter``). Checkpoints stay
 device-free: weights are saved from and loaded to the CPU.
 """
 from __future__ import annotations
@@ -126,20 +126,6 @@ class Runtime:
 
 
 CPU = Runtime(device=torch.device("cpu"))
-
-
-def to_device(value, device: torch.device):
-    """``value`` with every tensor in it on ``device`` (tensors, dataclasses' tensor fields, dicts, tuples)."""
-    if isinstance(value, torch.Tensor):
-        return value if value.device == device else value.to(device, non_blocking=True)
-    mover = getattr(value, "to_device", None)
-    if callable(mover):
-        return mover(device)
-    if isinstance(value, dict):
-        return {k: to_device(v, device) for k, v in value.items()}
-    if isinstance(value, (list, tuple)) and any(isinstance(v, torch.Tensor) for v in value):
-        return type(value)(to_device(v, device) for v in value)
-    return value
 
 
 def add_runtime_arguments(parser: argparse.ArgumentParser, *, precision: bool = True) -> None:

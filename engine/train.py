@@ -367,11 +367,15 @@ class TrainStep:
         x0_hat = self.net(x_t.to(device, non_blocking=True), t.to(device), cond)
         return masked_losses(x0_hat.float(), x0, cond.frame_mask)
 
+    def loss(self, batch: Batch) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(the loss trained on, its mse, its velocity term)."""
+        mse, vel = self.losses(batch)
+        return mse + self.velocity_weight * vel, mse, vel
+
     def __call__(self, batch: Batch, *, step: int, lr: float) -> StepOutcome:
         for group in self.optimizer.param_groups:
             group["lr"] = lr
-        mse, vel = self.losses(batch)
-        loss = mse + self.velocity_weight * vel
+        loss, mse, vel = self.loss(batch)
         self.optimizer.zero_grad(set_to_none=True)
         self.scaler.scale(loss).backward()
         self.scaler.unscale_(self.optimizer)

@@ -13,8 +13,7 @@ REAL_DATA = REAL_DATA_DIR  # the one definition lives in engine.paths (the inver
 
 def real_file(name: str) -> Path:
     path = REAL_DATA / name
-    if not path.exists():
-        pytest.skip(f"real data not available: {path} (the shared data folder is absent)")
+    assert path.exists(), f"real data missing: {path} (the project's measuring data, ../shared/data/real/)"
     return path
 
 

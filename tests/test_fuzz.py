@@ -56,8 +56,7 @@ def fuzz(examples: int = 60) -> settings:
 
 def real(name: str) -> Path:
     path = REAL_DATA_DIR / name
-    if not path.exists():
-        pytest.skip(f"real data not available: {path}")
+    assert path.exists(), f"real data missing: {path} (the project's measuring data, ../shared/data/real/)"
     return path
 
 

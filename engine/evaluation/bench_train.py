@@ -183,8 +183,7 @@ class _Trainer:
             self.batch.x0 = self.batch.x0.pin_memory()
 
     def loss(self) -> torch.Tensor:
-        mse, vel = self.step_of.losses(self.batch)
-        return mse + self.config.velocity_weight * vel
+        return self.step_of.loss(self.batch)[0]
 
     def step(self) -> None:
         self.step_of(self.batch, step=1000, lr=2e-4)

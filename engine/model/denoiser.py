@@ -60,15 +60,17 @@ class Condition:
     def __len__(self) -> int:
         return self.text_ids.shape[0]
 
+    def map_tensors(self, fn) -> "Condition":
+        """The same condition with ``fn`` applied to each of its tensors (tensor extras included)."""
+        return replace(self, text_ids=fn(self.text_ids), text_mask=fn(self.text_mask), frame_mask=fn(self.frame_mask),
+                       use_text=fn(self.use_text),
+                       extras={k: fn(v) if isinstance(v, torch.Tensor) else v for k, v in self.extras.items()})
+
     def to_device(self, device: torch.device) -> "Condition":
-        """The same condition with its tensors (extras included) on ``device``."""
+        """The same condition with its tensors on ``device``."""
         if self.text_ids.device == device:
             return self
-        from engine.runtime import to_device
-
-        return replace(self, text_ids=self.text_ids.to(device), text_mask=self.text_mask.to(device),
-                       frame_mask=self.frame_mask.to(device), use_text=self.use_text.to(device),
-                       extras=to_device(dict(self.extras), device))
+        return self.map_tensors(lambda t: t.to(device))
 
     def with_uncond(self) -> "Condition":
         """The CFG batch: these slots, then the same slots without text."""
