@@ -120,7 +120,8 @@ PAGE_HELPERS = r"""
   }, true);
   window.moattnTest = {deepAll, canvases, canvasHash, waitChange, selectOption, timedSelect, pointer};
   window.moattnLastClick = 0;
-  document.addEventListener('click', () => { window.moattnLastClick = performance.now(); }, true);
+  window.moattnLastClickWall = 0;
+  document.addEventListener('click', () => { window.moattnLastClick = performance.now(); window.moattnLastClickWall = Date.now() / 1000; }, true);
 })();
 """
 
@@ -217,7 +218,7 @@ def external_requests(page) -> list[str]:
 
 
 def player_stats(page) -> dict:
-    return page.evaluate("({...window.moattnPlayer, first_draw: {...window.moattnPlayer.first_draw}})")
+    return page.evaluate("JSON.parse(JSON.stringify(window.moattnPlayer))")
 
 
 def generate(page, prompt: str, *, timeout_ms: float = 120000) -> dict:
@@ -267,6 +268,64 @@ def measure_playback(page, seconds: float = 3.0) -> dict:
     elapsed = (b[1] - a[1]) / 1000.0
     fps = (b[0] - a[0]) / elapsed if elapsed > 0 else 0.0
     return {"playback_fps": fps, "frames_drawn": b[0] - a[0], "seconds": elapsed, "skipped": b[2] - a[2]}
+
+
+def measure_draw_rate(page, seconds: float = 3.0) -> dict:
+    """Press Play and count the pictures the viewer draws per second (poses are interpolated between the motion's
+    frames, so the rate is the display's when the page keeps up); ``draw_ms``: the median cost of one picture."""
+    read = "[window.moattnPlayer.draws, performance.now()]"
+    page.locator(".skeleton-view .moattn-play").click()
+    page.wait_for_function("window.moattnPlayer.playing", timeout=5000)
+    page.wait_for_timeout(300)
+    a = page.evaluate(read)
+    page.wait_for_timeout(seconds * 1000)
+    b = page.evaluate(read)
+    cost = page.evaluate("(() => { const d = [...window.moattnPlayer.draw_ms].sort((x, y) => x - y);"
+                         " return d.length ? d[d.length >> 1] : null; })()")
+    page.locator(".skeleton-view .moattn-play").click()
+    page.wait_for_function("!window.moattnPlayer.playing", timeout=5000)
+    elapsed = (b[1] - a[1]) / 1000.0
+    return {"fps": (b[0] - a[0]) / elapsed if elapsed > 0 else 0.0, "draws": b[0] - a[0], "draw_ms": cost}
+
+
+def measure_orbit(page, *, moves: int = 40) -> dict:
+    """Drag across the viewer (orbit): ``frame_ms`` is the page's time per picture while the mouse moves, and
+    ``changed`` whether the camera turned."""
+    canvas = page.locator(".skeleton-view canvas")
+    box = stable_box(canvas)
+    before = page.evaluate("({...window.moattnPlayer.camera})")
+    x, y = box["x"] + box["width"] * 0.3, box["y"] + box["height"] * 0.5
+    page.mouse.move(x, y)
+    page.mouse.down()
+    a = page.evaluate("[window.moattnPlayer.draws, performance.now()]")
+    for i in range(1, moves + 1):
+        page.mouse.move(x + i * box["width"] * 0.4 / moves, y + i * 0.5)
+    page.wait_for_function(f"window.moattnPlayer.draws > {a[0]}", timeout=5000)
+    b = page.evaluate("[window.moattnPlayer.draws, performance.now()]")
+    page.mouse.up()
+    after = page.evaluate("({...window.moattnPlayer.camera})")
+    draws = max(1, b[0] - a[0])
+    return {"frame_ms": (b[1] - a[1]) / draws, "draws": draws,
+            "changed": abs(after["az"] - before["az"]) > 5, "camera": (before, after)}
+
+
+def run_transfer(page, *, leader: str, follower: str, timeout_ms: float = 300000) -> dict:
+    """Run the Transfer tab on two prompts; ``playable_s``: from the job's end (server clock) until the page drew
+    the leader / follower / out scene (page clock; one machine, one wall clock)."""
+    key = player_stats(page)["motion_key"]
+    page.locator(".bk-tab", has_text="Transfer").click()
+    page.locator(".transfer-leader .source-prompt input").fill(leader)
+    page.locator(".transfer-follower .source-prompt input").fill(follower)
+    page.wait_for_timeout(600)  # the values travel to the server before the click
+    page.locator(".transfer-run button").click()
+    new = page.wait_for_function(
+        f"window.moattnPlayer.motion_key > {key} && (window.moattnPlayer.motion_key in window.moattnPlayer.first_draw)"
+        " && window.moattnPlayer.roles[window.moattnPlayer.motion_key] >= 3 && window.moattnPlayer.motion_key",
+        timeout=timeout_ms).json_value()
+    stats = player_stats(page)
+    job = stats["job"].get(str(new)) or {}
+    drawn = stats["first_draw_wall"][str(new)]
+    return {"playable_s": drawn - job["ended"] if job else None, "roles": stats["roles"][str(new)]}
 
 
 #: BokehJS's default UIGestures.press_threshold (ms): a button held this long before the pointer moves is a press,

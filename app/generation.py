@@ -18,6 +18,7 @@ from app.model_cache import SAMPLING_SLOT
 from engine.checkpoint import LoadedModel
 from engine.generate import Request, SampleConfig, finish, frames_for, sample_states
 from engine.duration import resolve_seconds
+from engine.representation import features_to_joints
 from engine.text import TokenizedPrompt, split_words
 from engine.units import DEFAULT_GUIDANCE
 
@@ -42,6 +43,32 @@ class Checked:
     config: SampleConfig
 
 
+@dataclass(frozen=True, eq=False)
+class Denoising:
+    """The x̂0 motion after every sampling step: what "scrub the denoising steps" shows."""
+
+    steps: tuple[int, ...]  # 1-based steps done (the last is the final motion)
+    num_steps: int
+    joints: np.ndarray  # (S, T, 22, 3) float16, S == len(steps)
+    recorded: tuple[int, ...] = ()  # 1-based steps whose attention was recorded
+
+    @staticmethod
+    def collect(history: list[tuple[int, np.ndarray]], *, num_steps: int, recorded=()) -> "Denoising | None":
+        """From (1-based step, (T, 22, 3) joints) pairs; at most MAX_DENOISING_STEPS of them, evenly spread,
+        the last kept."""
+        if not history:
+            return None
+        keep = np.unique(np.linspace(0, len(history) - 1, min(len(history), MAX_DENOISING_STEPS)).round().astype(int))
+        picked = [history[i] for i in keep]
+        return Denoising(steps=tuple(s for s, _ in picked), num_steps=num_steps,
+                         joints=np.stack([j for _, j in picked]).astype(np.float16),
+                         recorded=tuple(sorted(int(s) for s in recorded)))
+
+
+MAX_DENOISING_STEPS = 50  # x̂0 motions kept per generated motion (a 10-s motion's are 1.3 MB in float16)
+PREVIEW_SECONDS = 0.08  # live x̂0 previews are sent at most this often (the first step's always)
+
+
 @dataclass
 class GenerationResult:
     settings: GenerationSettings
@@ -50,6 +77,7 @@ class GenerationResult:
     features: np.ndarray  # (T, 263) de-normalised
     attention: AttentionRecord | None
     seconds_taken: float
+    denoising: Denoising | None = None
 
 
 class Cancelled(Exception):
@@ -115,8 +143,13 @@ def run_generation(
     on_step: Callable[[int, int], None] | None = None,
     cancel: threading.Event | None = None,
     on_wait: Callable[[], None] | None = None,
+    on_preview: Callable[[int, int, np.ndarray], None] | None = None,
 ) -> GenerationResult:
     """Sample one motion, recording attention; ``on_step(done, total)`` after every step.
+
+    Every step's x̂0 motion is kept (``result.denoising``, to scrub the denoising afterwards) and, at most
+    every ``PREVIEW_SECONDS``, handed to ``on_preview(done, total, joints)`` while sampling (the first step's
+    always): what the viewer shows live.
 
     Raises :class:`Cancelled` when ``cancel`` is set (checked between steps). Waits for the
     process-wide sampling slot first (``on_wait`` is called if it has to).
@@ -136,12 +169,21 @@ def run_generation(
         states, cond, tokens, noise = sample_states(loaded, request, config, controller=store)
         last = None
         timesteps: dict[int, int] = {}
+        history: list[tuple[int, np.ndarray]] = []
+        last_preview = -1.0
         for last in states:
             timesteps[last.step] = int(last.t)
             if cancel.is_set():
                 raise Cancelled()
+            done = last.step + 1
+            x0 = loaded.normalizer.denormalize(last.x0_hat[0, : checked.frames].detach().cpu().numpy())
+            history.append((done, features_to_joints(x0).astype(np.float16)))
+            now = time.perf_counter()
+            if on_preview is not None and done < last.num_steps and now - last_preview >= PREVIEW_SECONDS:
+                last_preview = now
+                on_preview(done, last.num_steps, history[-1][1].astype(np.float32))
             if on_step is not None:
-                on_step(last.step + 1, last.num_steps)
+                on_step(done, last.num_steps)
         generation = finish(loaded, last.x_prev, request, tokens, cond.roles, noise)
         joints = np.asarray(generation.joints[0], dtype=np.float32)
         if not np.isfinite(joints).all():
@@ -151,5 +193,8 @@ def run_generation(
             record = AttentionRecord.from_store(store, words=tokens[0].words, num_steps=config.steps,
                                                 timesteps=timesteps)
         features = np.asarray(generation.features[0, : checked.frames], dtype=np.float32)
+        recorded = [] if store is None else [s + 1 for s in plan_steps(config.steps, settings.record_steps)]
+        history[-1] = (history[-1][0], joints.astype(np.float16))  # the final step is the result itself
         return GenerationResult(settings=settings, words=tokens[0].words, joints=joints, features=features,
-                                attention=record, seconds_taken=time.perf_counter() - start)
+                                attention=record, seconds_taken=time.perf_counter() - start,
+                                denoising=Denoising.collect(history, num_steps=config.steps, recorded=recorded))

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from app.attention_record import AttentionRecord
-from app.generation import GenerationSettings
+from app.generation import Denoising, GenerationSettings
 
 MAX_ITEMS = 24  # motions are small (a 10-s motion is 140 KB); a transfer onto 8 followers adds 17
 MAX_ITEMS_WITH_ATTENTION = 3
@@ -36,6 +36,7 @@ class MotionItem:
     settings: GenerationSettings | None = None
     info: dict = field(default_factory=dict)
     evicted: bool = False  # its recorded attention was dropped to keep memory bounded (re-record: same seed)
+    denoising: Denoising | None = None  # x̂0 after each sampling step (generated motions; the newest few keep it)
 
     @property
     def n_frames(self) -> int:

@@ -8,6 +8,7 @@ directly in tests), so parameters are only ever changed from one thread at a tim
 from __future__ import annotations
 
 import threading
+import time
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -34,6 +35,16 @@ class Job:
     step: Callable[[int, int], None]
     waiting: Callable[[int], None]  # called with the number of runs ahead while queued
     note: Callable[[str], None] = lambda text: None  # a status line for a phase without steps (e.g. inversion)
+
+
+@dataclass(frozen=True, eq=False)
+class Preview:
+    """The running generation's current x̂0 motion (what the viewer shows live while sampling)."""
+
+    step: int  # sampling steps done
+    num_steps: int
+    joints: np.ndarray  # (T, 22, 3)
+    title: str
 
 
 class StudioState(param.Parameterized):
@@ -70,6 +81,8 @@ class StudioState(param.Parameterized):
     also = param.List(default=[], item_type=str, doc="more motions shown side by side after the compared one "
                                                        "(e.g. a transfer's output); cleared when another is shown")
     frame_colors = param.Dict(default={}, doc="motion name -> (T, 3) uint8 colour per frame (e.g. Q/K clusters)")
+    preview = param.ClassSelector(class_=Preview, default=None, allow_None=True,
+                                  doc="the running generation's x̂0 motion (None: no live preview)")
     frame = param.Integer(default=0, bounds=(0, None), doc="the playhead")
     playing = param.Boolean(default=False, doc="the browser is playing the motion")
 
@@ -96,6 +109,7 @@ class StudioState(param.Parameterized):
         self._worker: threading.Thread | None = None
         self._cancel = threading.Event()
         self._counter = 0
+        self.last_job: tuple[float, float] | None = None  # (start, end) of the last job that finished, wall clock
         self.notices: list[tuple[str, str]] = []  # history (level, text), newest last
         self._closed = False
         if self.edit is None:
@@ -227,8 +241,15 @@ class StudioState(param.Parameterized):
         except ValueError as exc:
             self.error(f"cannot generate: {exc}")
             return False
+        title = f"{checked.settings.prompt} · seed {checked.settings.seed}"
+
+        def preview(done: int, total: int, joints: np.ndarray) -> None:
+            self.post(lambda: setattr(self, "preview", Preview(step=done, num_steps=total, joints=joints, title=title))
+                      if self.running else None)
+
         return self.start_job(
-            lambda job: run_generation(loaded, checked, on_step=job.step, cancel=job.cancel, on_wait=job.waiting),
+            lambda job: run_generation(loaded, checked, on_step=job.step, cancel=job.cancel, on_wait=job.waiting,
+                                       on_preview=preview),
             on_done=lambda result: self._finish(result, "", ""), total=checked.config.steps, what="generation",
             status=f"generating {checked.frames / 20:.1f} s: step 0 / {checked.config.steps}", verb="generating")
 
@@ -308,8 +329,10 @@ class StudioState(param.Parameterized):
         job = Job(cancel=cancel, step=on_step, waiting=on_wait, note=note)
 
         def work_thread() -> None:
+            started = time.time()
             try:
                 result = work(job)
+                self.last_job = (started, time.time())  # wall clock (the bench compares it with the page's)
             except Cancelled:
                 self.post(lambda: self._finish(None, f"{what} cancelled", "info"))
                 return
@@ -347,12 +370,14 @@ class StudioState(param.Parameterized):
         """The worker's result has arrived: progress full, the controls free again."""
         with param.parameterized.batch_call_watchers(self):
             self.running = False
+            self.preview = None
             self.progress = self.progress_total
             self.status = status
 
     def _finish(self, result: GenerationResult | None, message: str, level: str) -> None:
         with param.parameterized.batch_call_watchers(self):
             self.running = False
+            self.preview = None
             if result is None:
                 self.progress = 0
                 self.status = message
@@ -369,7 +394,7 @@ class StudioState(param.Parameterized):
         s = result.settings
         item = MotionItem(name=self.unique_name(f"{s.prompt} · seed {s.seed}"), joints=result.joints,
                           source="generated", prompt=s.prompt, words=result.words, attention=result.attention,
-                          features=result.features, settings=s,
+                          features=result.features, settings=s, denoising=result.denoising,
                           info={"seconds_taken": result.seconds_taken})
         self.add_item(item)
 
@@ -498,6 +523,9 @@ class StudioState(param.Parameterized):
         for name in with_attention[:-MAX_ITEMS_WITH_ATTENTION]:
             items[name].attention = None  # keep memory bounded: old motions lose their maps (and say so)
             items[name].evicted = True
+        with_denoising = [n for n, it in items.items() if it.denoising is not None]
+        for name in with_denoising[:-MAX_ITEMS_WITH_ATTENTION]:
+            items[name].denoising = None  # as bounded: the step slider is there for the newest motions
         with param.parameterized.batch_call_watchers(self):
             self.items = items
             if self.compare and self.compare not in items:

@@ -13,7 +13,6 @@ import pytest
 from PIL import Image
 
 from app.attention_record import estimate_bytes, plan_steps
-from app.frames import COMPARE_SIZE, SINGLE_SIZE
 from app.main import Studio
 from app.state import StudioState
 from app.testing import tiny_model
@@ -132,7 +131,7 @@ def test_missing_model_is_reported_and_import_still_works(tmp_path, real_joints)
         assert st.controls.generate.disabled
         assert st.state.generate() is False
         st.state.show_motion(real_joints[:30], title="imported: walk")
-        assert st.viewer.renderer.wait_until_done(60)
+        assert st.viewer.player.scene["n_frames"] == 30
     finally:
         st.close()
 
@@ -239,42 +238,83 @@ def test_picking_a_frame_moves_the_viewer_and_highlights_the_row(studio):
     assert s.frame == s.n_frames - 1
 
 
-def test_viewer_renders_frames_progressively_and_compares(studio, real_joints):
+def _scene_joints(role: dict) -> np.ndarray:
+    import base64
+
+    return np.frombuffer(base64.b64decode(role["joints"]), dtype="<f4").reshape(role["n_frames"], 22, 3)
+
+
+def test_viewer_sends_the_browser_one_scene_per_change_and_compares(studio, real_joints):
     s, viewer = studio.state, studio.viewer
-    r = viewer.renderer
-    assert r.wait_until_done(120)
-    snap = r.snapshot()
-    assert snap.done and len(snap.frames) == s.item.n_frames
-    first, later = _decode(snap.frames[0]), _decode(snap.frames[40])
-    assert first.shape == (SINGLE_SIZE[1], SINGLE_SIZE[0], 3)
-    assert _skeleton_pixels(first) > 300
-    assert np.abs(first.astype(int) - later.astype(int)).mean() > 0.5
-    # colouring by the highlighted word's attention re-renders with other colours
+    scene = viewer.player.scene
+    assert scene["n_frames"] == s.item.n_frames and scene["title"] == s.current
+    (role,) = scene["roles"]
+    np.testing.assert_allclose(_scene_joints(role), s.item.joints, atol=1e-6)  # one motion: no offset
+    assert role["frame_colors"] is None and len(role["joint_colors"]) == 66
+    # the denoising history: every step's x̂0, the last one the motion itself, the recorded steps named
+    d = scene["denoising"]
+    assert d["steps"] == list(range(1, 9)) and d["num_steps"] == 8 and d["recorded"] == list(range(1, 9))
+    import base64
+
+    mm = np.frombuffer(base64.b64decode(d["joints_mm"]), dtype="<i2").reshape(8, -1, 22, 3)
+    np.testing.assert_allclose(mm[-1] / 1000.0, s.item.joints, atol=1.5e-3)
+    assert np.abs(mm[0] - mm[-1]).mean() > 1.0  # the first step's x̂0 is not yet the motion
+    key = viewer.motion_key
+    # colouring by the highlighted word's attention: the same motions, colours per frame
     s.word = 2
     s.color_by_word = True
-    assert viewer.spec().frame_values is not None
-    assert r.wait_until_done(120)
-    coloured = _decode(r.frame_bytes(0))
-    assert np.abs(coloured.astype(int) - first.astype(int)).mean() > 0.5
+    coloured = viewer.player.scene
+    assert viewer.motion_key == key and coloured["roles"][0]["frame_colors"] is not None
+    assert '"' in coloured["title"]
     s.color_by_word = False
-    # compare: an imported motion beside the generated one, one wider scene
+    # camera follow / root path are the page's business: no new scene
+    before = viewer.player.scene
+    s.follow = False
+    s.show_path = False
+    assert viewer.player.scene is before and viewer.player.follow is False and viewer.player.show_path is False
+    s.follow, s.show_path = True, True
+    # compare: an imported motion beside the generated one, side by side (never overlapping), a new key
     generated = s.current
     s.show_motion(real_joints[:50], title="imported: walk")
     s.show(generated)
     s.compare = "imported: walk"
-    spec = viewer.spec()
-    assert len(spec.motions) == 2 and spec.n_frames == 60
-    assert r.wait_until_done(120)
-    pair = _decode(r.frame_bytes(0))
-    assert pair.shape == (COMPARE_SIZE[1], COMPARE_SIZE[0], 3)
+    pair = viewer.player.scene
+    assert viewer.motion_key > key and [r["n_frames"] for r in pair["roles"]] == [s.item.n_frames, 50]
+    assert pair["denoising"] is None and pair["n_frames"] == max(s.item.n_frames, 50)
+    a, b = (_scene_joints(r) for r in pair["roles"])
+    n = min(len(a), len(b))
+    assert (b[:n, :, 0].min(axis=1) - a[:n, :, 0].max(axis=1)).min() >= 0.6 - 1e-5  # 0.6 m apart at every frame
     assert viewer.compare_select.value == "imported: walk"
     viewer.compare_select.value = "(none)"
-    assert s.compare == ""
-    # camera follow / reset re-render the same motion in place (no new scene)
-    key = r.motion_key
-    s.follow = False
-    viewer.reset.clicks += 1
-    assert r.wait_until_done(120) and r.motion_key == key and not r.errors
+    assert s.compare == "" and len(viewer.player.scene["roles"]) == 1
+
+
+def test_viewer_shows_the_running_generation_live(tiny_model_dir):
+    """While sampling, the viewer gets the x̂0 motion (first step always), then the result's scene."""
+    st = Studio(model_dir=tiny_model_dir, initial=None)
+    try:
+        sent = []
+        st.viewer.player._send_msg = sent.append
+        s = st.state
+        s.param.update(prompt="a person jumps twice", seconds=2.0, steps=12, record_steps=2, seed=3)
+        assert s.generate() and s.wait(120)
+        previews = [m for m in sent if m["type"] == "preview"]
+        assert previews and previews[0]["step"] == 1 and all(m["num_steps"] == 12 for m in previews)
+        assert [m["step"] for m in previews] == sorted(m["step"] for m in previews)
+        assert all(m["key"] == st.viewer.motion_key and m["n_frames"] == 40 for m in previews)
+        assert st.viewer.player.scene["denoising"]["recorded"] == [1, 12] and s.preview is None
+        # a cancelled run drops its live motion: the page goes back to what it showed
+        sent.clear()
+        s.param.update(steps=1000, seed=4)
+        assert s.generate()
+        deadline = time.monotonic() + 60
+        while not any(m["type"] == "preview" for m in sent) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        s.cancel()
+        assert s.wait(60)
+        assert sent[-1] == {"type": "preview_end"}
+    finally:
+        st.close()
 
 
 def _run_async(coro):

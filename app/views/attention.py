@@ -77,9 +77,12 @@ class AttentionExplorer(pn.viewable.Viewer):
         self.heatmap_pane = pn.pane.Bokeh(self.heatmap, margin=(0, 10))
         self.row_pane = pn.pane.Bokeh(self.row_fig, margin=(0, 10))
 
-        s.param.watch(self._on_current, "current")
-        s.param.watch(self._on_map_selection, ["layer", "head", "att_step"])
-        s.param.watch(self._on_word, "word")
+        # the maps are rebuilt after the change that caused them has reached the page (served: the next tick), so
+        # a new motion's scene is not held back behind them; several changes in one tick rebuild once
+        self._pending: set[str] = set()
+        s.param.watch(lambda *_: self._later("current"), "current")
+        s.param.watch(lambda *_: self._later("maps"), ["layer", "head", "att_step"])
+        s.param.watch(lambda *_: self._later("word"), "word")
         s.param.watch(self._on_frame, ["frame", "playing"])
         s.edit.param.watch(self._on_peaks, "count_result")
         self._on_current()
@@ -145,6 +148,22 @@ class AttentionExplorer(pn.viewable.Viewer):
         self.row_fig = row
 
     # ------------------------------------------------------------------ state -> views
+    def _later(self, what: str) -> None:
+        first = not self._pending
+        self._pending.add(what)
+        if first:
+            self.state.post(self._flush)  # no server: at once
+
+    def _flush(self) -> None:
+        pending, self._pending = self._pending, set()
+        if "current" in pending:
+            self._on_current()  # maps, word and frame included
+            return
+        if "maps" in pending:
+            self._on_map_selection()
+        if "word" in pending:
+            self._on_word()
+
     def _on_current(self, *_):
         record = self.state.attention
         item = self.state.item

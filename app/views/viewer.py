@@ -1,22 +1,23 @@
-"""The skeleton viewer: server-rendered pyvista frames played in the browser, compare, camera controls."""
+"""The skeleton viewer: a 3-D view drawn in the browser (orbit, pan, zoom, playback), live denoising, compare."""
 from __future__ import annotations
 
 import panel as pn
 import param
 
-from app.components.player import FramePlayer
+from app.components.skeleton_view import SkeletonView
 from app.dueting import is_duet
-from app.frames import FrameBatch, FrameRenderer, SceneSpec
+from app.scene_payload import SceneSpec, preview_message, scene_message
 from app.state import StudioState
 
 NONE = "(none)"
 
 
 class SkeletonViewer(pn.viewable.Viewer):
-    """Play / pause / scrub the session's motion; compare with a second one side by side.
+    """Play / pause / scrub the session's motion, orbit around it; compare with a second one side by side.
 
-    One ``SkeletonScene`` per session lives on the renderer's thread; it is rebuilt only when the
-    motions change, and follow / path / colours / camera are updated in place (then frames re-render).
+    The server sends the browser one scene per change of what is shown (``scene_message``); every frame,
+    camera move and colour lookup happens in the page. While a generation samples, its x̂0 motion is shown
+    live (``state.preview``); afterwards the denoising steps can be scrubbed like the frames.
     """
 
     state = param.ClassSelector(class_=StudioState)
@@ -24,14 +25,13 @@ class SkeletonViewer(pn.viewable.Viewer):
     def __init__(self, **params):
         super().__init__(**params)
         s = self.state
-        self.player = FramePlayer(sizing_mode="stretch_width", min_height=400, css_classes=["skeleton-view"])
-        self.player.on_hello = self._resend
-        self.player.on_need = lambda k: self.renderer.prioritize(k)
+        self.player = SkeletonView(sizing_mode="stretch_width", min_height=420, css_classes=["skeleton-view"],
+                                   follow=s.follow, show_path=s.show_path)
         self.player.on_frame = self._on_playhead
         self._playhead = None  # frame reported by the playing page (player.frame is then stale)
-        self.renderer = FrameRenderer(on_frames=self._on_frames)
-        self._azimuth = 0.0
-        self._camera_serial = 0
+        self._spec: SceneSpec | None = None
+        self.motion_key = 0
+        self._preview_key = 0  # the key of the live preview shown, 0: none
         self._syncing = False
 
         self.show_select = pn.widgets.Select(label="Motion", options=[], width=215, css_classes=["motion-select"])
@@ -40,12 +40,6 @@ class SkeletonViewer(pn.viewable.Viewer):
         self.follow = pn.widgets.Checkbox.from_param(s.param.follow, label="camera follows")
         self.path = pn.widgets.Checkbox.from_param(s.param.show_path, label="root path")
         self.color = pn.widgets.Checkbox.from_param(s.param.color_by_word, label="colour by word attention")
-        self.reset = pn.widgets.Button(label="Reset camera", width=110, css_classes=["reset-camera"])
-        self.left = pn.widgets.Button(label="⟲ 45°", width=64, css_classes=["orbit-left"])
-        self.right = pn.widgets.Button(label="⟳ 45°", width=64, css_classes=["orbit-right"])
-        self.reset.on_click(lambda _: self._camera(reset=True))
-        self.left.on_click(lambda _: self._camera(delta=-45.0))
-        self.right.on_click(lambda _: self._camera(delta=45.0))
         self.show_select.param.watch(self._on_show_select, "value")
         self.compare_select.param.watch(self._on_compare_select, "value")
         self.player.param.watch(self._on_player_frame, "frame")
@@ -55,19 +49,12 @@ class SkeletonViewer(pn.viewable.Viewer):
         s.param.watch(self._on_current, ["current", "compare", "also"])
         s.param.watch(self._refresh, "frame_colors")
         s.param.watch(self._on_frame, "frame")
-        s.param.watch(self._refresh, ["follow", "show_path", "color_by_word"])
+        s.param.watch(lambda e: setattr(self.player, e.name, e.new), ["follow", "show_path"])
+        s.param.watch(self._refresh, "color_by_word")
         s.param.watch(self._on_word_selection, ["word", "att_step", "head"])
+        s.param.watch(self._on_preview, "preview")
         self._on_items()
         self._on_current()
-
-    # ------------------------------------------------------------------ renderer plumbing
-    def _on_frames(self, batch: FrameBatch) -> None:
-        self.player.push(batch)
-
-    def _resend(self) -> None:
-        snap = self.renderer.snapshot()
-        if snap.frames:
-            self.player.push(snap)
 
     def spec(self) -> SceneSpec | None:
         s = self.state
@@ -89,32 +76,31 @@ class SkeletonViewer(pn.viewable.Viewer):
         if colors and s.transfer.color_by != "roles":
             title = f"colour: {s.transfer.color_by} (legend in the Transfer tab)"
         return SceneSpec(motions=tuple(motions), follow=s.follow, show_path=s.show_path, frame_values=values,
-                         role_colors=tuple(colors), azimuth_offset=self._azimuth, camera_serial=self._camera_serial,
-                         title=_fit(title), guides=self._same_guides(tuple(guides)), together=is_duet(shown))
-
-    def _same_guides(self, guides: tuple) -> tuple:
-        """The previous tuple when the guides did not change (the renderer redraws them on a new object only)."""
-        old = getattr(self, "_guides", ())
-        same = len(old) == len(guides) and all(a[0] == b[0] and a[2] is b[2] for a, b in zip(old, guides))
-        self._guides = old if same else guides
-        return self._guides
+                         role_colors=tuple(colors), title=title, guides=tuple(guides), together=is_duet(shown),
+                         denoising=item.denoising if len(shown) == 1 else None)
 
     def _refresh(self, *_):
         spec = self.spec()
-        self.player.n_frames = 0 if spec is None else spec.n_frames
-        key = self.renderer.motion_key
-        self.renderer.show(spec, frame=self.state.frame)
-        if spec is not None and self.renderer.motion_key != key:
-            self.player.announce(motion_key=self.renderer.motion_key, version=self.renderer.version,
-                                 n_frames=spec.n_frames, title=spec.title or " | ".join(r for r, _ in spec.motions))
+        if spec is None or not spec.same_motions(self._spec):
+            self.motion_key += 1
+        self._spec = spec
+        frame = 0 if spec is None else min(self.state.frame, spec.n_frames - 1)
+        with param.parameterized.batch_call_watchers(self.player):
+            self.player.frame = frame
+            self.player.scene = scene_message(spec, key=self.motion_key, job=self.state.last_job)
 
     # ------------------------------------------------------------------ events
-    def _camera(self, *, reset: bool = False, delta: float = 0.0) -> None:
-        if reset:
-            self._azimuth = 0.0
-        self._azimuth += delta
-        self._camera_serial += 1
-        self._refresh()
+    def _on_preview(self, event) -> None:
+        p = event.new
+        if p is None:
+            if self._preview_key > self.motion_key:  # no result took its place (cancelled, failed)
+                self.player.end_preview()
+            self._preview_key = 0
+            return
+        # the preview's key is the next scene's: a result shown later supersedes it, a late preview is dropped
+        self._preview_key = self.motion_key + 1
+        self.player.preview(preview_message(p.joints, key=self._preview_key, step=p.step, num_steps=p.num_steps,
+                                            title=p.title))
 
     def _on_items(self, *_):
         names = list(self.state.items)
@@ -162,7 +148,6 @@ class SkeletonViewer(pn.viewable.Viewer):
         self.state.post(apply)
 
     def _on_frame(self, event):
-        self.renderer.prioritize(event.new)
         if self._playhead is not None and self._playhead == event.new:
             return  # the page told us: nothing to send back
         self._playhead = None
@@ -175,22 +160,17 @@ class SkeletonViewer(pn.viewable.Viewer):
         if event.new != self.state.frame:
             self.state.pick_frame(event.new)
 
+    def link_cursors(self, ids: list[str]) -> None:
+        """Bokeh ``Span`` ids (the attention views' frame cursors) that the page moves with the playhead."""
+        self.player.cursor_ids = list(ids)
+
     def close(self) -> None:
         self.player.closed = True
-        self.renderer.close()
 
     def __panel__(self):
-        controls = pn.Row(self.follow, self.path, self.reset, self.left, self.right, align="center")
+        controls = pn.Row(self.follow, self.path, self.color, align="center")
         selects = pn.Row(self.show_select, self.compare_select)
-        return pn.Column(selects, self.player, controls, self.color, sizing_mode="stretch_width",
-                         css_classes=["viewer"])
-
-
-TITLE_CHARS = 42  # what fits left of the "frame N / M" label on the 480-px picture
-
-
-def _fit(title: str) -> str:
-    return title if len(title) <= TITLE_CHARS else title[: TITLE_CHARS - 1] + "…"
+        return pn.Column(selects, self.player, controls, sizing_mode="stretch_width", css_classes=["viewer"])
 
 
 def _role(name: str, avoid: list[str] | tuple[str, ...] = ()) -> str:

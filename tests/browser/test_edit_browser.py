@@ -37,10 +37,10 @@ def test_emphasis_from_the_edit_tab(browser, server_url, screens):
         page.locator(".edit-run button").click()
         # progress, then the result: both motions in the viewer, every frame delivered
         page.locator(".edit-result", has_text="emphasise 'jumps' +0.50").wait_for(timeout=180000)
-        # at once the viewer drops the old motion: the new one's frames, or its title while they are drawn
+        # at once the viewer shows the new motions (the browser draws them: no frames to wait for)
         page.wait_for_function(
-            f"window.moattnPlayer.motion_key !== {key_before} && (window.moattnPlayer.placeholder === "
-            "window.moattnPlayer.motion_key || window.moattnPlayer.motion_key in window.moattnPlayer.first_draw)",
+            f"window.moattnPlayer.motion_key !== {key_before} && window.moattnPlayer.motion_key in "
+            "window.moattnPlayer.first_draw && window.moattnPlayer.roles[window.moattnPlayer.motion_key] === 2",
             timeout=3000)
         br.wait_new_motion(page, key_before)
         page.wait_for_timeout(800)
@@ -51,7 +51,7 @@ def test_emphasis_from_the_edit_tab(browser, server_url, screens):
 
         # two skeletons side by side: the edited one (blue, left) and the reference (orange, right)
         img = _img(canvas)
-        assert img.shape[1] / img.shape[0] > 1.7, f"not the wide (720 x 360) compare view: {img.shape}"
+        assert img.shape[1] >= 400, f"the viewer is narrower than its column: {img.shape}"
         r, g, b = img[..., 0], img[..., 1], img[..., 2]
         blue = (b - r > 60) & (b > 120)
         orange = (r - b > 80) & (r > 180) & (g > 80)

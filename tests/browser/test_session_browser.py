@@ -62,7 +62,7 @@ def test_the_viewer_stays_in_sight_while_a_long_tab_scrolls(page, screens):
         page.mouse.wheel(0, 400)
         page.wait_for_timeout(80)
     page.wait_for_timeout(600)
-    box = page.locator(".skeleton-view").bounding_box()
+    box = page.locator(".skeleton-view canvas").bounding_box()
     viewport = page.viewport_size
     (screens / "session_sticky_viewer.png").write_bytes(page.screenshot())
     assert box is not None and box["y"] >= 0 and box["y"] + box["height"] <= viewport["height"], box

@@ -1,0 +1,69 @@
+"""``SkeletonView``: the studio's 3-D viewer, drawn in the browser (``skeleton_view.js``; no CDN, no WebGL).
+
+The server sets ``scene`` (``app.scene_payload.scene_message``) once per change of what is shown; the
+page draws every frame, orbit, pan and zoom itself, interpolating poses between the motion's frames.
+While sampling, :meth:`preview` sends the current x̂0 motion as a custom message; the page shows it
+until the result's scene arrives (or :meth:`end_preview`, on cancel or error).
+
+``frame`` and ``playing`` sync both ways. While playing, the page moves the attention views' frame
+cursors itself (``cursor_ids``: Bokeh ``Span`` ids) and reports the playhead with a ``{"type": "frame"}``
+message at most every ``sync_ms``. ``window.moattnPlayer`` exposes counters for tests and
+``moattn bench --app``: ``draws``, ``distinct``, ``draw_ms``, ``n_frames``, ``motion_key``,
+``first_draw`` / ``scene_at`` / ``preview_first`` (performance.now() per key), ``previews``, ``camera``.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import panel as pn
+import param
+
+
+class SkeletonView(pn.custom.JSComponent):
+    scene = param.Dict(default={}, doc="what is drawn (app.scene_payload.scene_message)")
+    frame = param.Integer(default=0, bounds=(0, None))
+    playing = param.Boolean(default=False)
+    loop = param.Boolean(default=True)
+    follow = param.Boolean(default=True, doc="the camera follows the pelvis")
+    show_path = param.Boolean(default=True, doc="draw root paths and guides")
+    cursor_ids = param.List(default=[], item_type=str, doc="Bokeh Span ids the page moves with the playhead")
+    sync_ms = param.Integer(default=250, bounds=(0, None),
+                            doc="while playing, send the frame to the server at most this often (0: only on pause)")
+
+    _esm = Path(__file__).with_name("skeleton_view.js")
+
+    _stylesheets = ["""
+.moattn-viewer3d { display: flex; flex-direction: column; gap: 4px; width: 100%; }
+.moattn-viewer3d-canvas { border: 1px solid #d0d7e2; border-radius: 4px; background: #eef2f7; outline: none; }
+.moattn-player-bar, .moattn-step-bar { display: flex; align-items: center; gap: 8px; contain: layout paint; }
+.moattn-play { min-width: 84px; padding: 4px 8px; cursor: pointer; }
+.moattn-scrub, .moattn-step-scrub { flex: 1; }
+.moattn-frame-label { font: 12px monospace; color: #445; min-width: 70px; }
+.moattn-step-name, .moattn-step-label { font: 12px sans-serif; color: #445; }
+.moattn-save-png, .moattn-reset-view { padding: 4px 8px; cursor: pointer; }
+.moattn-viewer-hint { font: 11px sans-serif; color: #778; }
+"""]
+
+    def __init__(self, **params):
+        super().__init__(**params)
+        self.on_frame: Callable[[int], None] | None = None
+        self.closed = False  # the session is gone: nothing more is sent
+
+    def preview(self, message: dict) -> None:
+        """Show a live x̂0 motion (``app.scene_payload.preview_message``)."""
+        if not self.closed:
+            self._send_msg(message)
+
+    def end_preview(self) -> None:
+        """Drop a live preview (the job was cancelled or failed): the last result shows again."""
+        if not self.closed:
+            self._send_msg({"type": "preview_end"})
+
+    def _handle_msg(self, msg) -> None:
+        kind = msg.get("type") if isinstance(msg, dict) else None
+        if kind == "frame" and self.on_frame is not None:
+            try:
+                self.on_frame(int(msg["frame"]))
+            except (KeyError, TypeError, ValueError):
+                pass
