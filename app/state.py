@@ -118,7 +118,8 @@ class StudioState(param.Parameterized):
             self.transfer = TransferSettings(tokenizer=self.tokenizer)
         self.transfer.param.watch(lambda *_: paint_clusters(self), ["color_by", "result", "analysed"])
         self.param.watch(self._analyse_prompt, "prompt")
-        self.param.watch(self._auto_count, "current")
+        # counted after the new motion has reached the page (served: the next tick), not before its scene
+        self.param.watch(lambda *_: self.post(self._auto_count), "current")
         self._analyse_prompt()
 
     # ------------------------------------------------------------------ threading
@@ -375,6 +376,13 @@ class StudioState(param.Parameterized):
             self.status = status
 
     def _finish(self, result: GenerationResult | None, message: str, level: str) -> None:
+        if result is not None:
+            # the motion first: its scene leaves for the page before the status line and the buttons change
+            s = result.settings
+            self.add_item(MotionItem(name=self.unique_name(f"{s.prompt} · seed {s.seed}"), joints=result.joints,
+                                     source="generated", prompt=s.prompt, words=result.words,
+                                     attention=result.attention, features=result.features, settings=s,
+                                     denoising=result.denoising, info={"seconds_taken": result.seconds_taken}))
         with param.parameterized.batch_call_watchers(self):
             self.running = False
             self.preview = None
@@ -387,16 +395,8 @@ class StudioState(param.Parameterized):
                 auto = " (length from the prompt)" if s.seconds is None else ""
                 self.status = (f"{s.prompt!r}: {len(result.joints)} frames{auto} in {result.seconds_taken:.1f} s "
                                f"({s.steps} steps)")
-        if result is None:
-            if level:
-                self._notify(level, message)
-            return
-        s = result.settings
-        item = MotionItem(name=self.unique_name(f"{s.prompt} · seed {s.seed}"), joints=result.joints,
-                          source="generated", prompt=s.prompt, words=result.words, attention=result.attention,
-                          features=result.features, settings=s, denoising=result.denoising,
-                          info={"seconds_taken": result.seconds_taken})
-        self.add_item(item)
+        if result is None and level:
+            self._notify(level, message)
 
     # ------------------------------------------------------------------ edits (MotionCLR)
     def run_edit(self) -> bool:

@@ -172,7 +172,7 @@ export function render({ model, el, view }) {
     const radius = 0.5 * Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) + 0.1;
     const aspect = canvas.width / Math.max(1, canvas.height);
     const half = Math.min(FOV / 2, Math.atan(Math.tan(FOV / 2) * aspect));
-    cam.dist = Math.max(0.5, radius / Math.sin(half) * 1.08);
+    cam.dist = Math.max(0.5, radius / Math.sin(half) * 1.0);
     dirty = true;
   }
 
@@ -431,6 +431,7 @@ export function render({ model, el, view }) {
     if (canvas.width !== w || canvas.height !== h) {
       const refit = !canvas.width || Math.abs(canvas.width / canvas.height - w / h) > 0.01;
       canvas.width = w; canvas.height = h;
+      canvas.style.height = `${h}px`;  // its own layer (contain: strict) needs a stated height
       if (refit && scene) fit();
       dirty = true;
     }

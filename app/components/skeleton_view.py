@@ -35,7 +35,8 @@ class SkeletonView(pn.custom.JSComponent):
 
     _stylesheets = ["""
 .moattn-viewer3d { display: flex; flex-direction: column; gap: 4px; width: 100%; }
-.moattn-viewer3d-canvas { border: 1px solid #d0d7e2; border-radius: 4px; background: #eef2f7; outline: none; }
+.moattn-viewer3d-canvas { border: 1px solid #d0d7e2; border-radius: 4px; background: #eef2f7; outline: none;
+  will-change: transform; contain: strict; }
 .moattn-player-bar, .moattn-step-bar { display: flex; align-items: center; gap: 8px; contain: layout paint; }
 .moattn-play { min-width: 84px; padding: 4px 8px; cursor: pointer; }
 .moattn-scrub, .moattn-step-scrub { flex: 1; }
