@@ -47,6 +47,9 @@ def test_transfer_from_two_prompts(browser, server_url, screens):
         # three skeletons side by side in role colours: leader (blue), follower (orange), out (green), left to right
         img = _img(canvas)
         assert br.player_stats(page)["roles"][str(br.player_stats(page)["motion_key"])] == 3
+        # the three play together, drawn by the page (no frames to wait for)
+        played = br.measure_draw_rate(page, 1.0)
+        assert played["draws"] >= 10, played
         masks = _role_pixels(img)
         counts = {k: int(m.sum()) for k, m in masks.items()}
         assert all(c > 150 for c in counts.values()), counts
