@@ -50,6 +50,11 @@ def test_transfer_from_two_prompts(browser, server_url, screens):
         # the three play together, drawn by the page (no frames to wait for)
         played = br.measure_draw_rate(page, 1.0)
         assert played["draws"] >= 10, played
+        scrub = page.locator(".moattn-scrub")
+        scrub.focus()
+        scrub.press("Home")  # back to frame 0 (on the server too) before a click picks a frame below
+        page.wait_for_function("window.moattnPlayer.frame === 0", timeout=5000)
+        page.wait_for_timeout(300)
         masks = _role_pixels(img)
         counts = {k: int(m.sum()) for k, m in masks.items()}
         assert all(c > 150 for c in counts.values()), counts
