@@ -37,7 +37,6 @@ class Studio:
         self.controls = GenerateControls(state=self.state)
         self.viewer = SkeletonViewer(state=self.state)
         self.attention = AttentionExplorer(state=self.state)
-        self.viewer.link_cursors([self.attention.curve_cursor.id])
         self.edit = EditTab(state=self.state)
         self.transfer = TransferTab(state=self.state)
         self.compose = ComposeTab(state=self.state)

@@ -84,6 +84,9 @@ class StudioState(param.Parameterized):
     preview = param.ClassSelector(class_=Preview, default=None, allow_None=True,
                                   doc="the running generation's x̂0 motion (None: no live preview)")
     frame = param.Integer(default=0, bounds=(0, None), doc="the playhead")
+    cursor_ids = param.List(default=[], item_type=str,
+                            doc="Bokeh models (frame cursors, e.g. a Span) whose location the page moves with the "
+                                "playhead while it plays (see follow_playhead)")
     playing = param.Boolean(default=False, doc="the browser is playing the motion")
 
     # ---- viewer settings
@@ -112,6 +115,7 @@ class StudioState(param.Parameterized):
         self.last_job: tuple[float, float] | None = None  # (start, end) of the last job that finished, wall clock
         self.notices: list[tuple[str, str]] = []  # history (level, text), newest last
         self._closed = False
+        self._page_seen = False  # a page has been connected to this session (see _page_gone)
         if self.edit is None:
             self.edit = EditConfig()
         if self.transfer is None:
@@ -144,6 +148,8 @@ class StudioState(param.Parameterized):
         from panel.io.state import set_curdoc
 
         def run():
+            if self._page_gone(doc):
+                return  # its page was closed or reloaded: nobody to show it to (Bokeh would warn on every send)
             with set_curdoc(doc):
                 try:
                     fn()
@@ -155,6 +161,19 @@ class StudioState(param.Parameterized):
             doc.add_next_tick_callback(run)
         except Exception:  # the session is gone
             pass
+
+    def _page_gone(self, doc) -> bool:
+        """Whether the session's page has been connected and is no more (its session lingers until discarded).
+
+        A page being built has no connection yet: what is posted then is part of what it will receive."""
+        context = doc.session_context
+        session = None if context is None else context.session
+        if session is None:
+            return False
+        if session.connection_count > 0:
+            self._page_seen = True
+            return False
+        return self._page_seen
 
     # ------------------------------------------------------------------ model
     @property
@@ -599,6 +618,12 @@ class StudioState(param.Parameterized):
 
     def selection(self) -> dict:
         return {"step": self.att_step, "layer": self.layer, "head": self.head}
+
+    def follow_playhead(self, cursor) -> None:
+        """A view's frame cursor (a Bokeh model with a ``location``) follows playback in the page itself; the
+        server's ``frame`` changes only when playback stops."""
+        if cursor.id not in self.cursor_ids:
+            self.cursor_ids = [*self.cursor_ids, cursor.id]
 
     def pick_frame(self, frame: int) -> None:
         """Move the playhead (from a click in an attention view)."""

@@ -103,7 +103,7 @@ export function render({ model, el, view }) {
   let scene = null;       // what is drawn (a result scene or a live preview)
   let result = null;      // the last result scene (shown again if a preview is dropped)
   let pos = 0;            // playhead, in frames (fractional while playing)
-  let playing = false, t0 = 0, p0 = 0, lastSync = 0, lastLabel = 0, dirty = true, lastInt = -1;
+  let playing = false, t0 = 0, p0 = 0, lastLabel = 0, dirty = true, lastInt = -1;
   let stepIndex = -1;     // denoising step shown (-1: the final motion)
   const cam = {az: 0, el: 18, dist: 4, target: [0, 1, 0], rel: true};
   const stats = {draws: 0, distinct: 0, distinct_at: 0, skipped: 0, last_drawn: -1, loaded: 0, n_frames: 0,
@@ -337,7 +337,6 @@ export function render({ model, el, view }) {
       pos = p; dirty = true;
       const ki = Math.round(pos);
       if (ki !== lastInt) { lastInt = ki; moveCursors(ki); }
-      if (model.sync_ms > 0 && now - lastSync > model.sync_ms) { lastSync = now; model.send_msg({type: "frame", frame: ki}); }
     }
     if (dirty) { dirty = false; draw(); updateLabel(false); }
   }

@@ -5,15 +5,14 @@ page draws every frame, orbit, pan and zoom itself, interpolating poses between 
 While sampling, :meth:`preview` sends the current x̂0 motion as a custom message; the page shows it
 until the result's scene arrives (or :meth:`end_preview`, on cancel or error).
 
-``frame`` and ``playing`` sync both ways. While playing, the page moves the attention views' frame
-cursors itself (``cursor_ids``: Bokeh ``Span`` ids) and reports the playhead with a ``{"type": "frame"}``
-message at most every ``sync_ms``. ``window.moattnPlayer`` exposes counters for tests and
+``frame`` and ``playing`` sync both ways; while playing, the page moves the attention views' frame cursors
+itself (``cursor_ids``: Bokeh ``Span`` ids) and tells the server the frame only when playback stops, so
+playback costs the server nothing. ``window.moattnPlayer`` exposes counters for tests and
 ``moattn bench --app``: ``draws``, ``distinct``, ``draw_ms``, ``n_frames``, ``motion_key``,
 ``first_draw`` / ``scene_at`` / ``preview_first`` (performance.now() per key), ``previews``, ``camera``.
 """
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 
 import panel as pn
@@ -28,8 +27,6 @@ class SkeletonView(pn.custom.JSComponent):
     follow = param.Boolean(default=True, doc="the camera follows the pelvis")
     show_path = param.Boolean(default=True, doc="draw root paths and guides")
     cursor_ids = param.List(default=[], item_type=str, doc="Bokeh Span ids the page moves with the playhead")
-    sync_ms = param.Integer(default=250, bounds=(0, None),
-                            doc="while playing, send the frame to the server at most this often (0: only on pause)")
 
     _esm = Path(__file__).with_name("skeleton_view.js")
 
@@ -48,7 +45,6 @@ class SkeletonView(pn.custom.JSComponent):
 
     def __init__(self, **params):
         super().__init__(**params)
-        self.on_frame: Callable[[int], None] | None = None
         self.closed = False  # the session is gone: nothing more is sent
 
     def preview(self, message: dict) -> None:
@@ -60,11 +56,3 @@ class SkeletonView(pn.custom.JSComponent):
         """Drop a live preview (the job was cancelled or failed): the last result shows again."""
         if not self.closed:
             self._send_msg({"type": "preview_end"})
-
-    def _handle_msg(self, msg) -> None:
-        kind = msg.get("type") if isinstance(msg, dict) else None
-        if kind == "frame" and self.on_frame is not None:
-            try:
-                self.on_frame(int(msg["frame"]))
-            except (KeyError, TypeError, ValueError):
-                pass

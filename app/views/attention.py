@@ -101,6 +101,7 @@ class AttentionExplorer(pn.viewable.Viewer):
         self.curve_cursor = Span(location=0, dimension="height", line_color="#d62728", line_width=2,
                                  line_dash="dashed", level="overlay")
         fig.add_layout(self.curve_cursor)
+        self.state.follow_playhead(self.curve_cursor)
         self.curve_src.selected.on_change("indices", self._on_curve_selected)
         fig.on_event(Tap, self._on_curve_tap)
         fig.x_range = Range1d(0, 1)

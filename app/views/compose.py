@@ -198,6 +198,7 @@ class ComposeTab(pn.viewable.Viewer):
         self.playhead = Span(location=0, dimension="height", line_color="#111", line_width=2, visible=False,
                              level="overlay")
         fig.add_layout(self.playhead)
+        self.state.follow_playhead(self.playhead)
         fig.yaxis.visible = False
         fig.ygrid.visible = False
         fig.title.text_font_size = "11px"

@@ -26,9 +26,7 @@ class SkeletonViewer(pn.viewable.Viewer):
         super().__init__(**params)
         s = self.state
         self.player = SkeletonView(sizing_mode="stretch_width", min_height=420, css_classes=["skeleton-view"],
-                                   follow=s.follow, show_path=s.show_path)
-        self.player.on_frame = self._on_playhead
-        self._playhead = None  # frame reported by the playing page (player.frame is then stale)
+                                   follow=s.follow, show_path=s.show_path, cursor_ids=list(s.cursor_ids))
         self._spec: SceneSpec | None = None
         self.motion_key = 0
         self._preview_key = 0  # the key of the live preview shown, 0: none
@@ -53,6 +51,7 @@ class SkeletonViewer(pn.viewable.Viewer):
         s.param.watch(self._refresh, "color_by_word")
         s.param.watch(self._on_word_selection, ["word", "att_step", "head"])
         s.param.watch(self._on_preview, "preview")
+        s.param.watch(lambda e: setattr(self.player, "cursor_ids", list(e.new)), "cursor_ids")
         self._on_items()
         self._on_current()
 
@@ -138,19 +137,7 @@ class SkeletonViewer(pn.viewable.Viewer):
         if self.state.color_by_word:
             self._refresh()
 
-    def _on_playhead(self, frame: int) -> None:
-        # a custom message from the page arrives outside the document's lock: the change is scheduled on the
-        # session's document (changing it here raised "_pending_writes should be non-None" during playback)
-        def apply() -> None:
-            self._playhead = frame
-            self.state.pick_frame(frame)
-
-        self.state.post(apply)
-
     def _on_frame(self, event):
-        if self._playhead is not None and self._playhead == event.new:
-            return  # the page told us: nothing to send back
-        self._playhead = None
         if self.player.frame != event.new:
             self.player.frame = event.new
         else:
@@ -159,10 +146,6 @@ class SkeletonViewer(pn.viewable.Viewer):
     def _on_player_frame(self, event):
         if event.new != self.state.frame:
             self.state.pick_frame(event.new)
-
-    def link_cursors(self, ids: list[str]) -> None:
-        """Bokeh ``Span`` ids (the attention views' frame cursors) that the page moves with the playhead."""
-        self.player.cursor_ids = list(ids)
 
     def close(self) -> None:
         self.player.closed = True
