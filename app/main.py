@@ -7,18 +7,18 @@ from pathlib import Path
 import panel as pn
 
 from app.hosts import allowed_hosts, host_guard
-from app.items import MAX_UPLOAD_BYTES
-from app.state import StudioState
+from app.session.items import MAX_UPLOAD_BYTES
+from app.session.state import StudioState
 from app.theme import Fast as OfflineFast
-from app.views.attention import AttentionExplorer
-from app.views.compose import ComposeTab
-from app.views.control import ControlTab
-from app.views.control_canvas import allow_hold_then_draw
-from app.views.duet import DuetTab
-from app.views.controls import GenerateControls
-from app.views.edit import EditTab
-from app.views.files import ExportPanel, ImportPanel
-from app.views.transfer import TransferTab
+from app.tabs.attention.view import AttentionExplorer
+from app.tabs.compose.view import ComposeTab
+from app.tabs.control.view import ControlTab
+from app.tabs.control.canvas import allow_hold_then_draw
+from app.tabs.duet.view import DuetTab
+from app.tabs.generate.view import GenerateControls
+from app.tabs.edit.view import EditTab
+from app.tabs.files.view import ExportPanel, ImportPanel
+from app.tabs.transfer.view import TransferTab
 from app.views.viewer import SkeletonViewer
 from engine.paths import ASSETS, MODEL_DIR
 
@@ -162,8 +162,8 @@ def preload(loaded, *, controls_dir: Path | None = None, duet_dir: Path | None =
     """Load the control models and the duet model on the base model, and import what a generation needs, before
     the first page (each is cached per server, so the first visitor's page builds as fast as the next ones). A
     missing or unusable folder is not an error here: its tab says why."""
-    from app.controlling import control_models
-    from app.dueting import duet_model
+    from app.tabs.control.job import control_models
+    from app.tabs.duet.job import duet_model
     from engine.paths import CONTROL_DIR, DUET_DIR
 
     control_models(controls_dir or CONTROL_DIR, base=loaded)

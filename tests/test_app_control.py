@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.controlling import DEFAULT_ROOT, ControlSettings, thin
+from app.tabs.control.job import DEFAULT_ROOT, ControlSettings, thin
 from app.main import Studio
-from app.views.control import ControlTab
+from app.tabs.control.view import ControlTab
 from engine.methods.paths import RootPath
 
 pytestmark = pytest.mark.timeout(600)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from app.attention_record import AttentionRecord
-from app.editing import alignment, word_choice
+from app.tabs.edit.job import alignment, word_choice
 from app.main import Studio
 from app.testing import tiny_model
 from engine.methods.edit_options import EditOptions, build_config
@@ -139,7 +139,7 @@ def test_example_based_and_style_transfer_with_session_sources(studio):
     assert np.abs(outs[0].joints - outs[1].joints).max() > 1e-3  # diverse outputs
     # style transfer: sources among the session's motions. A generated one is used through its prompt, an
     # imported one as joints (DDIM-inverted by the engine function).
-    from app.editing import resolve_source
+    from app.tabs.edit.job import resolve_source
 
     imported = s.show_motion(_plain(studio).joints[:41], title="imported: jumps")
     tab.kind.value = "style transfer"
@@ -220,7 +220,7 @@ def _periodic_record(n: int = 128, period: int = 32, words=("a", "person", "jump
 
 
 def test_counting_readout_shows_count_baseline_and_peaks(studio):
-    from app.state import MotionItem
+    from app.session.items import MotionItem
 
     s, tab, ex = studio.state, studio.edit, studio.attention
     t = np.arange(128)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from app.main import Studio
-from app.state import MAX_ITEMS_WITH_ATTENTION
+from app.session.items import MAX_ITEMS_WITH_ATTENTION
 
 
 @pytest.fixture(scope="module")

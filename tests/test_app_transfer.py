@@ -96,7 +96,7 @@ def test_picking_frames_and_cluster_colours(studio):
     assert len(colours) == 3 and "K cluster" in spec.title
     leader_rgb = colours[spec.motions[0][0]]
     assert leader_rgb.shape == (n, 3) and leader_rgb.dtype == np.uint8
-    from app.transfer import cluster_colors, hex_rgb, n_clusters
+    from app.tabs.transfer.job import cluster_colors, hex_rgb, n_clusters
 
     expected = hex_rgb(cluster_colors(view.analysis.k_labels["leader"], n_clusters(view)))
     np.testing.assert_array_equal(leader_rgb, expected)
@@ -137,7 +137,7 @@ def test_transfer_from_an_imported_motion(studio):
 
 
 def test_footwork_option_reaches_the_engine(studio):
-    from app.transfer import prepare
+    from app.tabs.transfer.job import prepare
 
     s, tab = studio.state, studio.transfer
     _set_prompts(tab, "a person walks forward", "a person jumps twice")

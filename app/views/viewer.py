@@ -5,9 +5,9 @@ import panel as pn
 import param
 
 from app.components.player import FramePlayer
-from app.dueting import is_duet
+from app.session.duets import is_duet
 from app.frames import FrameBatch, FrameRenderer, SceneSpec
-from app.state import StudioState
+from app.session.state import StudioState
 
 NONE = "(none)"
 

@@ -11,7 +11,7 @@ from collections.abc import Callable
 import panel as pn
 import param
 
-from app.state import StudioState
+from app.session.state import StudioState
 
 
 class JobBar(pn.viewable.Viewer):

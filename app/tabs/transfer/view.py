@@ -1,6 +1,6 @@
 """The Transfer tab (MoMo, "Monkey See, Monkey Do"): a leader (what and when) and a follower (how), each a prompt
 or an imported motion; layer and step windows; run off the UI thread with progress and cancel; then leader /
-follower / out side by side in the viewer and the analysis views (``app.views.transfer_plots``).
+follower / out side by side in the viewer and the analysis views (``app.tabs.transfer.plots``).
 
 All settings live on ``state.transfer`` (an ``app.transfer.TransferSettings``); the widgets only mirror it. The
 transfer itself is ``StudioState.run_transfer`` (checks, then the shared worker).
@@ -12,11 +12,11 @@ import html
 import panel as pn
 import param
 
-from app.state import StudioState
-from app.transfer import COLOR_BY, ROOT_LABELS, SourceSettings, describe_inversion, show_roles
-from app.views.controls import WORD_CSS, word_chips
-from app.views.jobs import JobBar, on_text
-from app.views.transfer_plots import TransferPlots
+from app.session.state import StudioState
+from app.tabs.transfer.job import COLOR_BY, ROOT_LABELS, SourceSettings, describe_inversion, show_roles
+from app.components.words import WORD_CSS, word_chips
+from app.components.jobbar import JobBar, on_text
+from app.tabs.transfer.plots import TransferPlots
 
 KIND_LABELS = {"prompt": "prompt", "imported motion": "motion"}
 NO_MOTION = "(import a motion)"
@@ -63,7 +63,7 @@ class SourcePicker(pn.viewable.Viewer):
             self.source.seconds = float(event.new)
 
     def _on_upload(self, event) -> None:
-        from app.views.files import import_bytes
+        from app.uploads import import_bytes
 
         if not event.new:
             return

@@ -2,7 +2,7 @@
 the second take, Generate with progress and cancel; the long motion in the viewer, coloured per interval with the
 transitions highlighted, and a timeline strip of the result (click it to move the viewer there).
 
-The settings live on ``ComposeSettings`` (``app.composing``); the widgets only mirror it.
+The settings live on ``ComposeSettings`` (``app.tabs.compose.job``); the widgets only mirror it.
 """
 from __future__ import annotations
 
@@ -14,9 +14,9 @@ from bokeh.events import Tap
 from bokeh.models import ColumnDataSource, LabelSet, Range1d, Span
 from bokeh.plotting import figure
 
-from app.composing import (FPS, INTERVAL_COLORS, TRANSITION_COLOR, ComposeSettings, start_compose, transition_at)
-from app.state import StudioState
-from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown, on_text
+from app.tabs.compose.job import (FPS, INTERVAL_COLORS, TRANSITION_COLOR, ComposeSettings, start_compose, transition_at)
+from app.session.state import StudioState
+from app.components.jobbar import UNKNOWN_CSS, JobBar, flag_unknown, on_text
 from engine.units import MAX_SECONDS
 
 HELP = ("Each interval is generated as its own clip; consecutive clips share a **handshake** (the end of one is the "

@@ -295,7 +295,7 @@ def start_transfer(state) -> bool:
 def finish(state, job: TransferJob, view: TransferView) -> None:
     """Session motions (leader, follower, out, then follower k / out k of any extra follower) side by side in
     the viewer; the analysis on the tab."""
-    from app.items import MotionItem
+    from app.session.items import MotionItem
 
     titles = {"leader": f"leader · {job.labels['leader']}"}
     prompts = {"leader": job.leader.prompt or ""}

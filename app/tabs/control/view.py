@@ -2,7 +2,7 @@
 view, set the prompt, the duration and the blend weights, pick the method, Generate; the motion in the viewer with
 the target paths drawn in 3-D, and the measured error.
 
-The settings live on ``ControlSettings`` (``app.controlling``); the canvases (``app.views.control_canvas``) and
+The settings live on ``ControlSettings`` (``app.tabs.control.job``); the canvases (``app.tabs.control.canvas``) and
 widgets only mirror it.
 """
 from __future__ import annotations
@@ -12,10 +12,10 @@ import html
 import panel as pn
 import param
 
-from app.controlling import LABELS, ControlSettings, describe, path_length, start_control
-from app.state import StudioState
-from app.views.control_canvas import FrontCanvas, TopDownCanvas
-from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown, on_text, table_rows
+from app.tabs.control.job import LABELS, ControlSettings, describe, path_length, start_control
+from app.session.state import StudioState
+from app.tabs.control.canvas import FrontCanvas, TopDownCanvas
+from app.components.jobbar import UNKNOWN_CSS, JobBar, flag_unknown, on_text, table_rows
 from engine.methods.paths import MAX_ROOT_SPEED
 from engine.units import MAX_SECONDS, MIN_SECONDS
 

@@ -16,8 +16,8 @@ from bokeh.models import ColumnDataSource, FactorRange, FixedTicker, HoverTool, 
 from bokeh.palettes import Viridis256
 from bokeh.plotting import figure
 
-from app.state import StudioState
-from app.transfer import ROLES, cluster_colors, cluster_palette, focused, index_colors, n_clusters
+from app.session.state import StudioState
+from app.tabs.transfer.job import ROLES, cluster_colors, cluster_palette, focused, index_colors, n_clusters
 from viz.geometry import BONE_CHILDREN, BONE_PARENTS
 
 WIDTH = 580

@@ -310,7 +310,7 @@ def start_control(state, settings: ControlSettings) -> bool:
 
 def finish(state, settings: ControlSettings, job: ControlJob, summary: ControlSummary) -> None:
     """The motion (in the path's world) becomes a session motion with its target paths as guides; shown."""
-    from app.items import MotionItem
+    from app.session.items import MotionItem
 
     joints = summary.joints
     title = f"control · {job.prompt} · {' + '.join(LABELS[n] for n in summary.controls)} · {job.method}"

@@ -186,7 +186,7 @@ def start_compose(state, settings: ComposeSettings) -> bool:
 
 def finish(state, settings: ComposeSettings, job: ComposeJob, result) -> None:
     """The long motion becomes a session motion, coloured per interval with its transitions highlighted."""
-    from app.items import MotionItem
+    from app.session.items import MotionItem
 
     n = len(result.joints)
     ends = [s + int(round(iv.seconds * FPS)) for s, iv in zip(result.starts, job.intervals)]

@@ -1,7 +1,7 @@
 """The Edit tab (MotionCLR): pick an edit, click a word of the prompt, set weights and windows, run it off the UI
 thread, see before / after side by side in the viewer; the counting readout with its peaks.
 
-All settings live on ``state.edit`` (an ``app.editing.EditConfig``); the widgets only mirror it. The edit
+All settings live on ``state.edit`` (an ``app.tabs.edit.job.EditConfig``); the widgets only mirror it. The edit
 itself is ``StudioState.run_edit`` (checks, then the shared worker with progress and cancel).
 """
 from __future__ import annotations
@@ -15,10 +15,10 @@ from bokeh.models import ColumnDataSource, HoverTool, LinearColorMapper, Range1d
 from bokeh.palettes import Viridis256
 from bokeh.plotting import figure
 
-from app.editing import KIND_HELP, KIND_LABELS, PROMPT_SOURCE, alignment
-from app.state import StudioState
-from app.views.jobs import WRAP_BUTTONS_CSS, JobBar, on_text
-from app.views.guard import SyncGuard
+from app.tabs.edit.job import KIND_HELP, KIND_LABELS, PROMPT_SOURCE, alignment
+from app.session.state import StudioState
+from app.components.jobbar import WRAP_BUTTONS_CSS, JobBar, on_text
+from app.components.guard import SyncGuard
 from engine.methods.edit_kinds import REGISTRY
 from engine.methods.motionclr import WEIGHT_RANGES
 
@@ -128,7 +128,7 @@ class EditTab(pn.viewable.Viewer):
 
     def pick_word(self, position: int) -> None:
         """What a click on the prompt's ``position``-th word does: the edit names that word (and which occurrence)."""
-        from app.editing import word_choice
+        from app.tabs.edit.job import word_choice
 
         word, occurrence = word_choice(self.state.prompt_words, position)
         self.state.edit.param.update(word=word, occurrence=occurrence)
@@ -248,7 +248,7 @@ class EditTab(pn.viewable.Viewer):
         if kind == "ground" and self.weight.value < 0:
             self.weight.value = abs(self.weight.value)
         if kind == "replace" and not e.edited:
-            from app.editing import _swap_example
+            from app.tabs.edit.job import _swap_example
 
             e.edited = " ".join(_swap_example(list(self.state.prompt_words)))
             self._sync(lambda: setattr(self.edited, "value", e.edited))

@@ -19,6 +19,7 @@ import numpy as np
 import param
 
 from app.generation import Cancelled, prompt_analysis, sampling_slot
+from app.session.duets import DuetPair
 from engine.io import seconds_number
 from engine.paths import DUET_DIR
 from engine.units import FPS
@@ -147,7 +148,7 @@ class DuetSettings(param.Parameterized):
 
     def add_upload(self, data: bytes, filename: str) -> str:
         """An uploaded duet .npy (2, T, 22, 3), parsed as data; its name in the prefix list."""
-        from app.items import MAX_UPLOAD_BYTES, upload_limit_text
+        from app.session.items import MAX_UPLOAD_BYTES, upload_limit_text
         from engine.io.npy import load_duet_npy
 
         if not data:
@@ -164,15 +165,6 @@ class DuetSettings(param.Parameterized):
         self.uploads = {**self.uploads, name: joints}
         self.prefix = name
         return name
-
-
-@dataclass
-class DuetPair:
-    """What a duet's two session motions share (``MotionItem.info["duet"]``)."""
-
-    first: str  # person a's motion name
-    second: str  # person b's
-    joints: np.ndarray  # (2, T, 22, 3), one frame
 
 
 @dataclass
@@ -284,7 +276,7 @@ def start_duet(state, settings: DuetSettings) -> bool:
 
 def finish(state, settings: DuetSettings, job: DuetJob, duet, seconds_taken: float) -> None:
     """The two people become two session motions shown together in one scene."""
-    from app.items import MotionItem
+    from app.session.items import MotionItem
     from engine.evaluation.bench_duet import face_each_other
     from viz.colors import ROLE_PALETTE, default_joint_colors
 
@@ -314,12 +306,6 @@ def finish(state, settings: DuetSettings, job: DuetJob, duet, seconds_taken: flo
     state.show(first)
     state.also = [second]
     settings.result = summary
-
-
-def is_duet(shown: list) -> bool:
-    """Whether the motions shown are exactly one duet's two people (drawn in one shared space)."""
-    pairs = [it.info.get("duet") for it in shown]
-    return len(shown) == 2 and all(isinstance(p, DuetPair) for p in pairs) and pairs[0] is pairs[1]
 
 
 def contact_words(job: DuetJob, duet) -> str:

@@ -3,7 +3,7 @@ interaction, an uploaded duet .npy, or a duet made in this session); the communi
 prior run twice). Both people play in the viewer in one scene, in two colours, with the viewer's playback and
 export (exports hold both people).
 
-The settings live on ``DuetSettings`` (``app.dueting``); the widgets only mirror it.
+The settings live on ``DuetSettings`` (``app.tabs.duet.job``); the widgets only mirror it.
 """
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ import html
 import panel as pn
 import param
 
-from app.dueting import MODES, DuetSettings, describe, duet_model, start_duet
-from app.state import StudioState
-from app.views.jobs import UNKNOWN_CSS, JobBar, flag_unknown, on_text, table_rows
+from app.tabs.duet.job import MODES, DuetSettings, describe, duet_model, start_duet
+from app.session.state import StudioState
+from app.components.jobbar import UNKNOWN_CSS, JobBar, flag_unknown, on_text, table_rows
 from engine.units import MAX_SECONDS, MIN_SECONDS
 
 HELP = ("Two copies of the base model, one per person, exchange what they are doing through a small trained "

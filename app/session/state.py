@@ -17,12 +17,12 @@ import numpy as np
 import param
 
 from app.attention_record import AttentionRecord
-from app.editing import EditConfig, EditResult, count_imported, count_record, prepare, run_edit_job
+from app.tabs.edit.job import EditConfig, EditResult, count_imported, count_record, prepare, run_edit_job
 from app.generation import Cancelled, GenerationResult, GenerationSettings, check, prompt_analysis, run_generation
 from engine.duration import resolve_seconds
-from app.transfer import TransferSettings, paint_clusters, start_transfer
+from app.tabs.transfer.job import TransferSettings, paint_clusters, start_transfer
 
-from app.items import MAX_ITEMS, MAX_ITEMS_WITH_ATTENTION, MotionItem  # the session core's motions
+from app.session.items import MAX_ITEMS, MAX_ITEMS_WITH_ATTENTION, MotionItem  # the session core's motions
 from engine.units import DEFAULT_GUIDANCE, MAX_SECONDS, MIN_SECONDS
 
 
@@ -387,7 +387,7 @@ class StudioState(param.Parameterized):
             verb=lambda job: job.description)
 
     def _finish_edit(self, result: EditResult) -> None:
-        from app.editing import EditSummary
+        from app.tabs.edit.job import EditSummary
 
         job = result.job
         seed = job.sample.seed
