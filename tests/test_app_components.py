@@ -338,8 +338,8 @@ def test_exports_give_valid_files(studio, real_joints, tmp_path):
 
 def test_preload_loads_the_control_and_duet_models_once_per_server(tiny_model_dir, tmp_path, monkeypatch):
     """``moattn serve`` loads them before the first page; building a page then loads nothing more."""
-    from app.tabs.control import job as controlling
-    from app.tabs.duet import job as dueting
+    from app.tabs.control import models as controlling
+    from app.tabs.duet import models as dueting
     from app.main import preload
     from app.model_cache import get_model
     from engine.methods import control, duet

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from bokeh.events import Tap
 
-from app.tabs.compose.job import INTERVAL_COLORS, TRANSITION_COLOR, IntervalRow, frame_colors, transition_at
+from app.tabs.compose.job import INTERVAL_COLORS, TRANSITION_COLOR, frame_colors, transition_at
+from app.tabs.compose.settings import IntervalRow
 from app.main import Studio
 from viz.colors import default_joint_colors
 

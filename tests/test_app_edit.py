@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from app.attention_record import AttentionRecord
-from app.tabs.edit.job import alignment, word_choice
+from app.tabs.edit.job import alignment, run_edit, word_choice
 from app.main import Studio
 from app.testing import tiny_model
 from engine.methods.edit_options import EditOptions, build_config
@@ -37,7 +37,7 @@ def _run(studio, kind: str) -> None:
     s, tab = studio.state, studio.edit
     tab.kind.value = kind
     before = len(s.notices)
-    assert s.run_edit(), s.notices[-1:]
+    assert run_edit(s), s.notices[-1:]
     assert s.wait(120)
     assert not s.running
     errors = [n for n in s.notices[before:] if n[0] == "error"]
@@ -166,7 +166,7 @@ def test_replace_needs_aligned_prompts_and_says_why(studio):
     assert "align-bad" in tab.alignment.object and "4 words" in tab.alignment.object
     assert tab.run.disabled
     n_items = len(s.items)
-    assert s.run_edit() is False  # refused with a visible error, no worker, no crash
+    assert run_edit(s) is False  # refused with a visible error, no worker, no crash
     level, text = s.notices[-1]
     assert level == "error" and "not aligned" in text and "word by word" in text
     assert not s.running and len(s.items) == n_items
@@ -187,7 +187,7 @@ def test_bad_settings_are_notifications(studio):
     s, tab = studio.state, studio.edit
     tab.kind.value = "emphasise"
     s.edit.word = ""
-    assert s.run_edit() is False and "pick a word" in s.notices[-1][1]
+    assert run_edit(s) is False and "pick a word" in s.notices[-1][1]
     s.prompt = "a person walks"
     assert s.edit.word == "" and list(tab.words.options) == ["a", "person", "walks"]
     s.prompt = "a person jumps twice"
@@ -199,7 +199,7 @@ def test_cancel_stops_an_edit(tiny_model_dir):
         s = st.state
         s.param.update(prompt="a person walks", steps=1000, record_steps=0, seconds=2.0)
         st.edit.kind.value = "shift"
-        assert s.run_edit()
+        assert run_edit(s)
         assert not st.edit.cancel.disabled and st.edit.run.disabled and st.controls.generate.disabled
         s.cancel()
         assert s.wait(60)
@@ -248,7 +248,7 @@ def test_counting_readout_shows_count_baseline_and_peaks(studio):
     assert ex.peak_src.data["x"] == []
     tab.kind.value = "count"
     assert tab.run.label == "Count this motion"
-    assert s.run_edit() and s.wait(120)
+    assert run_edit(s) and s.wait(120)
     readout = s.edit.count_result
     assert readout.item == "imported: hops" and readout.baseline == 4 and "inverted" in readout.source
     assert "count-attention" in tab.readout.object

@@ -69,6 +69,15 @@ def on_text(widget, fn: Callable[[str], object]) -> None:
     widget.param.watch(lambda *events: fn(events[-1].new or ""), ["value", "value_input"])
 
 
+def text_from_param(parameter: param.Parameter, **params) -> pn.widgets.TextInput:
+    """A text input made from a String parameter (``from_param``: linked both ways) that also writes it key by key,
+    as the text is typed (``value_input``)."""
+    widget = pn.widgets.TextInput.from_param(parameter, **params)
+    owner, name = parameter.owner, parameter.name
+    on_text(widget, lambda text: setattr(owner, name, text))
+    return widget
+
+
 def table_rows(rows) -> str:
     """HTML rows of (label, value) pairs for a tab's readout table (values in the ``value`` class)."""
     return "".join(f'<tr><td>{html.escape(a)}</td><td class="value">{html.escape(b)}</td></tr>' for a, b in rows)

@@ -9,31 +9,22 @@ from __future__ import annotations
 
 import threading
 import traceback
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import numpy as np
 import param
 
 from app.attention_record import AttentionRecord
-from app.tabs.edit.job import EditConfig, EditResult, count_imported, count_record, prepare, run_edit_job
-from app.generation import Cancelled, GenerationResult, GenerationSettings, check, prompt_analysis, run_generation
-from engine.duration import resolve_seconds
-from app.tabs.transfer.job import TransferSettings, paint_clusters, start_transfer
-
+from app.generation import Cancelled, GenerationResult, GenerationSettings, prompt_analysis
+from app.session.generation import GenerateJob
 from app.session.items import MAX_ITEMS, MAX_ITEMS_WITH_ATTENTION, MotionItem  # the session core's motions
+from app.session.jobs import Job, Worker
+from engine.duration import resolve_seconds
 from engine.units import DEFAULT_GUIDANCE, MAX_SECONDS, MIN_SECONDS
 
-
-@dataclass(frozen=True)
-class Job:
-    """What a worker gets: the cancel flag, a progress callback (raises Cancelled once cancelled), a queue note."""
-
-    cancel: threading.Event
-    step: Callable[[int, int], None]
-    waiting: Callable[[int], None]  # called with the number of runs ahead while queued
-    note: Callable[[str], None] = lambda text: None  # a status line for a phase without steps (e.g. inversion)
+#: a tab's settings made for one session (``StudioState(tabs={"compose": ComposeSettings.for_session, ...})``)
+SettingsFactory = Callable[["StudioState"], param.Parameterized]
 
 
 class StudioState(param.Parameterized):
@@ -84,12 +75,10 @@ class StudioState(param.Parameterized):
     word = param.Integer(default=None, allow_None=True, doc="highlighted word (token index)")
     color_by_word = param.Boolean(default=False, doc="colour the skeleton by the highlighted word's attention")
 
-    # ---- the Edit tab (MotionCLR): its settings, the last edit and the counting readout
-    edit = param.ClassSelector(class_=EditConfig, doc="the session's edit config")
-    # ---- the Transfer tab (MoMo): leader / follower sources, windows, the last transfer and its analysis
-    transfer = param.ClassSelector(class_=TransferSettings, doc="the session's transfer settings")
-
-    def __init__(self, *, model_dir: str | Path | None = None, **params):
+    def __init__(self, *, model_dir: str | Path | None = None, tabs: Mapping[str, SettingsFactory] | None = None,
+                 **params):
+        """``tabs``: name -> a factory of that tab's settings for this session; each becomes ``self.<name>`` (the
+        session holds every tab's settings, built or not; the core never imports a tab)."""
         super().__init__(**params)
         self.model_dir = Path(model_dir) if model_dir is not None else None
         self._doc = None
@@ -98,14 +87,14 @@ class StudioState(param.Parameterized):
         self._counter = 0
         self.notices: list[tuple[str, str]] = []  # history (level, text), newest last
         self._closed = False
-        if self.edit is None:
-            self.edit = EditConfig()
-        if self.transfer is None:
-            self.transfer = TransferSettings(tokenizer=self.tokenizer)
-        self.transfer.param.watch(lambda *_: paint_clusters(self), ["color_by", "result", "analysed"])
         self.param.watch(self._analyse_prompt, "prompt")
-        self.param.watch(self._auto_count, "current")
         self._analyse_prompt()
+        self.tab_settings: dict[str, param.Parameterized] = {}
+        for name, make in (tabs or {}).items():
+            if hasattr(self, name):
+                raise ValueError(f"a tab's settings cannot be named {name!r}: the session has that name")
+            self.tab_settings[name] = make(self)
+            setattr(self, name, self.tab_settings[name])
 
     # ------------------------------------------------------------------ threading
     def attach_document(self, doc) -> None:
@@ -198,6 +187,9 @@ class StudioState(param.Parameterized):
     def error(self, text: str) -> None:
         self._notify("error", text)
 
+    def warning(self, text: str) -> None:
+        self._notify("warning", text)
+
     def info(self, text: str) -> None:
         self._notify("info", text)
 
@@ -219,18 +211,7 @@ class StudioState(param.Parameterized):
 
     def generate(self) -> bool:
         """Check the inputs and start sampling on a worker thread; False (and a notification) if refused."""
-        loaded = self._idle_model()
-        if loaded is None:
-            return False
-        try:
-            checked = check(loaded, self.settings())
-        except ValueError as exc:
-            self.error(f"cannot generate: {exc}")
-            return False
-        return self.start_job(
-            lambda job: run_generation(loaded, checked, on_step=job.step, cancel=job.cancel, on_wait=job.waiting),
-            on_done=lambda result: self._finish(result, "", ""), total=checked.config.steps, what="generation",
-            status=f"generating {checked.frames / 20:.1f} s: step 0 / {checked.config.steps}", verb="generating")
+        return self.launch(GenerateJob(settings=self.settings(), deliver=lambda result: self._finish(result, "", "")))
 
     def duration(self) -> float:
         """The Generate box's length in seconds: as typed, or predicted from the prompt when the box is empty."""
@@ -248,27 +229,26 @@ class StudioState(param.Parameterized):
                           record_steps=max(1, s.record_steps))
         return self.generate()
 
-    def launch(self, *, prepare: Callable[[], object], run: Callable[[object, object, "Job"], object],
-               finish: Callable[[object, object], None], refused: str, what: str,
-               total: Callable[[object], int], status: Callable[[object], str], verb: Callable[[object], str]) -> bool:
-        """Check, then run on the worker: the one start of every tab's job.
+    def launch(self, job: Job) -> bool:
+        """Check, then run on the worker: the one start of every tab's job (app.session.jobs.Job).
 
-        ``prepare()`` builds the job (a ValueError becomes the notification "<refused>: <why>");
-        ``run(loaded, job, worker)`` does the work; ``finish(job, result)`` takes its result on the
-        session's thread. False when refused (no model, busy, bad input).
+        ``job.prepare(loaded)`` checks (a ValueError becomes the notification "<job.refused>: <why>");
+        ``job.run(loaded, worker)`` does the work; ``job.finish(result)`` takes its result on the session's
+        thread. False when refused (no model, busy, bad input).
         """
         loaded = self._idle_model()
         if loaded is None:
             return False
         try:
-            job = prepare()
+            job.prepare(loaded)
         except ValueError as exc:
-            self.error(f"{refused}: {exc}")
+            self.error(f"{job.refused}: {exc}")
             return False
-        return self.start_job(lambda worker: run(loaded, job, worker), on_done=lambda result: finish(job, result),
-                              total=total(job), what=what, status=status(job), verb=verb(job))
+        shown = job.describe()
+        return self.start_job(lambda worker: job.run(loaded, worker), on_done=job.finish, total=shown.total,
+                              what=shown.what, status=shown.status, verb=shown.verb)
 
-    def start_job(self, work: Callable[["Job"], object], *, on_done: Callable[[object], None], total: int,
+    def start_job(self, work: Callable[[Worker], object], *, on_done: Callable[[object], None], total: int,
                   what: str, status: str, verb: str) -> bool:
         """Run ``work(job)`` on a worker thread with progress and cancel (generation and edits share this).
 
@@ -305,7 +285,7 @@ class StudioState(param.Parameterized):
         def note(text: str) -> None:
             self.post(lambda: setattr(self, "status", text) if cancel is self._cancel and self.running else None)
 
-        job = Job(cancel=cancel, step=on_step, waiting=on_wait, note=note)
+        job = Worker(cancel=cancel, step=on_step, waiting=on_wait, note=note)
 
         def work_thread() -> None:
             try:
@@ -372,113 +352,6 @@ class StudioState(param.Parameterized):
                           features=result.features, settings=s,
                           info={"seconds_taken": result.seconds_taken})
         self.add_item(item)
-
-    # ------------------------------------------------------------------ edits (MotionCLR)
-    def run_edit(self) -> bool:
-        """Check the Edit tab's settings and run the edit on the worker; False (and a notification) if refused."""
-        if self.edit.engine_kind == "count":
-            return self.count_current()
-        return self.launch(
-            prepare=lambda: prepare(self),
-            run=lambda loaded, job, worker: run_edit_job(loaded, job, on_step=worker.step, cancel=worker.cancel,
-                                                         on_wait=worker.waiting),
-            finish=lambda job, result: self._finish_edit(result), refused=f"cannot {self.edit.kind}", what="edit",
-            total=lambda job: job.sample.steps, status=lambda job: f"{job.description}: step 0 / {job.sample.steps}",
-            verb=lambda job: job.description)
-
-    def _finish_edit(self, result: EditResult) -> None:
-        from app.tabs.edit.job import EditSummary
-
-        job = result.job
-        seed = job.sample.seed
-
-        def item(m, title: str) -> MotionItem:
-            return MotionItem(name=self.unique_name(title), joints=m.joints, source="generated", prompt=m.prompt,
-                              words=m.words, attention=m.attention,
-                              info={"edit": job.description, "role": m.role, "seed": seed})
-
-        base = job.prompt if job.options.kind not in ("example", "style") else (result.before.prompt or "imported")
-        title = f"{base} · seed {seed} · {result.before.title}"
-        before = self._same_motion(title, result.before.joints)
-        if before is None:
-            before = item(result.before, title)
-            self.add_item(before, show=False)
-        afters = []
-        for m in result.after:
-            it = item(m, f"{m.prompt or base} · {m.title}")
-            self.add_item(it, show=False)
-            afters.append(it)
-        first = afters[0]
-        n = min(len(first.joints), len(before.joints))
-        diff = float(np.linalg.norm(first.joints[:n] - before.joints[:n], axis=-1).max()) if n else 0.0
-        self.end_job(f"{job.description}: done in {result.seconds_taken:.1f} s ({job.sample.steps} steps)")
-        with param.parameterized.batch_call_watchers(self):
-            self.show(first.name)
-            self.compare = before.name
-        self.edit.last_edit = EditSummary(kind=job.label, description=job.description, before=before.name,
-                                          after=[a.name for a in afters], seconds_taken=result.seconds_taken,
-                                          max_difference=diff)
-
-    def _same_motion(self, title: str, joints: np.ndarray) -> MotionItem | None:
-        """An item already in the list with this title and these joints (a reference re-made by another edit)."""
-        for name, it in self.items.items():
-            if (name == title or name.startswith(title + " (")) and it.joints.shape == joints.shape \
-                    and np.allclose(it.joints, joints, atol=1e-5):
-                return it
-        return None
-
-    def count_current(self) -> bool:
-        """The counting readout for the shown motion: from its recorded maps (at once) or by inversion (worker)."""
-        item = self.item
-        if item is None:
-            self.error("nothing to count: generate or import a motion first")
-            return False
-        if item.attention is not None:
-            self._auto_count()
-            return True
-        if self.running:
-            self.error(f"a {self.job or 'job'} is already running: wait for it or press Cancel")
-            return False
-        try:
-            loaded = self.model
-        except Exception as exc:
-            self.error(f"no model loaded: {exc}")
-            return False
-        if item.n_frames < 8:
-            self.error("the motion is too short to count on")
-            return False
-        name, joints, prompt = item.name, item.joints[:196], item.prompt
-
-        def work(worker):
-            from app.generation import sampling_slot
-
-            with sampling_slot(worker.cancel, worker.waiting):
-                return count_imported(loaded, joints, item=name, prompt=prompt)
-
-        def done(readout):
-            self.end_job(f"counted {name!r}: {readout.count:.2f} (baseline {readout.baseline})")
-            self.edit.count_result = readout
-
-        return self.start_job(work, on_done=done, total=1, what="counting",
-                              status=f"counting {name!r}: inverting the motion…", verb="counting")
-
-    def _auto_count(self, *_):
-        """Generated motions are counted from their recorded maps as soon as they are shown (milliseconds)."""
-        item = self.item
-        if item is None or item.attention is None:
-            self.edit.count_result = None
-            return
-        try:
-            self.edit.count_result = count_record(item.attention, item.joints, item=item.name)
-        except ValueError as exc:  # e.g. too short
-            self.edit.count_result = None
-            self._notify("warning", f"cannot count on {item.name!r}: {exc}")
-
-    # ------------------------------------------------------------------ transfer (MoMo)
-    def run_transfer(self) -> bool:
-        """Check the Transfer tab's settings and run leader -> follower on the worker; False (and a notification)
-        if refused. The result: leader / follower / out side by side, and the analysis on ``transfer.result``."""
-        return start_transfer(self)
 
     # ------------------------------------------------------------------ motions
     def unique_name(self, base: str) -> str:

@@ -11,25 +11,19 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
-import param
 
-from app.generation import Cancelled, prompt_analysis, sampling_slot
+from app.generation import Cancelled, sampling_slot
+from app.session.items import MotionItem
+from app.session.jobs import JobDescription, Worker
+from app.tabs.compose.settings import ComposeSettings
 from engine.units import FPS
 
 INTERVAL_COLORS = ("#3a6fd8", "#2f9e5a")  # intervals alternate between these
 TRANSITION_COLOR = "#e8552e"  # handshake frames (where DoubleTake joins two intervals)
-DEFAULT_INTERVALS = (("a person walks forward", 4.0), ("a person jumps", 3.0))
-
-
-@dataclass(frozen=True)
-class IntervalRow:
-    """One row of the timeline: what to do and for how long."""
-
-    prompt: str
-    seconds: float
 
 
 @dataclass
@@ -48,68 +42,10 @@ class ComposeSummary:
     second_take_text: bool = False  # the second take denoised each transition with "A, then B"
 
 
-class ComposeSettings(param.Parameterized):
-    """The Compose tab's state (one per session, owned by the tab)."""
-
-    intervals = param.List(default=[], item_type=IntervalRow, doc="the timeline, in order")
-    handshake = param.Number(default=1.0, bounds=(0.0, 3.0), doc="handshake (shared frames) in seconds")
-    second_take = param.Boolean(default=True, doc="re-denoise each transition with soft masks (the second take)")
-    second_take_text = param.Boolean(default=False, doc="the second take denoises each transition with 'A, then B' "
-                                                        "(default: without text, as the authors' code)")
-    result = param.Parameter(default=None, doc="ComposeSummary of the last composition")
-
-    def __init__(self, *, tokenizer: Callable[[], object] | None = None, **params):
-        super().__init__(**params)
-        self.tokenizer = tokenizer or (lambda: None)
-        if not self.intervals:
-            self.intervals = [IntervalRow(p, s) for p, s in DEFAULT_INTERVALS]
-
-    # ------------------------------------------------------------------ editing the timeline
-    def add(self, *, prompt: str = "a person walks forward", seconds: float = 3.0) -> None:
-        self.intervals = [*self.intervals, IntervalRow(prompt, float(seconds))]
-
-    def remove(self, index: int) -> None:
-        if len(self.intervals) <= 1:
-            raise ValueError("the timeline needs at least one interval")
-        rows = list(self.intervals)
-        del rows[index]
-        self.intervals = rows
-
-    def move(self, index: int, delta: int) -> None:
-        """Swap an interval with its neighbour (delta -1: up, +1: down); nothing past either end."""
-        j = index + delta
-        if not 0 <= j < len(self.intervals):
-            return
-        rows = list(self.intervals)
-        rows[index], rows[j] = rows[j], rows[index]
-        self.intervals = rows
-
-    def edit(self, index: int, *, prompt: str | None = None, seconds: float | None = None) -> None:
-        row = self.intervals[index]
-        new = IntervalRow(row.prompt if prompt is None else prompt, row.seconds if seconds is None else float(seconds))
-        if new != row:
-            rows = list(self.intervals)
-            rows[index] = new
-            self.intervals = rows
-
-    # ------------------------------------------------------------------ derived
-    @property
-    def handshake_frames(self) -> int:
-        return int(round(self.handshake * FPS))
-
-    def unknown_words(self) -> list[list[str]]:
-        """Per interval: the words the model does not know."""
-        tokenizer = self.tokenizer()
-        return [prompt_analysis(tokenizer, row.prompt)[1] for row in self.intervals]
-
-    def expected_frames(self) -> int:
-        """Length of the long motion: the intervals' frames minus one handshake per transition."""
-        lengths = [int(round(row.seconds * FPS)) for row in self.intervals]
-        return sum(lengths) - self.handshake_frames * max(0, len(lengths) - 1)
-
-
 @dataclass
-class ComposeJob:
+class ComposePlan:
+    """A checked composition, ready for the worker."""
+
     intervals: list  # engine Intervals
     config: object  # DoubleTakeConfig
     sample: object  # SampleConfig
@@ -117,7 +53,7 @@ class ComposeJob:
     description: str
 
 
-def prepare(state, settings: ComposeSettings) -> ComposeJob:
+def prepare(state, settings: ComposeSettings) -> ComposePlan:
     """Every check before any work starts; raises ValueError with a message for the user."""
     from engine.diffusion import CosineSchedule
     from engine.generate import SampleConfig
@@ -150,10 +86,10 @@ def prepare(state, settings: ComposeSettings) -> ComposeJob:
         schedule = CosineSchedule()
         total += sum(1 for t in schedule.timesteps(sample.steps) if t <= take.renoise * (schedule.steps - 1))
     description = f"compose {len(rows)} interval{'s' * (len(rows) != 1)}"
-    return ComposeJob(intervals=intervals, config=config, sample=sample, total_steps=total, description=description)
+    return ComposePlan(intervals=intervals, config=config, sample=sample, total_steps=total, description=description)
 
 
-def run_job(loaded, job: ComposeJob, *, on_step: Callable[[int, int], None], cancel: threading.Event,
+def run_job(loaded, job: ComposePlan, *, on_step: Callable[[int, int], None], cancel: threading.Event,
             on_wait: Callable[[], None] | None = None):
     """Compose on the worker (holding the sampling slot); ``on_step(done, total)`` across both takes."""
     from engine.methods.doubletake import compose
@@ -173,21 +109,32 @@ def run_job(loaded, job: ComposeJob, *, on_step: Callable[[int, int], None], can
     return result
 
 
-def start_compose(state, settings: ComposeSettings) -> bool:
-    """Check, then compose on the session's worker with progress and cancel; False (and a notification) if refused."""
-    return state.launch(
-        prepare=lambda: prepare(state, settings),
-        run=lambda loaded, job, worker: run_job(loaded, job, on_step=worker.step, cancel=worker.cancel,
-                                                on_wait=worker.waiting),
-        finish=lambda job, result: finish(state, settings, job, result), refused="cannot compose", what="composition",
-        total=lambda job: job.total_steps, status=lambda job: f"{job.description}: step 0 / {job.total_steps}",
-        verb=lambda job: job.description)
+@dataclass
+class ComposeJob:
+    """One composition of the timeline: the long motion, coloured per interval, when done."""
+
+    session: object  # StudioState
+    settings: ComposeSettings
+    plan: ComposePlan | None = field(default=None, init=False)
+    refused: ClassVar[str] = "cannot compose"
+
+    def prepare(self, loaded) -> None:
+        self.plan = prepare(self.session, self.settings)
+
+    def describe(self) -> JobDescription:
+        p = self.plan
+        return JobDescription(what="composition", status=f"{p.description}: step 0 / {p.total_steps}",
+                              verb=p.description, total=p.total_steps)
+
+    def run(self, loaded, worker: Worker):
+        return run_job(loaded, self.plan, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting)
+
+    def finish(self, result) -> None:
+        finish(self.session, self.settings, self.plan, result)
 
 
-def finish(state, settings: ComposeSettings, job: ComposeJob, result) -> None:
+def finish(state, settings: ComposeSettings, job: ComposePlan, result) -> None:
     """The long motion becomes a session motion, coloured per interval with its transitions highlighted."""
-    from app.session.items import MotionItem
-
     n = len(result.joints)
     ends = [s + int(round(iv.seconds * FPS)) for s, iv in zip(result.starts, job.intervals)]
     title = f"compose · {' > '.join(_short(iv.prompt) for iv in job.intervals)} · seed {job.sample.seed}"

@@ -2,7 +2,7 @@
 the second take, Generate with progress and cancel; the long motion in the viewer, coloured per interval with the
 transitions highlighted, and a timeline strip of the result (click it to move the viewer there).
 
-The settings live on ``ComposeSettings`` (``app.tabs.compose.job``); the widgets only mirror it.
+The settings live on the session (``state.compose``, a ``ComposeSettings``); the widgets are made from them.
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from bokeh.events import Tap
 from bokeh.models import ColumnDataSource, LabelSet, Range1d, Span
 from bokeh.plotting import figure
 
-from app.tabs.compose.job import (FPS, INTERVAL_COLORS, TRANSITION_COLOR, ComposeSettings, start_compose, transition_at)
+from app.tabs.compose.job import FPS, INTERVAL_COLORS, TRANSITION_COLOR, ComposeJob, transition_at
 from app.session.state import StudioState
 from app.components.jobbar import UNKNOWN_CSS, JobBar, flag_unknown, on_text
 from engine.units import MAX_SECONDS
@@ -55,22 +55,17 @@ class ComposeTab(pn.viewable.Viewer):
 
     def __init__(self, **params):
         super().__init__(**params)
-        self.settings = ComposeSettings(tokenizer=self.state.tokenizer)
-        c = self.settings
+        self.settings = c = self.state.compose
         self._syncing = False
         self.rows: list[IntervalRowView] = []
         self.rows_box = pn.Column(sizing_mode="stretch_width", css_classes=["compose-rows"])
         self.add = pn.widgets.Button(label="+ Add interval", width=140, css_classes=["compose-add"])
         self.add.on_click(lambda _: c.add())
-        self.handshake = pn.widgets.FloatSlider(label="Handshake (s)", start=0.0, end=2.0, step=0.25, value=c.handshake,
-                                                css_classes=["compose-handshake"], sizing_mode="stretch_width")
-        self.second_take = pn.widgets.Checkbox(label="second take (re-denoise the transitions)", value=c.second_take,
-                                               css_classes=["compose-second-take"])
-        self.second_take_text = pn.widgets.Checkbox(label="with text ('A, then B')", value=c.second_take_text,
-                                                    disabled=not c.second_take, css_classes=["compose-second-take-text"])
-        self.handshake.param.watch(lambda e: setattr(c, "handshake", e.new), "value")
-        self.second_take.param.watch(lambda e: setattr(c, "second_take", e.new), "value")
-        self.second_take_text.param.watch(lambda e: setattr(c, "second_take_text", e.new), "value")
+        self.handshake = pn.widgets.FloatSlider.from_param(c.param.handshake, css_classes=["compose-handshake"],
+                                                           sizing_mode="stretch_width")
+        self.second_take = pn.widgets.Checkbox.from_param(c.param.second_take, css_classes=["compose-second-take"])
+        self.second_take_text = pn.widgets.Checkbox.from_param(c.param.second_take_text, disabled=not c.second_take,
+                                                               css_classes=["compose-second-take-text"])
         c.param.watch(lambda e: setattr(self.second_take_text, "disabled", not e.new), "second_take")
         self.length = pn.pane.Markdown("", css_classes=["compose-length"], margin=(0, 10))
         self.bar = JobBar(state=self.state, jobs=["composition"], label="Generate long motion", prefix="compose",
@@ -90,7 +85,7 @@ class ComposeTab(pn.viewable.Viewer):
 
     # ------------------------------------------------------------------ widgets -> settings
     def generate(self) -> bool:
-        return start_compose(self.state, self.settings)
+        return self.state.launch(ComposeJob(session=self.state, settings=self.settings))
 
     def edit_row(self, index: int, *, prompt: str | None = None, seconds: float | None = None) -> None:
         if self._syncing or index >= len(self.settings.intervals):

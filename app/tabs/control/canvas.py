@@ -19,7 +19,8 @@ import panel as pn
 from bokeh.models import ColumnDataSource, CustomJS, FreehandDrawTool, PointDrawTool, Range1d, SingleIntervalTicker
 from bokeh.plotting import figure
 
-from app.tabs.control.job import DEFAULT_ROOT, ROOT_COLOR, WRIST_COLOR, ControlSettings
+from app.tabs.control.paths import DEFAULT_ROOT, ROOT_COLOR, WRIST_COLOR
+from app.tabs.control.settings import ControlSettings
 from app.components.guard import SyncGuard
 
 

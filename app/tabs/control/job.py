@@ -12,156 +12,22 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
-import param
 
-from app.generation import Cancelled, checked_frames, prompt_analysis, sampling_slot
-from engine.methods.control import same_base
-from engine.paths import CONTROL_DIR
-from engine.units import MAX_SECONDS, MIN_SECONDS
-
-LABELS = {"root": "root path", "left_wrist": "left wrist", "right_wrist": "right wrist"}
-WRISTS = ("none", "left_wrist", "right_wrist")
-METHODS = ("inpainting", "blending")
-WRIST_DEPTH = 0.35  # m in front of the body: the front-view canvas draws on this plane
-MIN_SPACING = 0.15  # m between kept points of a freehand stroke
-MAX_POINTS = 80
-ROOT_COLOR, WRIST_COLOR = "#d62728", "#9467bd"
-DEFAULT_ROOT = ((0.0, 0.0), (0.8, 1.5), (0.0, 3.0), (-0.8, 4.5))  # an S on the floor, 4.5 m ahead
-
-_models_lock = threading.Lock()
-_models: dict[Path, tuple[float, dict, str]] = {}  # folder -> (mtime, name -> LoadedModel, problem)
-
-
-def control_models(folder: str | Path, *, base=None) -> tuple[dict, str]:
-    """The fine-tuned control models in ``folder`` (loaded once per server) that can be blended with ``base`` (the
-    loaded base model: same vocabulary and feature statistics), and, if none, why."""
-    models, problem = _load(folder)
-    if base is None or not models:
-        return models, problem
-    fits = {n: m for n, m in models.items() if same_base(base, m)}
-    if len(fits) < len(models):
-        odd = ", ".join(LABELS[n] for n in models if n not in fits)
-        problem = (f"the control models for {odd} in {Path(folder)} were fine-tuned from another base model "
-                   "(other vocabulary or feature statistics) and cannot be blended with this one")
-    return fits, problem
-
-
-def _load(folder: str | Path) -> tuple[dict, str]:
-    from app.model_cache import runtime
-    from engine.methods.control import load_controls
-
-    key = Path(folder).expanduser().resolve()
-    mtime = key.stat().st_mtime if key.exists() else -1.0
-    with _models_lock:
-        cached = _models.get(key)
-        if cached is not None and cached[0] == mtime:
-            return cached[1], cached[2]
-        problem = ""
-        try:
-            models = load_controls(key, runtime=runtime()) if key.exists() else {}
-        except Exception as exc:  # a broken folder: say so, offer inpainting
-            models, problem = {}, f"the control models in {key} could not be loaded ({exc})"
-        if not models and not problem:
-            problem = (f"no fine-tuned control models in {key} (train one with `moattn train --control root "
-                       "--init-from assets/model --out assets/control/root`)")
-        _models[key] = (mtime, models, problem)
-        return models, problem
-
-
-def thin(points, *, spacing: float = MIN_SPACING, limit: int = MAX_POINTS) -> list[tuple[float, ...]]:
-    """A drawn stroke as path points: consecutive points at least ``spacing`` apart, at most ``limit`` of them.
-
-    Non-finite points are kept (the engine names them); the last point is always kept.
-    """
-    p = [tuple(float(v) for v in q) for q in points]
-    if len(p) <= 2:
-        return p
-    out = [p[0]]
-    for q in p[1:-1]:
-        if not all(np.isfinite(q)) or not all(np.isfinite(out[-1])) or \
-                np.linalg.norm(np.subtract(q, out[-1])) >= spacing:
-            out.append(q)
-    if np.linalg.norm(np.subtract(p[-1], out[-1])) > 1e-9 or len(out) == 1:
-        out.append(p[-1])
-    if len(out) > limit:
-        keep = np.unique(np.linspace(0, len(out) - 1, limit).round().astype(int))
-        out = [out[k] for k in keep]
-    return out
-
-
-def path_length(points) -> float:
-    """Metres along a path (0 for fewer than 2 points)."""
-    p = np.asarray(points, dtype=np.float64)
-    return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()) if p.ndim == 2 and len(p) > 1 else 0.0
-
-
-class ControlSettings(param.Parameterized):
-    """The Control tab's state (one per session, owned by the tab)."""
-
-    prompt = param.String(default="a person walks", doc="what the person does while following the paths")
-    seconds = param.Number(default=6.0, doc=f"duration ({MIN_SECONDS:g} to {MAX_SECONDS:g} s)")
-    use_root = param.Boolean(default=True, doc="follow the root path drawn top-down")
-    root_points = param.List(default=list(DEFAULT_ROOT), doc="(x, z) metres on the floor; the motion starts at "
-                                                            "the first point, facing the direction of travel")
-    wrist = param.Selector(default="none", objects=list(WRISTS), doc="which wrist follows the front-view path")
-    wrist_points = param.List(default=[], doc="(x, y) metres in the body frame: x the person's left, y height")
-    wrist_depth = param.Number(default=WRIST_DEPTH, bounds=(-0.9, 0.9), doc="z (forward) of the wrist path")
-    weights = param.Dict(default={"root": 1.0, "left_wrist": 1.0, "right_wrist": 1.0},
-                         doc="raw blend weight per control (scaled to sum 1 over the active ones)")
-    method = param.Selector(default="inpainting", objects=list(METHODS),
-                            doc="blending: fine-tuned control models (DiffusionBlending); inpainting: the base model")
-    controls_dir = param.Parameter(default=CONTROL_DIR, doc="folder of the fine-tuned control models")
-    available = param.List(default=[], doc="controls with a fine-tuned model in controls_dir")
-    problem = param.String(default="", doc="why blending is not offered ('' when it is)")
-    unknown_words = param.List(default=[], doc="words of the prompt the model does not know")
-    result = param.Parameter(default=None, doc="ControlSummary of the last controlled generation")
-
-    def __init__(self, *, tokenizer: Callable[[], object] | None = None, base: Callable[[], object] | None = None,
-                 **params):
-        super().__init__(**params)
-        self.tokenizer = tokenizer or (lambda: None)
-        self._base = base or (lambda: None)  # the loaded base model (None: none loaded)
-        self.param.watch(self._analyse, "prompt")
-        self._analyse()
-        self.discover()
-
-    def _analyse(self, *_) -> None:
-        self.unknown_words = prompt_analysis(self.tokenizer(), self.prompt)[1]
-
-    def discover(self) -> None:
-        """Which methods this server offers: blending only where fine-tuned models exist."""
-        models, problem = control_models(self.controls_dir, base=self._base())
-        self.param.update(available=sorted(models), problem=problem,
-                          method=self.method if models else "inpainting")
-
-    @property
-    def active(self) -> list[str]:
-        """The controls in use, in the order root, wrist."""
-        return (["root"] if self.use_root else []) + ([self.wrist] if self.wrist != "none" else [])
-
-    def normalized_weights(self) -> dict[str, float]:
-        """Active control -> its share of the blend (sums to 1; equal when all are 0)."""
-        names = self.active
-        raw = np.array([max(0.0, float(self.weights.get(n, 1.0))) for n in names], dtype=np.float64)
-        if not names:
-            return {}
-        raw = raw if raw.sum() > 0 else np.ones(len(names))
-        return dict(zip(names, (raw / raw.sum()).tolist()))
-
-    def set_stroke(self, kind: str, xs, ys) -> None:
-        """A stroke drawn on a canvas (root: x, z; wrist: x, y) becomes that path's points."""
-        pts = thin(list(zip(xs, ys)))
-        if kind == "root":
-            self.root_points = pts
-        else:
-            self.wrist_points = pts
+from app.generation import Cancelled, checked_frames, sampling_slot
+from app.session.items import MotionItem
+from app.session.jobs import JobDescription, Worker
+from app.tabs.control.models import control_models
+from app.tabs.control.paths import LABELS, ROOT_COLOR, WRIST_COLOR
+from app.tabs.control.settings import ControlSettings
 
 
 @dataclass
-class ControlJob:
+class ControlPlan:
+    """A checked controlled generation, ready for the worker."""
+
     prompt: str
     controls: list  # engine Controls
     frame: dict | None  # the root path's world frame (None: no root control)
@@ -187,7 +53,7 @@ class ControlSummary:
     joints: np.ndarray | None = None  # (T, 22, 3) in the path's world
 
 
-def prepare(state, settings: ControlSettings) -> ControlJob:
+def prepare(state, settings: ControlSettings) -> ControlPlan:
     """Every check before any work starts; raises ValueError with a message for the user."""
     from engine.generate import SampleConfig
     from engine.methods.control import Control
@@ -229,12 +95,12 @@ def prepare(state, settings: ControlSettings) -> ControlJob:
     shares = settings.normalized_weights()
     sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
     what = " + ".join(LABELS[n] for n in names)
-    return ControlJob(prompt=settings.prompt.strip(), controls=controls, frame=frame, wrist_target=wrist_target,
+    return ControlPlan(prompt=settings.prompt.strip(), controls=controls, frame=frame, wrist_target=wrist_target,
                       models=models, weights=[shares[n] for n in names], sample=sample, seconds=seconds,
                       method=settings.method, description=f"{what} by {settings.method}")
 
 
-def run_job(loaded, job: ControlJob, *, on_step: Callable[[int, int], None], cancel: threading.Event,
+def run_job(loaded, job: ControlPlan, *, on_step: Callable[[int, int], None], cancel: threading.Event,
             on_wait: Callable[[], None] | None = None) -> ControlSummary:
     """Sample on the worker (holding the sampling slot), place the motion on the path, measure the errors."""
     import time
@@ -265,7 +131,7 @@ def _world(joints: np.ndarray, frame: dict) -> np.ndarray:
     return np.asarray(to_world(joints, frame), dtype=np.float32)
 
 
-def measure(job: ControlJob, joints: np.ndarray, *, features: np.ndarray) -> ControlSummary:
+def measure(job: ControlPlan, joints: np.ndarray, *, features: np.ndarray) -> ControlSummary:
     """Root error on the floor (path_error, world frame), wrist error in the body frame, and the 3-D guides."""
     from engine.methods.control import control_dims
     from engine.methods.paths import path_error
@@ -297,21 +163,32 @@ def measure(job: ControlJob, joints: np.ndarray, *, features: np.ndarray) -> Con
                           root_error=root_error, wrist_error=wrist_error, seconds_taken=0.0, guides=guides)
 
 
-def start_control(state, settings: ControlSettings) -> bool:
-    """Check, then generate on the session's worker with progress and cancel; False (and a notification) if refused."""
-    return state.launch(
-        prepare=lambda: prepare(state, settings),
-        run=lambda loaded, job, worker: run_job(loaded, job, on_step=worker.step, cancel=worker.cancel,
-                                                on_wait=worker.waiting),
-        finish=lambda job, summary: finish(state, settings, job, summary), refused="cannot generate with control",
-        what="controlled generation", total=lambda job: job.sample.steps,
-        status=lambda job: f"{job.description}: step 0 / {job.sample.steps}", verb=lambda job: job.description)
+@dataclass
+class ControlJob:
+    """One generation following the drawn paths: the motion in the path's world, its guides and errors, when done."""
+
+    session: object  # StudioState
+    settings: ControlSettings
+    plan: ControlPlan | None = field(default=None, init=False)
+    refused: ClassVar[str] = "cannot generate with control"
+
+    def prepare(self, loaded) -> None:
+        self.plan = prepare(self.session, self.settings)
+
+    def describe(self) -> JobDescription:
+        p = self.plan
+        return JobDescription(what="controlled generation", status=f"{p.description}: step 0 / {p.sample.steps}",
+                              verb=p.description, total=p.sample.steps)
+
+    def run(self, loaded, worker: Worker) -> ControlSummary:
+        return run_job(loaded, self.plan, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting)
+
+    def finish(self, summary: ControlSummary) -> None:
+        finish(self.session, self.settings, self.plan, summary)
 
 
-def finish(state, settings: ControlSettings, job: ControlJob, summary: ControlSummary) -> None:
+def finish(state, settings: ControlSettings, job: ControlPlan, summary: ControlSummary) -> None:
     """The motion (in the path's world) becomes a session motion with its target paths as guides; shown."""
-    from app.session.items import MotionItem
-
     joints = summary.joints
     title = f"control · {job.prompt} · {' + '.join(LABELS[n] for n in summary.controls)} · {job.method}"
     item = MotionItem(name=state.unique_name(title), joints=joints, source="generated", prompt=job.prompt,

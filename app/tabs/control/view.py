@@ -2,8 +2,8 @@
 view, set the prompt, the duration and the blend weights, pick the method, Generate; the motion in the viewer with
 the target paths drawn in 3-D, and the measured error.
 
-The settings live on ``ControlSettings`` (``app.tabs.control.job``); the canvases (``app.tabs.control.canvas``) and
-widgets only mirror it.
+The settings live on the session (``state.control``, a ``ControlSettings``); the widgets are made from them and the
+canvases (``app.tabs.control.canvas``) draw them.
 """
 from __future__ import annotations
 
@@ -12,51 +12,42 @@ import html
 import panel as pn
 import param
 
-from app.tabs.control.job import LABELS, ControlSettings, describe, path_length, start_control
+from app.components.jobbar import UNKNOWN_CSS, JobBar, flag_unknown, table_rows, text_from_param
 from app.session.state import StudioState
 from app.tabs.control.canvas import FrontCanvas, TopDownCanvas
-from app.components.jobbar import UNKNOWN_CSS, JobBar, flag_unknown, on_text, table_rows
+from app.tabs.control.job import ControlJob, describe
+from app.tabs.control.paths import LABELS, path_length
+from app.tabs.control.settings import METHOD_LABELS
 from engine.methods.paths import MAX_ROOT_SPEED
-from engine.units import MAX_SECONDS, MIN_SECONDS
 
 HELP = ("Draw the **root path** on the floor (top-down, metres; drag to draw, or pick the point tool to add and "
         "drag points): the person starts at its first point (green) and walks along it at constant speed. A "
         "**wrist path** is drawn in front view on a plane in front of the body. Seed, steps and guidance come "
         "from the sidebar.")
-METHOD_LABELS = {"blending (fine-tuned models)": "blending", "inpainting (base model)": "inpainting"}
 
 
 class ControlTab(pn.viewable.Viewer):
     state = param.ClassSelector(class_=StudioState)
 
-    def __init__(self, *, controls_dir=None, **params):
+    def __init__(self, **params):
         super().__init__(**params)
-        extra = {} if controls_dir is None else {"controls_dir": controls_dir}
-        base = lambda: self.state.model if self.state.has_model else None  # noqa: E731
-        self.settings = k = ControlSettings(tokenizer=self.state.tokenizer, base=base, **extra)
-        self.prompt = pn.widgets.TextInput(label="Prompt", value=k.prompt, css_classes=["control-prompt"],
-                                           sizing_mode="stretch_width")
-        self.seconds = pn.widgets.FloatInput(label="Seconds", value=k.seconds, start=MIN_SECONDS, end=MAX_SECONDS, step=0.5, width=90,
-                                             css_classes=["control-seconds"])
+        self.settings = k = self.state.control
+        self.prompt = text_from_param(k.param.prompt, css_classes=["control-prompt"], sizing_mode="stretch_width")
+        self.seconds = pn.widgets.FloatInput.from_param(k.param.seconds, width=90, css_classes=["control-seconds"])
         self.flag = pn.pane.HTML("", margin=(0, 10), stylesheets=[UNKNOWN_CSS], css_classes=["control-flag"])
-        self.use_root = pn.widgets.Checkbox(label="follow the root path", value=k.use_root,
-                                            css_classes=["control-use-root"])
+        self.use_root = pn.widgets.Checkbox.from_param(k.param.use_root, css_classes=["control-use-root"])
         self.top = TopDownCanvas(settings=k)
         self.root_info = pn.pane.HTML("", css_classes=["control-root-info"], margin=(0, 10), stylesheets=[_CSS])
         self.clear_root = pn.widgets.Button(label="Clear path", width=100, css_classes=["control-clear-root"])
         self.example_root = pn.widgets.Button(label="Example S", width=100, css_classes=["control-example-root"])
-        self.wrist = pn.widgets.RadioButtonGroup(label="Wrist", options={"no wrist": "none", "left wrist": "left_wrist",
-                                                                        "right wrist": "right_wrist"},
-                                                 value=k.wrist, color="primary", variant="outline",
-                                                 css_classes=["control-wrist"])
+        self.wrist = pn.widgets.RadioButtonGroup.from_param(k.param.wrist, color="primary", variant="outline",
+                                                            css_classes=["control-wrist"])
         self.front = FrontCanvas(settings=k)
         self.clear_wrist = pn.widgets.Button(label="Clear wrist path", width=130, css_classes=["control-clear-wrist"])
-        self.depth = pn.widgets.FloatSlider(label="Wrist plane, forward of the body (m)", start=0.0, end=0.8, step=0.05,
-                                            value=k.wrist_depth, css_classes=["control-depth"],
-                                            sizing_mode="stretch_width")
-        self.method = pn.widgets.RadioButtonGroup(label="Method", options=METHOD_LABELS, value=k.method,
-                                                  color="primary", variant="outline",
-                                                  css_classes=["control-method"])
+        self.depth = pn.widgets.FloatSlider.from_param(k.param.wrist_depth, css_classes=["control-depth"],
+                                                       sizing_mode="stretch_width")
+        self.method = pn.widgets.RadioButtonGroup.from_param(k.param.method, color="primary", variant="outline",
+                                                             css_classes=["control-method"])
         self.method_note = pn.pane.HTML("", css_classes=["control-method-note"], margin=(0, 10), stylesheets=[_CSS])
         self.weights = {n: pn.widgets.FloatSlider(label=f"weight: {LABELS[n]}", start=0.0, end=1.0, step=0.05,
                                                   value=float(k.weights.get(n, 1.0)), css_classes=[f"control-weight-{n}"],
@@ -68,15 +59,9 @@ class ControlTab(pn.viewable.Viewer):
         self.wrist_box = pn.Column(self.front.view, pn.Row(self.clear_wrist, self.depth, sizing_mode="stretch_width"),
                                    sizing_mode="stretch_width")
 
-        on_text(self.prompt, lambda text: setattr(k, "prompt", text))
-        self.seconds.param.watch(lambda e: self._set_seconds(e.new), "value")
-        self.use_root.param.watch(lambda e: setattr(k, "use_root", e.new), "value")
         self.clear_root.on_click(lambda _: setattr(k, "root_points", []))
         self.example_root.on_click(lambda _: self.top.example())
-        self.wrist.param.watch(lambda e: setattr(k, "wrist", e.new), "value")
         self.clear_wrist.on_click(lambda _: setattr(k, "wrist_points", []))
-        self.depth.param.watch(lambda e: setattr(k, "wrist_depth", e.new), "value")
-        self.method.param.watch(lambda e: setattr(k, "method", e.new), "value")
         for name, slider in self.weights.items():
             slider.param.watch(lambda e, name=name: self._set_weight(name, e.new), "value")
         k.param.watch(self._on_unknown, "unknown_words")
@@ -90,11 +75,7 @@ class ControlTab(pn.viewable.Viewer):
 
     # ------------------------------------------------------------------ widgets -> settings
     def generate(self) -> bool:
-        return start_control(self.state, self.settings)
-
-    def _set_seconds(self, value) -> None:
-        if value is not None:
-            self.settings.seconds = float(value)
+        return self.state.launch(ControlJob(session=self.state, settings=self.settings))
 
     def _set_weight(self, name: str, value: float) -> None:
         self.settings.weights = {**self.settings.weights, name: float(value)}
@@ -114,6 +95,9 @@ class ControlTab(pn.viewable.Viewer):
             self.root_info.object = '<span class="bad">no root path: draw one on the canvas</span>'
             return
         length = path_length(pts)
+        if k.seconds is None:
+            self.root_info.object = '<span class="bad">no duration: type the seconds</span>'
+            return
         speed = length / max(float(k.seconds), 1e-6)
         cls = "bad" if speed > MAX_ROOT_SPEED else "ok"
         note = " — too fast: draw a shorter path or give more seconds" if speed > MAX_ROOT_SPEED else ""
@@ -128,8 +112,6 @@ class ControlTab(pn.viewable.Viewer):
         options = METHOD_LABELS if blending_ok else {"inpainting (base model)": "inpainting"}
         if self.method.options != options:
             self.method.options = options
-        if self.method.value != k.method:
-            self.method.value = k.method
         if not blending_ok:
             note = f"Only inpainting is offered: {html.escape(k.problem)}."
         elif k.problem:

@@ -10,19 +10,18 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 import param
 
 from app.attention_record import AttentionRecord, estimate_bytes, plan_steps
 from app.generation import Cancelled, sampling_slot
-from engine.methods.edit_kinds import REGISTRY
-from engine.methods.motionclr import WEIGHT_RANGES, weight_range_text
+from app.session.items import MotionItem
+from app.session.jobs import JobDescription, Worker
+from app.tabs.edit.counting import CountReadout, auto_count, count_imported
+from app.tabs.edit.settings import PROMPT_SOURCE, EditSettings, EditSummary
 
-#: label shown in the tab -> ``moattn edit`` kind, and each kind's help: both from the engine's registry
-KIND_LABELS = {k.label: name for name, k in REGISTRY.items()}
-KIND_HELP = {name: k.help for name, k in REGISTRY.items()}
-PROMPT_SOURCE = "(the prompt)"
 RECORD_BUDGET = 400 * 1024 * 1024  # the edit's AttentionStore keeps 512 MB at most: stay below it
 
 
@@ -45,7 +44,7 @@ def alignment(tokenizer, reference: str, edited: str) -> tuple[bool, str]:
     if len(ref) != len(new):
         return False, (f"not aligned: the prompt has {len(ref)} words and the edited prompt {len(new)}; replacement "
                        f"swaps words in place, word by word (e.g. '{' '.join(ref)}' → "
-                       f"'{' '.join(_swap_example(ref))}')")
+                       f"'{' '.join(swap_example(ref))}')")
     changed = [(a, b) for a, b in zip(ref, new) if a != b]
     if not changed:
         return False, "the edited prompt is the same as the prompt: change a word (e.g. the verb)"
@@ -53,7 +52,7 @@ def alignment(tokenizer, reference: str, edited: str) -> tuple[bool, str]:
     return True, f"aligned word by word ({len(ref)} words): {pairs}"
 
 
-def _swap_example(words: list[str]) -> list[str]:
+def swap_example(words: list[str]) -> list[str]:
     verbs = {"jumps": "kicks", "walks": "runs", "runs": "walks", "kicks": "jumps", "waves": "claps"}
     out = list(words)
     for i, w in enumerate(out):
@@ -63,59 +62,8 @@ def _swap_example(words: list[str]) -> list[str]:
     return out
 
 
-class EditConfig(param.Parameterized):
-    """The Edit tab's state (one per session, on ``StudioState.edit``)."""
-
-    kind = param.Selector(default="emphasise", objects=list(KIND_LABELS), doc="which edit")
-    word = param.String(default="", doc="the picked word ('' = none picked yet)")
-    occurrence = param.Integer(default=0, bounds=(0, None), doc="which appearance of the word in the prompt")
-    mode = param.Selector(default="add", objects=["add", "mul"], doc="add the weight, or multiply by it")
-    weight = param.Number(default=0.3, bounds=(min(lo for lo, _ in WEIGHT_RANGES.values()),
-                                               max(hi for _, hi in WEIGHT_RANGES.values())),
-                          doc=f"{weight_range_text()} (mul > 1 emphasises)")
-    frames = param.Range(default=None, allow_None=True, doc="frame window [start, end) (None = the kind's default)")
-    step_window = param.Range(default=None, allow_None=True, doc="fractions of the sampling run (None = the method's)")
-    layers = param.List(default=[], item_type=int, doc="layers the edit acts in ([] = all)")
-    fraction = param.Number(default=0.5, bounds=(0.05, 0.95), doc="shift: the part moved to the end")
-    count = param.Integer(default=3, bounds=(1, 6), doc="example-based: how many outputs")
-    edited = param.String(default="", doc="replace: the edited prompt, aligned word by word")
-    source = param.String(default=PROMPT_SOURCE, doc="example / content source: the prompt or a session motion")
-    style_source = param.String(default=PROMPT_SOURCE, doc="style source: a prompt or a session motion")
-    style_prompt = param.String(default="a person walks", doc="style source when it is a prompt")
-    last_edit = param.Parameter(default=None, doc="EditSummary of the last finished edit")
-    count_result = param.Parameter(default=None, doc="CountReadout of the current motion (or None)")
-
-    @property
-    def engine_kind(self) -> str:
-        return KIND_LABELS[self.kind]
-
-
 @dataclass
-class EditSummary:
-    kind: str
-    description: str
-    before: str  # item names
-    after: list[str]
-    seconds_taken: float
-    max_difference: float  # max joint distance (m) between before and the first after, frame-wise
-
-
-@dataclass
-class CountReadout:
-    item: str  # the motion counted
-    count: float
-    rounded: int
-    baseline: int
-    peaks: list[tuple[int, int]]  # (row, col) in frames
-    processed: np.ndarray  # the filtered, downsampled, normalised map
-    downsample: int
-    source: str  # how the self-attention map was obtained
-    period: int | None = None  # frames between repetitions (None: no repetition found)
-    span: tuple[int, int] | None = None  # first and last frame of the repetitions
-
-
-@dataclass
-class EditJob:
+class EditPlan:
     """A checked edit, ready for the worker."""
 
     options: object  # engine.methods.edit_options.EditOptions
@@ -140,19 +88,19 @@ class EditedMotion:
 
 @dataclass
 class EditResult:
-    job: EditJob
+    job: EditPlan
     before: EditedMotion
     after: list[EditedMotion] = field(default_factory=list)
     seconds_taken: float = 0.0
 
 
 # ---------------------------------------------------------------------------------------------- checks
-def prepare(state) -> EditJob:
+def prepare(state) -> EditPlan:
     """Check the tab's settings against the session (prompt, model, sources); raises ValueError with a message."""
     from engine.generate import SampleConfig, frames_for
     from engine.methods.edit_options import EditOptions, build_config
 
-    cfg: EditConfig = state.edit
+    cfg: EditSettings = state.edit
     kind = cfg.engine_kind
     if kind == "count":
         raise ValueError("counting is not an edit: use Count")
@@ -197,7 +145,7 @@ def prepare(state) -> EditJob:
     slots = 2 + (int(cfg.count) - 1 if kind == "example" else 0) + (1 if kind == "style" else 0)
     size = slots * estimate_bytes(num_steps=sample.steps, record_steps=sample.steps, layers=m["layers"],
                                   heads=m["heads"], frames=frames, words=16)
-    return EditJob(options=options, sample=sample, frames=frames, record_steps=int(state.record_steps),
+    return EditPlan(options=options, sample=sample, frames=frames, record_steps=int(state.record_steps),
                    label=cfg.kind, description=description,
                    prompt=prompt if isinstance(prompt, str) else "", record=state.record_steps > 0 and size < RECORD_BUDGET)
 
@@ -243,7 +191,7 @@ def describe(options, *, frames: int) -> str:
 
 
 # ---------------------------------------------------------------------------------------------- the worker
-def run_edit_job(loaded, job: EditJob, *, on_step=None, cancel=None, on_wait=None) -> EditResult:
+def run_edit_job(loaded, job: EditPlan, *, on_step=None, cancel=None, on_wait=None) -> EditResult:
     """Run one edit (waits for the sampling slot); ``on_step(done, total)`` after every step."""
     from engine.methods.edit_options import run_edit
 
@@ -299,35 +247,114 @@ def _record(store, role: str, index: int, words, num_steps: int, keep: list[int]
         return None  # e.g. a text-less (inverted) slot has no cross-attention
 
 
-# ---------------------------------------------------------------------------------------------- counting
-def count_record(record: AttentionRecord, joints: np.ndarray, *, item: str, run=None) -> CountReadout:
-    """Count on a generated motion's recorded self-attention (the recipe of ``edits.count_actions``: mean over
-    heads and layers of the recorded steps in the run's step window)."""
-    from engine.analysis.counting import count_from_attention, count_from_root_height
-    from engine.methods.edits import CountingRun
+# ---------------------------------------------------------------------------------------------- the jobs
+@dataclass
+class EditJob:
+    """One MotionCLR edit of the session's prompt (or sources): before and after side by side when done."""
 
-    run = run or CountingRun()
-    steps = run.chosen_steps(list(record.steps), record.num_steps)
-    layers = run.chosen_layers(list(range(record.n_layers)))
-    maps = record.self_maps[[record.step_position(s) for s in steps]][:, layers]
-    attn = maps.astype(np.float32).mean(axis=(0, 1, 2))
-    result = count_from_attention(attn, run.counting)
-    source = (f"recorded self-attention: mean of heads, layers {', '.join(str(l + 1) for l in layers)} of "
-              f"{record.n_layers} over {len(steps)} recorded step(s) {steps[0] + 1}–{steps[-1] + 1} "
-              f"of {record.num_steps}")
-    return CountReadout(item=item, count=result.count, rounded=result.rounded,
-                        baseline=count_from_root_height(np.asarray(joints)[:, 0, 1]), peaks=list(result.peaks),
-                        processed=result.processed, downsample=run.counting.downsample, source=source,
-                        period=result.period, span=result.span)
+    session: object  # StudioState
+    plan: EditPlan | None = field(default=None, init=False)
+
+    @property
+    def refused(self) -> str:
+        return f"cannot {self.session.edit.kind}"
+
+    def prepare(self, loaded) -> None:
+        self.plan = prepare(self.session)
+
+    def describe(self) -> JobDescription:
+        p = self.plan
+        return JobDescription(what="edit", status=f"{p.description}: step 0 / {p.sample.steps}", verb=p.description,
+                              total=p.sample.steps)
+
+    def run(self, loaded, worker: Worker) -> EditResult:
+        return run_edit_job(loaded, self.plan, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting)
+
+    def finish(self, result: EditResult) -> None:
+        finish_edit(self.session, result)
 
 
-def count_imported(loaded, joints: np.ndarray, *, item: str, prompt: str = "", steps: int = 20) -> CountReadout:
-    """Count on a motion without recorded attention: DDIM-invert it, record self-attention while it is rebuilt."""
-    from engine.methods.edits import CountingRun, count_motion
+@dataclass
+class CountJob:
+    """Count a motion without recorded maps: DDIM-invert it and record its self-attention while it is rebuilt."""
 
-    run = CountingRun()
-    count = count_motion(loaded, np.asarray(joints), prompt=prompt, steps=steps, run=run)
-    r = count.attention
-    return CountReadout(item=item, count=r.count, rounded=r.rounded, baseline=count.baseline, peaks=list(r.peaks),
-                        processed=r.processed, downsample=run.counting.downsample, period=r.period,
-                        span=r.span, source=f"inverted ({steps} DDIM steps), self-attention recorded while it was rebuilt")
+    session: object  # StudioState
+    item: MotionItem
+    refused: ClassVar[str] = "cannot count"
+
+    def prepare(self, loaded) -> None:
+        if self.item.n_frames < 8:
+            raise ValueError("the motion is too short to count on")
+
+    def describe(self) -> JobDescription:
+        return JobDescription(what="counting", status=f"counting {self.item.name!r}: inverting the motion…",
+                              verb="counting", total=1)
+
+    def run(self, loaded, worker: Worker) -> CountReadout:
+        with sampling_slot(worker.cancel, worker.waiting):
+            return count_imported(loaded, self.item.joints[:196], item=self.item.name, prompt=self.item.prompt)
+
+    def finish(self, readout: CountReadout) -> None:
+        self.session.end_job(f"counted {self.item.name!r}: {readout.count:.2f} (baseline {readout.baseline})")
+        self.session.edit.count_result = readout
+
+
+def run_edit(session) -> bool:
+    """The Edit tab's Run: the edit (or counting) on the worker; False (and a notification) if refused."""
+    if session.edit.engine_kind == "count":
+        return count_current(session)
+    return session.launch(EditJob(session=session))
+
+
+def count_current(session) -> bool:
+    """The counting readout for the shown motion: from its recorded maps (at once) or by inversion (worker)."""
+    item = session.item
+    if item is None:
+        session.error("nothing to count: generate or import a motion first")
+        return False
+    if item.attention is not None:
+        auto_count(session, session.edit)
+        return True
+    return session.launch(CountJob(session=session, item=item))
+
+
+def finish_edit(session, result: EditResult) -> None:
+    """The reference (re-used when the session has it already) and the edited motions; shown side by side."""
+    job = result.job
+    seed = job.sample.seed
+
+    def item(m, title: str) -> MotionItem:
+        return MotionItem(name=session.unique_name(title), joints=m.joints, source="generated", prompt=m.prompt,
+                          words=m.words, attention=m.attention,
+                          info={"edit": job.description, "role": m.role, "seed": seed})
+
+    base = job.prompt if job.options.kind not in ("example", "style") else (result.before.prompt or "imported")
+    title = f"{base} · seed {seed} · {result.before.title}"
+    before = same_motion(session, title, result.before.joints)
+    if before is None:
+        before = item(result.before, title)
+        session.add_item(before, show=False)
+    afters = []
+    for m in result.after:
+        it = item(m, f"{m.prompt or base} · {m.title}")
+        session.add_item(it, show=False)
+        afters.append(it)
+    first = afters[0]
+    n = min(len(first.joints), len(before.joints))
+    diff = float(np.linalg.norm(first.joints[:n] - before.joints[:n], axis=-1).max()) if n else 0.0
+    session.end_job(f"{job.description}: done in {result.seconds_taken:.1f} s ({job.sample.steps} steps)")
+    with param.parameterized.batch_call_watchers(session):
+        session.show(first.name)
+        session.compare = before.name
+    session.edit.last_edit = EditSummary(kind=job.label, description=job.description, before=before.name,
+                                         after=[a.name for a in afters], seconds_taken=result.seconds_taken,
+                                         max_difference=diff)
+
+
+def same_motion(session, title: str, joints: np.ndarray) -> MotionItem | None:
+    """An item already in the list with this title and these joints (a reference re-made by another edit)."""
+    for name, it in session.items.items():
+        if (name == title or name.startswith(title + " (")) and it.joints.shape == joints.shape \
+                and np.allclose(it.joints, joints, atol=1e-5):
+            return it
+    return None

@@ -1,8 +1,8 @@
 """The Edit tab (MotionCLR): pick an edit, click a word of the prompt, set weights and windows, run it off the UI
 thread, see before / after side by side in the viewer; the counting readout with its peaks.
 
-All settings live on ``state.edit`` (an ``app.tabs.edit.job.EditConfig``); the widgets only mirror it. The edit
-itself is ``StudioState.run_edit`` (checks, then the shared worker with progress and cancel).
+All settings live on ``state.edit`` (an ``app.tabs.edit.settings.EditSettings``); the widgets only mirror it. The
+edit itself is an ``EditJob`` launched on the session (checks, then the shared worker with progress and cancel).
 """
 from __future__ import annotations
 
@@ -15,7 +15,8 @@ from bokeh.models import ColumnDataSource, HoverTool, LinearColorMapper, Range1d
 from bokeh.palettes import Viridis256
 from bokeh.plotting import figure
 
-from app.tabs.edit.job import KIND_HELP, KIND_LABELS, PROMPT_SOURCE, alignment
+from app.tabs.edit.job import alignment, count_current, run_edit, swap_example, word_choice
+from app.tabs.edit.settings import KIND_HELP, KIND_LABELS, PROMPT_SOURCE
 from app.session.state import StudioState
 from app.components.jobbar import WRAP_BUTTONS_CSS, JobBar, on_text
 from app.components.guard import SyncGuard
@@ -68,7 +69,7 @@ class EditTab(pn.viewable.Viewer):
         self.style_prompt = pn.widgets.TextInput(label="Style prompt", value=e.style_prompt,
                                                  css_classes=["edit-style-prompt"], width=260)
         self.bar = JobBar(state=s, jobs=["edit", "counting"], label="Run edit", prefix="edit",
-                          on_run=lambda: self.state.run_edit(), blocked=self._misaligned)
+                          on_run=lambda: run_edit(self.state), blocked=self._misaligned)
         b = self.bar
         self.run, self.cancel, self.progress, self.status = b.run, b.cancel, b.progress, b.status
         self.result = pn.pane.Markdown("", css_classes=["edit-result"], margin=(0, 10))
@@ -90,7 +91,7 @@ class EditTab(pn.viewable.Viewer):
         self.source.param.watch(lambda ev: self._set("source", ev.new), "value")
         self.style_source.param.watch(lambda ev: self._set("style_source", ev.new), "value")
         on_text(self.style_prompt, lambda text: self._set("style_prompt", text))
-        self.count_button.on_click(lambda _: self.state.count_current())
+        self.count_button.on_click(lambda _: count_current(self.state))
 
         e.param.watch(self._on_kind, "kind")
         e.param.watch(self._on_mode, "mode")
@@ -128,8 +129,6 @@ class EditTab(pn.viewable.Viewer):
 
     def pick_word(self, position: int) -> None:
         """What a click on the prompt's ``position``-th word does: the edit names that word (and which occurrence)."""
-        from app.tabs.edit.job import word_choice
-
         word, occurrence = word_choice(self.state.prompt_words, position)
         self.state.edit.param.update(word=word, occurrence=occurrence)
         self._sync(lambda: setattr(self.words, "value", position))
@@ -248,9 +247,7 @@ class EditTab(pn.viewable.Viewer):
         if kind == "ground" and self.weight.value < 0:
             self.weight.value = abs(self.weight.value)
         if kind == "replace" and not e.edited:
-            from app.tabs.edit.job import _swap_example
-
-            e.edited = " ".join(_swap_example(list(self.state.prompt_words)))
+            e.edited = " ".join(swap_example(list(self.state.prompt_words)))
             self._sync(lambda: setattr(self.edited, "value", e.edited))
         self.bar.refresh()  # Run waits for aligned prompts in replacement only
 

@@ -12,72 +12,21 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 import numpy as np
 import param
-from bokeh.palettes import Category10_10, Category20_20, Turbo256
 
-from app.generation import Cancelled, prompt_analysis, sampling_slot
+from app.generation import Cancelled, sampling_slot
+from app.session.items import MotionItem
+from app.session.jobs import JobDescription, Worker
+from app.tabs.transfer.settings import SourceSettings, TransferSettings
 
-ROLES = ("leader", "follower", "out")
-SOURCE_KINDS = ("prompt", "motion")
-ROOT_LABELS = {"leader's path": "trajectory", "leader's heading (paper)": "rotation", "its own": "none"}
-COLOR_BY = ("roles", "Q cluster", "K cluster")
 MIN_MOTION_FRAMES = 20  # 1 s
 
 
-class SourceSettings(param.Parameterized):
-    """A leader or a follower: a prompt to generate, or a session motion to DDIM-invert."""
-
-    role = param.String(default="leader", doc="'leader' or 'follower'")
-    kind = param.Selector(default="prompt", objects=list(SOURCE_KINDS), doc="generate from text or invert a motion")
-    prompt = param.String(default="", doc="what to generate; for a motion, an optional description of it")
-    motion = param.String(default="", doc="name of a session motion (kind 'motion')")
-    seconds = param.Number(default=4.0, doc="duration of a generated stream")
-    words = param.List(default=[], doc="words of the prompt")
-    unknown_words = param.List(default=[], doc="words of the prompt the model does not know")
-
-    def __init__(self, *, tokenizer: Callable[[], object] | None = None, **params):
-        super().__init__(**params)
-        self.tokenizer = tokenizer or (lambda: None)
-        self.param.watch(self.analyse, "prompt")
-        self.analyse()
-
-    def analyse(self, *_) -> None:
-        words, unknown, _ = prompt_analysis(self.tokenizer(), self.prompt)
-        self.param.update(words=words, unknown_words=unknown)
-
-
-class TransferSettings(param.Parameterized):
-    """The Transfer tab's state (one per session, on ``StudioState.transfer``)."""
-
-    leader = param.ClassSelector(class_=SourceSettings)
-    follower = param.ClassSelector(class_=SourceSettings)
-    layers = param.Range(default=None, allow_None=True, doc="first and last 0-based layer that mix (None = all but "
-                                                             "the first)")
-    steps = param.Range(default=(0.1, 0.9), doc="fractions of the sampling run that mix (paper: 0.1-0.9)")
-    root = param.Selector(default="trajectory", objects=list(ROOT_LABELS.values()), doc="what the out takes from "
-                                                                                         "the leader's root")
-    color_by = param.Selector(default="roles", objects=list(COLOR_BY), doc="skeleton colours in the viewer")
-    feet = param.Boolean(default=False, doc="the out also keeps the leader's footwork (foot contacts, feet and "
-                                            "ankles; not in the paper)")
-    more_followers = param.String(default="", doc="more follower prompts, one per line: the leader drives each of "
-                                                  "them too (one out per follower, in the same batch)")
-    result = param.Parameter(default=None, doc="TransferView of the last finished transfer")
-    analysed = param.Integer(default=1, bounds=(1, None), doc="which follower (1-based) the analysis views and "
-                                                              "the cluster colours show")
-
-    def __init__(self, *, tokenizer: Callable[[], object] | None = None, **params):
-        super().__init__(**params)
-        if self.leader is None:
-            self.leader = SourceSettings(role="leader", prompt="a person walks forward", tokenizer=tokenizer)
-        if self.follower is None:
-            self.follower = SourceSettings(role="follower", prompt="a person jumps twice", seconds=3.0,
-                                           tokenizer=tokenizer)
-
-
 @dataclass(frozen=True)
-class TransferJob:
+class TransferPlan:
     """A checked transfer, ready for the worker."""
 
     leader: object  # engine.methods.momo.Source
@@ -157,7 +106,7 @@ def _source(state, settings: SourceSettings, loaded):
     return Source(prompt=text or None, joints=joints, name=item.name), item.name
 
 
-def prepare(state) -> TransferJob:
+def prepare(state) -> TransferPlan:
     """Check the tab's settings against the session and the model; raises ValueError with a message."""
     from engine.generate import SampleConfig
     from engine.methods.momo import TransferConfig
@@ -179,7 +128,7 @@ def prepare(state) -> TransferJob:
                    f"{config.start:.0%}–{config.end:.0%}{feet})")
     labels = {"leader": leader_label, "follower": follower_label}
     labels.update({f"follower {k}": src.prompt for k, src in enumerate(extra, start=2)})
-    return TransferJob(leader=leader, follower=follower, extra=tuple(extra), config=config, sample=sample,
+    return TransferPlan(leader=leader, follower=follower, extra=tuple(extra), config=config, sample=sample,
                        labels=labels, description=description)
 
 
@@ -242,7 +191,7 @@ def record_for(loaded, steps: int):
 
 
 # ---------------------------------------------------------------------------------------------- the worker
-def run_job(loaded, job: TransferJob, *, on_step=None, cancel=None, on_wait=None,
+def run_job(loaded, job: TransferPlan, *, on_step=None, cancel=None, on_wait=None,
             note: Callable[[str], None] = lambda text: None) -> TransferView:
     """Fit (or reuse) the clusters, run the transfer, analyse it; ``on_step(done, total)`` after every step."""
     from engine.methods.momo import analyze, transfer
@@ -281,22 +230,33 @@ def run_job(loaded, job: TransferJob, *, on_step=None, cancel=None, on_wait=None
                         seconds_taken=time.perf_counter() - start, analyses=analyses)
 
 
-def start_transfer(state) -> bool:
-    """Check, then run on the session's worker with progress and cancel; False (and a notification) if refused."""
-    return state.launch(
-        prepare=lambda: prepare(state),
-        run=lambda loaded, job, worker: run_job(loaded, job, on_step=worker.step, cancel=worker.cancel,
-                                                on_wait=worker.waiting, note=worker.note),
-        finish=lambda job, view: finish(state, job, view), refused="cannot transfer", what="transfer",
-        total=lambda job: job.sample.steps, status=lambda job: f"transfer {job.description}: starting",
-        verb=lambda job: "transfer")
+@dataclass
+class TransferJob:
+    """One transfer, leader -> follower(s): leader / follower / out side by side and the analysis when done."""
+
+    session: object  # StudioState
+    plan: TransferPlan | None = field(default=None, init=False)
+    refused: ClassVar[str] = "cannot transfer"
+
+    def prepare(self, loaded) -> None:
+        self.plan = prepare(self.session)
+
+    def describe(self) -> JobDescription:
+        p = self.plan
+        return JobDescription(what="transfer", status=f"transfer {p.description}: starting", verb="transfer",
+                              total=p.sample.steps)
+
+    def run(self, loaded, worker: Worker) -> TransferView:
+        return run_job(loaded, self.plan, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting,
+                       note=worker.note)
+
+    def finish(self, view: TransferView) -> None:
+        finish(self.session, self.plan, view)
 
 
-def finish(state, job: TransferJob, view: TransferView) -> None:
+def finish(state, job: TransferPlan, view: TransferView) -> None:
     """Session motions (leader, follower, out, then follower k / out k of any extra follower) side by side in
     the viewer; the analysis on the tab."""
-    from app.session.items import MotionItem
-
     titles = {"leader": f"leader · {job.labels['leader']}"}
     prompts = {"leader": job.leader.prompt or ""}
     for k, src in enumerate((job.follower, *job.extra), start=1):
@@ -329,52 +289,6 @@ def show_roles(state) -> None:
         state.show(view.names["leader"])
         state.compare = view.names["follower"]
         state.also = [view.names["out"], *(view.names[r] for r in view.names if r.startswith("out "))]
-
-
-# ---------------------------------------------------------------------------------------------- colours
-def cluster_palette(n: int) -> list[str]:
-    """One colour per cluster id (K-Means ids 0..n-1; the paper's m = 10 fits Category10)."""
-    return list(Category10_10 if n <= 10 else Category20_20)
-
-
-def cluster_colors(labels: np.ndarray, n_clusters: int) -> list[str]:
-    palette = cluster_palette(n_clusters)
-    return [palette[int(k) % len(palette)] for k in labels]
-
-
-def index_colors(n: int) -> list[str]:
-    """A colour per frame index (follower frames in the correspondence view)."""
-    return [Turbo256[int(round(20 + 215 * i / max(n - 1, 1)))] for i in range(n)]
-
-
-def hex_rgb(colors: list[str]) -> np.ndarray:
-    return np.array([[int(c[i : i + 2], 16) for i in (1, 3, 5)] for c in colors], dtype=np.uint8)
-
-
-def paint_clusters(state) -> None:
-    """Skeleton colours per frame from the last transfer's Q or K clusters (or none: the role colours)."""
-    cfg = state.transfer
-    view = focused(cfg)
-    if view is None or cfg.color_by == "roles":
-        colors = {}
-    else:
-        labels = view.analysis.q_labels if cfg.color_by == "Q cluster" else view.analysis.k_labels
-        n = n_clusters(view)
-        colors = {view.names[r]: hex_rgb(cluster_colors(labels[r], n)) for r in ROLES if r in view.names}
-    if colors or state.frame_colors:
-        state.frame_colors = colors
-
-
-def focused(settings: TransferSettings) -> TransferView | None:
-    """The last transfer seen through the follower the analysis shows (None before the first transfer)."""
-    view = settings.result
-    return None if view is None else view.focus(settings.analysed)
-
-
-def n_clusters(view: TransferView) -> int:
-    """The number of cluster ids to colour (at least the paper's 10, so colours stay put between transfers)."""
-    a = view.analysis
-    return int(max(10, *(v.max() + 1 for v in (*a.q_labels.values(), *a.k_labels.values()))))
 
 
 def describe_inversion(error: dict | None) -> str:

@@ -17,7 +17,7 @@ from bokeh.palettes import Viridis256
 from bokeh.plotting import figure
 
 from app.session.state import StudioState
-from app.tabs.transfer.job import ROLES, cluster_colors, cluster_palette, focused, index_colors, n_clusters
+from app.tabs.transfer.colors import ROLES, cluster_colors, cluster_palette, focused, index_colors, n_clusters
 from viz.geometry import BONE_CHILDREN, BONE_PARENTS
 
 WIDTH = 580

@@ -2,8 +2,8 @@
 or an imported motion; layer and step windows; run off the UI thread with progress and cancel; then leader /
 follower / out side by side in the viewer and the analysis views (``app.tabs.transfer.plots``).
 
-All settings live on ``state.transfer`` (an ``app.transfer.TransferSettings``); the widgets only mirror it. The
-transfer itself is ``StudioState.run_transfer`` (checks, then the shared worker).
+All settings live on ``state.transfer`` (an ``app.tabs.transfer.settings.TransferSettings``); the widgets only mirror
+it. The transfer itself is a ``TransferJob`` launched on the session (checks, then the shared worker).
 """
 from __future__ import annotations
 
@@ -13,7 +13,8 @@ import panel as pn
 import param
 
 from app.session.state import StudioState
-from app.tabs.transfer.job import COLOR_BY, ROOT_LABELS, SourceSettings, describe_inversion, show_roles
+from app.tabs.transfer.job import TransferJob, describe_inversion, show_roles
+from app.tabs.transfer.settings import COLOR_BY, ROOT_LABELS, SourceSettings
 from app.components.words import WORD_CSS, word_chips
 from app.components.jobbar import JobBar, on_text
 from app.tabs.transfer.plots import TransferPlots
@@ -141,7 +142,7 @@ class TransferTab(pn.viewable.Viewer):
         self.feet = pn.widgets.Checkbox(label="keep the leader's footwork (feet and contacts; not in the paper)",
                                         value=t.feet, css_classes=["transfer-feet"])
         self.bar = JobBar(state=s, jobs=["transfer"], label="Run transfer", busy_label="Running…", prefix="transfer",
-                          on_run=lambda: self.state.run_transfer(), blocked=self._unknown_words)
+                          on_run=lambda: self.state.launch(TransferJob(session=self.state)), blocked=self._unknown_words)
         self.run, self.cancel, self.progress, self.status = self.bar.run, self.bar.cancel, self.bar.progress, self.bar.status
         self.result = pn.pane.HTML("", css_classes=["transfer-result"], margin=(0, 10))
         self.show = pn.widgets.Button(label="Show leader / follower / out", css_classes=["transfer-show"],
