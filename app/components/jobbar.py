@@ -69,10 +69,10 @@ def on_text(widget, fn: Callable[[str], object]) -> None:
     widget.param.watch(lambda *events: fn(events[-1].new or ""), ["value", "value_input"])
 
 
-def text_from_param(parameter: param.Parameter, **params) -> pn.widgets.TextInput:
-    """A text input made from a String parameter (``from_param``: linked both ways) that also writes it key by key,
-    as the text is typed (``value_input``)."""
-    widget = pn.widgets.TextInput.from_param(parameter, **params)
+def text_from_param(parameter: param.Parameter, *, widget_type=pn.widgets.TextInput, **params):
+    """A text input (``widget_type``) made from a String parameter (``from_param``: linked both ways) that also
+    writes it key by key, as the text is typed (``value_input``)."""
+    widget = widget_type.from_param(parameter, **params)
     owner, name = parameter.owner, parameter.name
     on_text(widget, lambda text: setattr(owner, name, text))
     return widget

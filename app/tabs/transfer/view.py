@@ -14,12 +14,11 @@ import param
 
 from app.session.state import StudioState
 from app.tabs.transfer.job import TransferJob, describe_inversion, show_roles
-from app.tabs.transfer.settings import COLOR_BY, ROOT_LABELS, SourceSettings
+from app.tabs.transfer.settings import SourceSettings
 from app.components.words import WORD_CSS, word_chips
-from app.components.jobbar import JobBar, on_text
+from app.components.jobbar import JobBar, text_from_param
 from app.tabs.transfer.plots import TransferPlots
 
-KIND_LABELS = {"prompt": "prompt", "imported motion": "motion"}
 NO_MOTION = "(import a motion)"
 HELP = {"leader": "**Leader**: what and when (outline, timing).", "follower": "**Follower**: how (motifs)."}
 
@@ -34,21 +33,17 @@ class SourcePicker(pn.viewable.Viewer):
     def __init__(self, **params):
         super().__init__(**params)
         src = self.source
-        self.kind = pn.widgets.RadioButtonGroup(options=KIND_LABELS, value=src.kind, color="primary",
-                                                variant="outline", css_classes=["source-kind"])
-        self.prompt = pn.widgets.TextInput(value=src.prompt, css_classes=["source-prompt"], sizing_mode="stretch_width")
+        self.kind = pn.widgets.RadioButtonGroup.from_param(src.param.kind, color="primary", variant="outline",
+                                                           css_classes=["source-kind"])
+        self.prompt = text_from_param(src.param.prompt, css_classes=["source-prompt"], sizing_mode="stretch_width")
         self.words = pn.pane.HTML("", css_classes=["source-words"], margin=(0, 10), stylesheets=[WORD_CSS])
-        self.seconds = pn.widgets.FloatInput(label="Seconds", value=src.seconds, step=0.5, width=90,
-                                             css_classes=["source-seconds"])
+        self.seconds = pn.widgets.FloatInput.from_param(src.param.seconds, width=90, css_classes=["source-seconds"])
         self.motion = pn.widgets.Select(label="Imported motion", options=[NO_MOTION], css_classes=["source-motion"],
                                         sizing_mode="stretch_width")
         self.upload = pn.widgets.FileInput(accept=".bvh,.npy", multiple=False, css_classes=["source-upload"],
                                            sizing_mode="stretch_width")
         self.info = pn.pane.Markdown("", css_classes=["source-info"], margin=(0, 10),
                                      styles={"font-size": "12px", "color": "#444"})
-        self.kind.param.watch(lambda e: setattr(src, "kind", e.new), "value")
-        on_text(self.prompt, lambda text: setattr(src, "prompt", text))
-        self.seconds.param.watch(self._on_seconds, "value")
         self.motion.param.watch(lambda e: setattr(src, "motion", "" if e.new == NO_MOTION else e.new), "value")
         self.upload.param.watch(self._on_upload, "value")
         src.param.watch(self._on_kind, ["kind", "motion"])
@@ -58,10 +53,6 @@ class SourcePicker(pn.viewable.Viewer):
         self._on_items()
         self._on_kind()
         self._on_words()
-
-    def _on_seconds(self, event) -> None:
-        if event.new is not None:
-            self.source.seconds = float(event.new)
 
     def _on_upload(self, event) -> None:
         from app.uploads import import_bytes
@@ -85,8 +76,6 @@ class SourcePicker(pn.viewable.Viewer):
     def _on_kind(self, *_):
         src = self.source
         is_prompt = src.kind == "prompt"
-        if self.kind.value != src.kind:
-            self.kind.value = src.kind
         if src.motion and src.motion in self.motion.options and self.motion.value != src.motion:
             self.motion.value = src.motion
         self.prompt.label = "Prompt" if is_prompt else "Description (optional, guides the inversion; empty = read without text)"
@@ -124,41 +113,33 @@ class TransferTab(pn.viewable.Viewer):
         s, t = self.state, self.state.transfer
         self.leader = SourcePicker(state=s, source=t.leader)
         self.follower = SourcePicker(state=s, source=t.follower)
-        self.more = pn.widgets.TextAreaInput(
-            label="More followers (optional): one prompt per line, each gets its own out",
-            value=t.more_followers, placeholder="a person runs like a zombie\na person walks and waves", rows=3,
-            css_classes=["transfer-more"], sizing_mode="stretch_width")
-        on_text(self.more, lambda text: setattr(t, "more_followers", text))
+        self.more = text_from_param(t.param.more_followers, widget_type=pn.widgets.TextAreaInput, rows=3,
+                                    placeholder="a person runs like a zombie\na person walks and waves",
+                                    css_classes=["transfer-more"], sizing_mode="stretch_width")
         layers = self._n_layers()
         default = (min(1, layers - 1), layers - 1)
         self.layers = pn.widgets.IntRangeSlider(label="Layers that mix (0-based)", start=0, end=max(layers - 1, 1),
                                                 value=default if t.layers is None else t.layers,
                                                 css_classes=["transfer-layers"], sizing_mode="stretch_width")
-        self.steps = pn.widgets.RangeSlider(label="Steps that mix (fraction of the run)", start=0.0, end=1.0,
-                                            step=0.05, value=t.steps, css_classes=["transfer-steps"],
-                                            sizing_mode="stretch_width")
-        self.root = pn.widgets.RadioButtonGroup(label="Root of the out", options=ROOT_LABELS, value=t.root,
-                                                color="primary", variant="outline", css_classes=["transfer-root"])
-        self.feet = pn.widgets.Checkbox(label="keep the leader's footwork (feet and contacts; not in the paper)",
-                                        value=t.feet, css_classes=["transfer-feet"])
+        self.steps = pn.widgets.RangeSlider.from_param(t.param.steps, css_classes=["transfer-steps"],
+                                                       sizing_mode="stretch_width")
+        self.root = pn.widgets.RadioButtonGroup.from_param(t.param.root, color="primary", variant="outline",
+                                                           css_classes=["transfer-root"])
+        self.feet = pn.widgets.Checkbox.from_param(t.param.feet, css_classes=["transfer-feet"])
         self.bar = JobBar(state=s, jobs=["transfer"], label="Run transfer", busy_label="Running…", prefix="transfer",
                           on_run=lambda: self.state.launch(TransferJob(session=self.state)), blocked=self._unknown_words)
         self.run, self.cancel, self.progress, self.status = self.bar.run, self.bar.cancel, self.bar.progress, self.bar.status
         self.result = pn.pane.HTML("", css_classes=["transfer-result"], margin=(0, 10))
         self.show = pn.widgets.Button(label="Show leader / follower / out", css_classes=["transfer-show"],
                                       width=230, disabled=True)
-        self.color = pn.widgets.RadioButtonGroup(label="Skeleton colours", options=list(COLOR_BY), value=t.color_by,
-                                                 color="primary", variant="outline", css_classes=["transfer-color"])
+        self.color = pn.widgets.RadioButtonGroup.from_param(t.param.color_by, color="primary", variant="outline",
+                                                            css_classes=["transfer-color"])
         self.analysed = pn.widgets.RadioButtonGroup(options={"follower 1": 1}, value=t.analysed, color="primary",
                                                     variant="outline", css_classes=["transfer-analysed"])
         self.analysed_row = pn.Row(pn.pane.Markdown("Analysis of", margin=(8, 10)), self.analysed, visible=False)
         self.plots = TransferPlots(state=s)
 
         self.layers.param.watch(lambda e: self._set("layers", tuple(int(v) for v in e.new)), "value")
-        self.steps.param.watch(lambda e: self._set("steps", tuple(round(v, 4) for v in e.new)), "value")
-        self.root.param.watch(lambda e: self._set("root", e.new), "value")
-        self.feet.param.watch(lambda e: self._set("feet", bool(e.new)), "value")
-        self.color.param.watch(lambda e: self._set("color_by", e.new), "value")
         self.analysed.param.watch(lambda e: self._set("analysed", int(e.new)), "value")
         self.show.on_click(lambda _: show_roles(self.state))
         for src in (t.leader, t.follower):
