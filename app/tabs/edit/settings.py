@@ -19,22 +19,25 @@ class EditSettings(param.Parameterized):
     """The Edit tab's settings (one per session, on ``StudioState.edit``), its last edit and the counting readout
     of the shown motion."""
 
-    kind = param.Selector(default="emphasise", objects=list(KIND_LABELS), doc="which edit")
+    kind = param.Selector(default="emphasise", objects=list(KIND_LABELS), label="Edit", doc="which edit")
     word = param.String(default="", doc="the picked word ('' = none picked yet)")
     occurrence = param.Integer(default=0, bounds=(0, None), doc="which appearance of the word in the prompt")
-    mode = param.Selector(default="add", objects=["add", "mul"], doc="add the weight, or multiply by it")
+    mode = param.Selector(default="add", objects={"add +w": "add", "multiply ×w": "mul"}, label="Mode",
+                          doc="add the weight, or multiply by it")
     weight = param.Number(default=0.3, bounds=(min(lo for lo, _ in WEIGHT_RANGES.values()),
-                                               max(hi for _, hi in WEIGHT_RANGES.values())),
-                          doc=f"{weight_range_text()} (mul > 1 emphasises)")
+                                               max(hi for _, hi in WEIGHT_RANGES.values())), step=0.05,
+                          label="Weight", doc=f"{weight_range_text()} (mul > 1 emphasises)")
     frames = param.Range(default=None, allow_None=True, doc="frame window [start, end) (None = the kind's default)")
     step_window = param.Range(default=None, allow_None=True, doc="fractions of the sampling run (None = the method's)")
     layers = param.List(default=[], item_type=int, doc="layers the edit acts in ([] = all)")
-    fraction = param.Number(default=0.5, bounds=(0.05, 0.95), doc="shift: the part moved to the end")
-    count = param.Integer(default=3, bounds=(1, 6), doc="example-based: how many outputs")
-    edited = param.String(default="", doc="replace: the edited prompt, aligned word by word")
+    fraction = param.Number(default=0.5, bounds=(0.05, 0.95), step=0.05, label="Shift: part moved to the end",
+                            doc="shift: the part moved to the end")
+    count = param.Integer(default=3, bounds=(1, 6), label="Number of examples", doc="example-based: how many outputs")
+    edited = param.String(default="", label="Edited prompt (same words, the action swapped)",
+                          doc="replace: the edited prompt, aligned word by word")
     source = param.String(default=PROMPT_SOURCE, doc="example / content source: the prompt or a session motion")
     style_source = param.String(default=PROMPT_SOURCE, doc="style source: a prompt or a session motion")
-    style_prompt = param.String(default="a person walks", doc="style source when it is a prompt")
+    style_prompt = param.String(default="a person walks", label="Style prompt", doc="style source when it is a prompt")
     last_edit = param.Parameter(default=None, doc="EditSummary of the last finished edit")
     count_result = param.Parameter(default=None, doc="CountReadout of the current motion (or None)")
 

@@ -16,9 +16,9 @@ from bokeh.palettes import Viridis256
 from bokeh.plotting import figure
 
 from app.tabs.edit.job import alignment, count_current, run_edit, swap_example, word_choice
-from app.tabs.edit.settings import KIND_HELP, KIND_LABELS, PROMPT_SOURCE
+from app.tabs.edit.settings import KIND_HELP, PROMPT_SOURCE
 from app.session.state import StudioState
-from app.components.jobbar import WRAP_BUTTONS_CSS, JobBar, on_text
+from app.components.jobbar import WRAP_BUTTONS_CSS, JobBar, text_from_param
 from app.components.guard import SyncGuard
 from engine.methods.edit_kinds import REGISTRY
 from engine.methods.motionclr import WEIGHT_RANGES
@@ -32,42 +32,37 @@ class EditTab(pn.viewable.Viewer):
         super().__init__(**params)
         s, e = self.state, self.state.edit
         self._syncing = SyncGuard()
-        self.kind = pn.widgets.RadioButtonGroup(label="Edit", options=list(KIND_LABELS), value=e.kind,
-                                                color="primary", variant="outline",
-                                                css_classes=["edit-kind"], sizing_mode="stretch_width")
+        self.kind = pn.widgets.RadioButtonGroup.from_param(e.param.kind, color="primary", variant="outline",
+                                                           css_classes=["edit-kind"], sizing_mode="stretch_width")
         self.help = pn.pane.Markdown("", css_classes=["edit-help"], margin=(0, 10),
                                      styles={"font-size": "12px", "color": "#444"})
         self.words_label = pn.pane.Markdown("**Word** (click it in the prompt)", margin=(0, 10))
         self.words = pn.widgets.RadioButtonGroup(label="Word", options={}, value=None, color="primary",
                                                  variant="outline", css_classes=["edit-words"], margin=(2, 10),
                                                  sizing_mode="stretch_width", stylesheets=[WRAP_BUTTONS_CSS])
-        self.mode = pn.widgets.RadioButtonGroup(label="Mode", options={"add +w": "add", "multiply ×w": "mul"},
-                                                value=e.mode, color="primary", variant="outline",
-                                                css_classes=["edit-mode"], width=220)
-        lo, hi = WEIGHT_RANGES[e.mode]
-        self.weight = pn.widgets.FloatSlider(label="Weight", start=lo, end=hi, step=0.05, value=e.weight,
-                                             css_classes=["edit-weight"], sizing_mode="stretch_width")
+        self.mode = pn.widgets.RadioButtonGroup.from_param(e.param.mode, color="primary", variant="outline",
+                                                           css_classes=["edit-mode"], width=220)
+        lo, hi = WEIGHT_RANGES[e.mode]  # the mode's own range (the settings' bounds cover both modes)
+        self.weight = pn.widgets.FloatSlider.from_param(e.param.weight, start=lo, end=hi, css_classes=["edit-weight"],
+                                                        sizing_mode="stretch_width")
         self.frames = pn.widgets.IntRangeSlider(label="Frames", start=0, end=80, value=(0, 80), step=1,
                                                 css_classes=["edit-frames"], sizing_mode="stretch_width")
         self.steps = pn.widgets.RangeSlider(label="Steps (fraction of the run)", start=0.0, end=1.0, step=0.05,
                                             value=(0.0, 1.0), css_classes=["edit-steps"], sizing_mode="stretch_width")
         self.layers = pn.widgets.MultiChoice(label="Layers (empty = the edit's default)", options={}, value=[],
                                              css_classes=["edit-layers"], sizing_mode="stretch_width")
-        self.fraction = pn.widgets.FloatSlider(label="Shift: part moved to the end", start=0.05, end=0.95, step=0.05,
-                                               value=e.fraction, css_classes=["edit-fraction"],
-                                               sizing_mode="stretch_width")
-        self.count = pn.widgets.IntSlider(label="Number of examples", start=1, end=6, value=e.count,
-                                          css_classes=["edit-count"], sizing_mode="stretch_width")
-        self.edited = pn.widgets.TextInput(label="Edited prompt (same words, the action swapped)", value=e.edited,
-                                           placeholder="a person kicks twice", css_classes=["edit-edited"],
-                                           sizing_mode="stretch_width")
+        self.fraction = pn.widgets.FloatSlider.from_param(e.param.fraction, css_classes=["edit-fraction"],
+                                                          sizing_mode="stretch_width")
+        self.count = pn.widgets.IntSlider.from_param(e.param.count, css_classes=["edit-count"],
+                                                     sizing_mode="stretch_width")
+        self.edited = text_from_param(e.param.edited, placeholder="a person kicks twice", css_classes=["edit-edited"],
+                                      sizing_mode="stretch_width")
         self.alignment = pn.pane.HTML("", css_classes=["edit-alignment"], margin=(0, 10), stylesheets=[_CSS])
         self.source = pn.widgets.Select(label="Content / example", options=[PROMPT_SOURCE], value=e.source,
                                         css_classes=["edit-source"], width=260)
         self.style_source = pn.widgets.Select(label="Style", options=[PROMPT_SOURCE], value=e.style_source,
                                               css_classes=["edit-style-source"], width=260)
-        self.style_prompt = pn.widgets.TextInput(label="Style prompt", value=e.style_prompt,
-                                                 css_classes=["edit-style-prompt"], width=260)
+        self.style_prompt = text_from_param(e.param.style_prompt, css_classes=["edit-style-prompt"], width=260)
         self.bar = JobBar(state=s, jobs=["edit", "counting"], label="Run edit", prefix="edit",
                           on_run=lambda: run_edit(self.state), blocked=self._misaligned)
         b = self.bar
@@ -78,19 +73,12 @@ class EditTab(pn.viewable.Viewer):
         self._build_count_map()
         self.count_pane = pn.pane.Bokeh(self.count_map, margin=(0, 10))
 
-        self.kind.param.watch(lambda ev: self._set("kind", ev.new), "value")
         self.words.param.watch(self._on_word_button, "value")
-        self.mode.param.watch(lambda ev: self._set("mode", ev.new), "value")
-        self.weight.param.watch(lambda ev: self._set("weight", ev.new), "value")
         self.frames.param.watch(lambda ev: self._set("frames", tuple(ev.new)), "value")
         self.steps.param.watch(lambda ev: self._set("step_window", tuple(round(v, 4) for v in ev.new)), "value")
         self.layers.param.watch(lambda ev: self._set("layers", sorted(int(v) for v in ev.new)), "value")
-        self.fraction.param.watch(lambda ev: self._set("fraction", ev.new), "value")
-        self.count.param.watch(lambda ev: self._set("count", ev.new), "value")
-        on_text(self.edited, lambda text: self._set("edited", text))
         self.source.param.watch(lambda ev: self._set("source", ev.new), "value")
         self.style_source.param.watch(lambda ev: self._set("style_source", ev.new), "value")
-        on_text(self.style_prompt, lambda text: self._set("style_prompt", text))
         self.count_button.on_click(lambda _: count_current(self.state))
 
         e.param.watch(self._on_kind, "kind")
@@ -214,7 +202,6 @@ class EditTab(pn.viewable.Viewer):
         e = self.state.edit
         kind = e.engine_kind
         window = default_window(kind, self._model_config()) if kind != "count" else None
-        self._sync(lambda: setattr(self.kind, "value", e.kind))
         if window is not None:
             e.step_window = (window.start, window.end)
             e.layers = sorted(window.layers or [])  # the calibrated emphasis layers, shown so they can be changed
@@ -248,7 +235,6 @@ class EditTab(pn.viewable.Viewer):
             self.weight.value = abs(self.weight.value)
         if kind == "replace" and not e.edited:
             e.edited = " ".join(swap_example(list(self.state.prompt_words)))
-            self._sync(lambda: setattr(self.edited, "value", e.edited))
         self.bar.refresh()  # Run waits for aligned prompts in replacement only
 
     def _on_mode(self, *_):
@@ -256,10 +242,7 @@ class EditTab(pn.viewable.Viewer):
         start, end = WEIGHT_RANGES[e.mode]  # the range the method checks (engine.methods.motionclr)
         value = e.weight if start <= e.weight <= end else (2.0 if e.mode == "mul" else 0.3)
 
-        def apply():
-            self.mode.value = e.mode
-            self.weight.param.update(start=start, end=end, value=value)
-        self._sync(apply)
+        self.weight.param.update(start=start, end=end, value=value)  # the widget writes the settings' weight
         e.weight = value
 
     def _alignment(self) -> tuple[bool, str]:
@@ -278,7 +261,6 @@ class EditTab(pn.viewable.Viewer):
         ok, message = self._alignment()
         cls = "align-ok" if ok else "align-bad"
         self.alignment.object = f'<div class="{cls}">{html.escape(message)}</div>'
-        self._sync(lambda: setattr(self.edited, "value", e.edited) if self.edited.value != e.edited else None)
 
     def _on_running(self, *_):
         self.count_button.disabled = self.state.running
