@@ -32,12 +32,13 @@ class StudioState(param.Parameterized):
 
     # ---- generation inputs
     prompt = param.String(default="a person jumps twice", doc="what to generate")
-    seconds = param.Number(default=None, allow_None=True,
+    seconds = param.Number(default=None, allow_None=True, step=0.5,
                            doc=f"duration in seconds ({MIN_SECONDS:g} to {MAX_SECONDS:g}); empty: predicted from the prompt (auto)")
-    seed = param.Integer(default=0, doc="noise seed (same seed, same motion)")
+    seed = param.Integer(default=0, softbounds=(0, None), doc="noise seed (same seed, same motion)")
     steps = param.Integer(default=50, bounds=(1, 1000), doc="sampling steps (DDIM)")
-    guidance = param.Number(default=DEFAULT_GUIDANCE, bounds=(0.0, 20.0), doc="classifier-free guidance scale")
-    record_steps = param.Integer(default=10, bounds=(0, 1000),
+    guidance = param.Number(default=DEFAULT_GUIDANCE, bounds=(0.0, 20.0), step=0.5,
+                            doc="classifier-free guidance scale")
+    record_steps = param.Integer(default=10, bounds=(0, 1000), label="Recorded steps",
                                  doc="sampling steps whose attention is recorded (0 = none)")
 
     # ---- derived from the prompt

@@ -18,9 +18,9 @@ from bokeh.models import (BoxAnnotation, ColorBar, ColumnDataSource, HoverTool, 
 from bokeh.palettes import Category10_10, Viridis256
 from bokeh.plotting import figure
 
+from app.components.jobbar import WRAP_BUTTONS_CSS
 from app.session.items import MAX_ITEMS_WITH_ATTENTION
 from app.session.state import StudioState
-from app.components.jobbar import WRAP_BUTTONS_CSS
 
 MEAN = -1
 WIDTH = 560

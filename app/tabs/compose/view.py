@@ -14,9 +14,9 @@ from bokeh.events import Tap
 from bokeh.models import ColumnDataSource, LabelSet, Range1d, Span
 from bokeh.plotting import figure
 
-from app.tabs.compose.job import FPS, INTERVAL_COLORS, TRANSITION_COLOR, ComposeJob, transition_at
-from app.session.state import StudioState
 from app.components.jobbar import UNKNOWN_CSS, JobBar, flag_unknown, on_text
+from app.session.state import StudioState
+from app.tabs.compose.job import FPS, INTERVAL_COLORS, TRANSITION_COLOR, ComposeJob, transition_at
 from engine.units import MAX_SECONDS
 
 HELP = ("Each interval is generated as its own clip; consecutive clips share a **handshake** (the end of one is the "

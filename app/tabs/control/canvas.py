@@ -19,9 +19,9 @@ import panel as pn
 from bokeh.models import ColumnDataSource, CustomJS, FreehandDrawTool, PointDrawTool, Range1d, SingleIntervalTicker
 from bokeh.plotting import figure
 
+from app.components.guard import SyncGuard
 from app.tabs.control.paths import DEFAULT_ROOT, ROOT_COLOR, WRIST_COLOR
 from app.tabs.control.settings import ControlSettings
-from app.components.guard import SyncGuard
 
 
 PRESS_THRESHOLD_MS = 60_000  # a finite delay: setTimeout fires at once for one over 2**31 - 1 ms

@@ -21,7 +21,7 @@ class ControlSettings(param.Parameterized):
 
     prompt = param.String(default="a person walks", label="Prompt",
                           doc="what the person does while following the paths")
-    seconds = param.Number(default=6.0, softbounds=(MIN_SECONDS, MAX_SECONDS), step=0.5, allow_None=True,
+    seconds = param.Number(default=6.0, softbounds=(MIN_SECONDS, MAX_SECONDS), step=0.5,
                            label="Seconds", doc=f"duration ({MIN_SECONDS:g} to {MAX_SECONDS:g} s)")
     use_root = param.Boolean(default=True, label="follow the root path", doc="follow the root path drawn top-down")
     root_points = param.List(default=list(DEFAULT_ROOT), doc="(x, z) metres on the floor; the motion starts at "

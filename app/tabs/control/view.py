@@ -13,6 +13,7 @@ import panel as pn
 import param
 
 from app.components.jobbar import UNKNOWN_CSS, JobBar, flag_unknown, table_rows, text_from_param
+from app.components.number_box import FloatBox
 from app.session.state import StudioState
 from app.tabs.control.canvas import FrontCanvas, TopDownCanvas
 from app.tabs.control.job import ControlJob, describe
@@ -33,7 +34,7 @@ class ControlTab(pn.viewable.Viewer):
         super().__init__(**params)
         self.settings = k = self.state.control
         self.prompt = text_from_param(k.param.prompt, css_classes=["control-prompt"], sizing_mode="stretch_width")
-        self.seconds = pn.widgets.FloatInput.from_param(k.param.seconds, width=90, css_classes=["control-seconds"])
+        self.seconds = FloatBox.from_param(k.param.seconds, width=90, css_classes=["control-seconds"])
         self.flag = pn.pane.HTML("", margin=(0, 10), stylesheets=[UNKNOWN_CSS], css_classes=["control-flag"])
         self.use_root = pn.widgets.Checkbox.from_param(k.param.use_root, css_classes=["control-use-root"])
         self.top = TopDownCanvas(settings=k)
@@ -95,9 +96,6 @@ class ControlTab(pn.viewable.Viewer):
             self.root_info.object = '<span class="bad">no root path: draw one on the canvas</span>'
             return
         length = path_length(pts)
-        if k.seconds is None:
-            self.root_info.object = '<span class="bad">no duration: type the seconds</span>'
-            return
         speed = length / max(float(k.seconds), 1e-6)
         cls = "bad" if speed > MAX_ROOT_SPEED else "ok"
         note = " — too fast: draw a shorter path or give more seconds" if speed > MAX_ROOT_SPEED else ""

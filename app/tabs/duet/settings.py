@@ -27,11 +27,11 @@ class DuetSettings(param.Parameterized):
     mode = param.Selector(default="text", objects={label: key for key, label in MODES.items()}, label="Mode")
     prompt = param.String(default="two people shake hands", label="Prompt (both people)",
                           doc="what the two people do (both read it)")
-    seconds = param.Number(default=TEXT_SECONDS, softbounds=(MIN_SECONDS, MAX_SECONDS), step=0.5, allow_None=True,
+    seconds = param.Number(default=TEXT_SECONDS, softbounds=(MIN_SECONDS, MAX_SECONDS), step=0.5,
                            label="Seconds", doc="length (from a prompt) or seconds completed after the prefix")
     prefix = param.Selector(default=EXAMPLE + "handshake", objects=[EXAMPLE + "handshake"], label="Prefix (both people)",
                             doc="where the prefix comes from: an example, an upload or a duet of the session")
-    prefix_seconds = param.Number(default=PREFIX_SECONDS, softbounds=(0.1, 5.0), step=0.5, allow_None=True,
+    prefix_seconds = param.Number(default=PREFIX_SECONDS, softbounds=(0.1, 5.0), step=0.5,
                                   label="Given (s)", doc="seconds of the prefix given")
     communicate = param.Boolean(default=True, label="communication block (ComMDM); off: the base model twice",
                                 doc="ComMDM (the block); off: the prior twice, fixed placement")

@@ -13,6 +13,7 @@ import panel as pn
 import param
 
 from app.components.jobbar import UNKNOWN_CSS, JobBar, flag_unknown, table_rows, text_from_param
+from app.components.number_box import FloatBox
 from app.session.state import StudioState
 from app.tabs.duet.job import DuetJob, describe
 from app.tabs.duet.models import duet_model
@@ -33,12 +34,11 @@ class DuetTab(pn.viewable.Viewer):
         self.mode = pn.widgets.RadioButtonGroup.from_param(d.param.mode, name="", color="primary", variant="outline",
                                                            css_classes=["duet-mode"])
         self.prompt = text_from_param(d.param.prompt, css_classes=["duet-prompt"], sizing_mode="stretch_width")
-        self.seconds = pn.widgets.FloatInput.from_param(d.param.seconds, width=90, css_classes=["duet-seconds"])
+        self.seconds = FloatBox.from_param(d.param.seconds, width=90, css_classes=["duet-seconds"])
         self.flag = pn.pane.HTML("", margin=(0, 10), stylesheets=[UNKNOWN_CSS], css_classes=["duet-flag"])
         self.prefix = pn.widgets.Select.from_param(d.param.prefix, css_classes=["duet-prefix"],
                                                    sizing_mode="stretch_width")
-        self.prefix_seconds = pn.widgets.FloatInput.from_param(d.param.prefix_seconds, width=90,
-                                                               css_classes=["duet-prefix-seconds"])
+        self.prefix_seconds = FloatBox.from_param(d.param.prefix_seconds, width=90, css_classes=["duet-prefix-seconds"])
         self.upload = pn.widgets.FileInput(accept=".npy", multiple=False, css_classes=["duet-upload"],
                                            sizing_mode="stretch_width")
         self.prefix_box = pn.Column(pn.Row(self.prefix, self.prefix_seconds, sizing_mode="stretch_width"),

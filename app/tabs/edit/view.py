@@ -15,11 +15,11 @@ from bokeh.models import ColumnDataSource, HoverTool, LinearColorMapper, Range1d
 from bokeh.palettes import Viridis256
 from bokeh.plotting import figure
 
+from app.components.guard import SyncGuard
+from app.components.jobbar import WRAP_BUTTONS_CSS, JobBar, text_from_param
+from app.session.state import StudioState
 from app.tabs.edit.job import alignment, count_current, run_edit, swap_example, word_choice
 from app.tabs.edit.settings import KIND_HELP, PROMPT_SOURCE
-from app.session.state import StudioState
-from app.components.jobbar import WRAP_BUTTONS_CSS, JobBar, text_from_param
-from app.components.guard import SyncGuard
 from engine.methods.edit_kinds import REGISTRY
 from engine.methods.motionclr import WEIGHT_RANGES
 

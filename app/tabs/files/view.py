@@ -9,10 +9,10 @@ import panel as pn
 import param
 
 from app.session.items import upload_limit_text
+from app.session.state import StudioState
 from app.tabs.files import exports
 from app.tabs.files.exports import EXPORTS, export_filename
 from app.uploads import import_window
-from app.session.state import StudioState
 
 
 class ImportPanel(pn.viewable.Viewer):

@@ -7,6 +7,7 @@ import panel as pn
 import param
 
 from app.attention_record import estimate_bytes
+from app.components.number_box import FloatBox, IntBox
 from app.components.words import WORD_CSS, intent_line, word_chips
 from app.session.state import StudioState
 from engine.duration import auto_seconds
@@ -30,22 +31,15 @@ class GenerateControls(pn.viewable.Viewer):
         # what the prompt asks for, as the adherence benchmark reads it (engine.intent)
         self.intent = pn.pane.HTML("", css_classes=["prompt-intent"], sizing_mode="stretch_width", margin=(0, 10),
                                    stylesheets=[WORD_CSS])
-        self.seconds = pn.widgets.FloatInput(label="Seconds", value=s.seconds, step=0.5, width=90, placeholder="auto",
-                                             css_classes=["seconds-input"])
-        self.seed = pn.widgets.IntInput(label="Seed", value=s.seed, start=0, width=90, css_classes=["seed-input"])
-        self.steps = pn.widgets.IntInput(label="Steps", value=s.steps, start=1, end=1000, width=90,
-                                         css_classes=["steps-input"])
-        self.guidance = pn.widgets.FloatInput(label="Guidance", value=s.guidance, start=0.0, end=20.0, step=0.5,
-                                              width=90, css_classes=["guidance-input"])
-        self.record = pn.widgets.IntInput(label="Recorded steps", value=s.record_steps, start=0, end=1000, width=120,
-                                          css_classes=["record-input"])
+        # the session's sampling settings (every tab samples with them), linked both ways: settings the session
+        # changes itself (Re-record) show in the boxes
+        self.seconds = pn.widgets.FloatInput.from_param(s.param.seconds, width=90, placeholder="auto",
+                                                        css_classes=["seconds-input"])
+        self.seed = IntBox.from_param(s.param.seed, width=90, css_classes=["seed-input"])
+        self.steps = IntBox.from_param(s.param.steps, width=90, css_classes=["steps-input"])
+        self.guidance = FloatBox.from_param(s.param.guidance, width=90, css_classes=["guidance-input"])
+        self.record = IntBox.from_param(s.param.record_steps, width=120, css_classes=["record-input"])
         self.memory = pn.pane.Markdown("", css_classes=["record-memory"], margin=(0, 10))
-        self._fields = {"seconds": self.seconds, "seed": self.seed, "steps": self.steps, "guidance": self.guidance,
-                        "record_steps": self.record}
-        for name, widget in self._fields.items():
-            widget.param.watch(lambda e, name=name: self._set(name, e.new), "value")
-        # and back: settings the session changes itself (Re-record) show in the boxes
-        s.param.watch(self._on_settings, list(self._fields))
         self.generate = pn.widgets.Button(label="Generate", color="primary", sizing_mode="stretch_width",
                                           css_classes=["generate-button"])
         self.cancel = pn.widgets.Button(label="Cancel", color="warning", disabled=True, width=90,
@@ -67,20 +61,6 @@ class GenerateControls(pn.viewable.Viewer):
         self._on_progress()
         self._on_memory()
         self._describe_model()
-
-    def _on_settings(self, *events) -> None:
-        for e in events:
-            widget = self._fields[e.name]
-            if widget.value != e.new:
-                widget.value = e.new
-
-    def _set(self, name: str, value) -> None:
-        if value is None:
-            return
-        try:
-            setattr(self.state, name, value)
-        except ValueError as exc:
-            self.state.error(f"{name}: {exc}")
 
     def _on_typed(self, event):
         if event.new is not None and event.new != self.state.prompt:

@@ -24,7 +24,7 @@ class SourceSettings(param.Parameterized):
                           doc="generate from text or invert a motion")
     prompt = param.String(default="", label="Prompt", doc="what to generate; for a motion, an optional description")
     motion = param.String(default="", doc="name of a session motion (kind 'motion')")
-    seconds = param.Number(default=4.0, step=0.5, allow_None=True, label="Seconds",
+    seconds = param.Number(default=4.0, step=0.5, label="Seconds",
                            doc="duration of a generated stream")
     words = param.List(default=[], doc="words of the prompt")
     unknown_words = param.List(default=[], doc="words of the prompt the model does not know")

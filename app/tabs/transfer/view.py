@@ -12,12 +12,13 @@ import html
 import panel as pn
 import param
 
+from app.components.jobbar import JobBar, text_from_param
+from app.components.number_box import FloatBox
+from app.components.words import WORD_CSS, word_chips
 from app.session.state import StudioState
 from app.tabs.transfer.job import TransferJob, describe_inversion, show_roles
-from app.tabs.transfer.settings import SourceSettings
-from app.components.words import WORD_CSS, word_chips
-from app.components.jobbar import JobBar, text_from_param
 from app.tabs.transfer.plots import TransferPlots
+from app.tabs.transfer.settings import SourceSettings
 
 NO_MOTION = "(import a motion)"
 HELP = {"leader": "**Leader**: what and when (outline, timing).", "follower": "**Follower**: how (motifs)."}
@@ -37,7 +38,7 @@ class SourcePicker(pn.viewable.Viewer):
                                                            css_classes=["source-kind"])
         self.prompt = text_from_param(src.param.prompt, css_classes=["source-prompt"], sizing_mode="stretch_width")
         self.words = pn.pane.HTML("", css_classes=["source-words"], margin=(0, 10), stylesheets=[WORD_CSS])
-        self.seconds = pn.widgets.FloatInput.from_param(src.param.seconds, width=90, css_classes=["source-seconds"])
+        self.seconds = FloatBox.from_param(src.param.seconds, width=90, css_classes=["source-seconds"])
         self.motion = pn.widgets.Select(label="Imported motion", options=[NO_MOTION], css_classes=["source-motion"],
                                         sizing_mode="stretch_width")
         self.upload = pn.widgets.FileInput(accept=".bvh,.npy", multiple=False, css_classes=["source-upload"],
