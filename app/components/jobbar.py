@@ -1,6 +1,6 @@
 """``JobBar``: a tab's Run button, Cancel, progress bar and status line for the session's shared worker.
 
-The bar shows progress only for its own jobs (``jobs``: the ``what`` names given to ``StudioState.start_job``);
+The bar shows progress only for its own jobs (``jobs``: the ``what`` names of their ``JobDescription``);
 any running job disables Run (one job per session) and enables Cancel.
 """
 from __future__ import annotations

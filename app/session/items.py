@@ -1,7 +1,7 @@
 """The session core's motion items: what a session can show, and how many it keeps (no tab, no view).
 
-Tabs build ``MotionItem``s from their results and hand them to the session (``StudioState.add_item``); they
-import this module, never the session's own, so imports go one way: tabs -> core.
+Tabs build ``MotionItem``s from their results and hand them to the session (``StudioState.add_item``); imports go
+one way: tabs -> core.
 """
 from __future__ import annotations
 

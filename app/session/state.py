@@ -1,4 +1,5 @@
-"""One browser session's state: inputs, the running generation, the motions, the attention selection.
+"""One browser session's state: the sampling settings every tab uses, the one job runner (``launch``), the motions
+and what the viewer shows (current / compare / also), the attention selection, and each tab's settings.
 
 Every session gets its own ``StudioState``; only the loaded model (read-only) is shared between
 sessions. Work that takes time (sampling) runs on a worker thread and *posts* its results back
@@ -251,7 +252,8 @@ class StudioState(param.Parameterized):
 
     def start_job(self, work: Callable[[Worker], object], *, on_done: Callable[[object], None], total: int,
                   what: str, status: str, verb: str) -> bool:
-        """Run ``work(job)`` on a worker thread with progress and cancel (generation and edits share this).
+        """Run ``work(job)`` on a worker thread with progress and cancel: the worker half of :meth:`launch`, through
+        which every job starts.
 
         ``work`` reports with ``job.step(done, total)``, checks ``job.cancel`` (or raises
         :class:`Cancelled`) and may call ``job.waiting()`` while it queues for the sampling slot.

@@ -193,7 +193,7 @@ def describe(options, *, frames: int) -> str:
 # ---------------------------------------------------------------------------------------------- the worker
 def run_edit_job(loaded, job: EditPlan, *, on_step=None, cancel=None, on_wait=None) -> EditResult:
     """Run one edit (waits for the sampling slot); ``on_step(done, total)`` after every step."""
-    from engine.methods.edit_options import run_edit
+    from engine.methods.edit_options import run_edit as run_engine_edit
 
     timesteps: dict[int, int] = {}
 
@@ -206,7 +206,7 @@ def run_edit_job(loaded, job: EditPlan, *, on_step=None, cancel=None, on_wait=No
 
     with sampling_slot(cancel, on_wait):
         start = time.perf_counter()
-        out = run_edit(loaded, job.options, frames=job.frames, sample=job.sample, record=job.record, on_step=step)
+        out = run_engine_edit(loaded, job.options, frames=job.frames, sample=job.sample, record=job.record, on_step=step)
     gen = out.generation
     keep = plan_steps(job.sample.steps, job.record_steps) if job.record_steps else []
 
