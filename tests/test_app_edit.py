@@ -228,7 +228,7 @@ def test_counting_readout_shows_count_baseline_and_peaks(studio):
     joints[:, :, 1] += 0.1 * np.maximum(0, np.sin(2 * np.pi * t / 32))[:, None]  # ...that hops four times
     s.add_item(MotionItem(name="periodic", joints=joints, source="generated", prompt="a person jumps",
                           words=("a", "person", "jumps"), attention=_periodic_record()))
-    readout = s.edit.count_result
+    readout = s.count_result
     assert readout is not None and readout.item == "periodic"  # counted as soon as it is shown
     assert readout.rounded == 4 and readout.baseline == 4 and len(readout.peaks) > 4
     assert 'class="count-attention">4.' in tab.readout.object and 'class="count-baseline">4<' in tab.readout.object
@@ -244,12 +244,12 @@ def test_counting_readout_shows_count_baseline_and_peaks(studio):
         == set(readout.peaks)
     # an imported motion: no maps until Count inverts it (on the worker)
     s.show_motion(joints, title="imported: hops")
-    assert s.edit.count_result is None and "no recorded attention" in tab.readout.object
+    assert s.count_result is None and "no recorded attention" in tab.readout.object
     assert ex.peak_src.data["x"] == []
     tab.kind.value = "count"
     assert tab.run.label == "Count this motion"
     assert run_edit(s) and s.wait(120)
-    readout = s.edit.count_result
+    readout = s.count_result
     assert readout.item == "imported: hops" and readout.baseline == 4 and "inverted" in readout.source
     assert "count-attention" in tab.readout.object
     tab.kind.value = "emphasise"

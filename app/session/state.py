@@ -18,6 +18,7 @@ import param
 
 from app.attention_record import AttentionRecord
 from app.generation import Cancelled, GenerationResult, GenerationSettings, prompt_analysis
+from app.session.counting import auto_count
 from app.session.generation import GenerateJob
 from app.session.items import MAX_ITEMS, MAX_ITEMS_WITH_ATTENTION, MotionItem  # the session core's motions
 from app.session.jobs import Job, Worker
@@ -76,6 +77,8 @@ class StudioState(param.Parameterized):
     att_step = param.Integer(default=None, allow_None=True, doc="recorded sampling step (None = mean)")
     word = param.Integer(default=None, allow_None=True, doc="highlighted word (token index)")
     color_by_word = param.Boolean(default=False, doc="colour the skeleton by the highlighted word's attention")
+    count_result = param.Parameter(default=None, doc="CountReadout of the shown motion (or None): counted from its "
+                                                     "recorded maps as it is shown, or by the Edit tab's Count")
 
     def __init__(self, *, model_dir: str | Path | None = None, tabs: Mapping[str, SettingsFactory] | None = None,
                  **params):
@@ -90,6 +93,7 @@ class StudioState(param.Parameterized):
         self.notices: list[tuple[str, str]] = []  # history (level, text), newest last
         self._closed = False
         self.param.watch(self._analyse_prompt, "prompt")
+        self.param.watch(lambda *_: auto_count(self), "current")
         self._analyse_prompt()
         self.tab_settings: dict[str, param.Parameterized] = {}
         for name, make in (tabs or {}).items():

@@ -82,7 +82,7 @@ class AttentionExplorer(pn.viewable.Viewer):
         s.param.watch(self._on_map_selection, ["layer", "head", "att_step"])
         s.param.watch(self._on_word, "word")
         s.param.watch(self._on_frame, ["frame", "playing"])
-        s.edit.param.watch(self._on_peaks, "count_result")
+        s.param.watch(self._on_peaks, "count_result")
         self._on_current()
 
     # ------------------------------------------------------------------ figures
@@ -194,7 +194,7 @@ class AttentionExplorer(pn.viewable.Viewer):
         self._on_frame()
 
     def _on_peaks(self, *_):
-        readout = self.state.edit.count_result
+        readout = self.state.count_result
         if readout is None or readout.item != self.state.current or self.state.attention is None:
             self.peak_src.data = dict(x=[], y=[])
         else:

@@ -19,7 +19,7 @@ from app.attention_record import AttentionRecord, estimate_bytes, plan_steps
 from app.generation import Cancelled, sampling_slot
 from app.session.items import MotionItem
 from app.session.jobs import JobDescription, Worker
-from app.tabs.edit.counting import CountReadout, auto_count, count_imported
+from app.session.counting import CountReadout, auto_count, count_imported
 from app.tabs.edit.settings import PROMPT_SOURCE, EditSettings, EditSummary
 
 RECORD_BUDGET = 400 * 1024 * 1024  # the edit's AttentionStore keeps 512 MB at most: stay below it
@@ -296,7 +296,7 @@ class CountJob:
 
     def finish(self, readout: CountReadout) -> None:
         self.session.end_job(f"counted {self.item.name!r}: {readout.count:.2f} (baseline {readout.baseline})")
-        self.session.edit.count_result = readout
+        self.session.count_result = readout
 
 
 def run_edit(session) -> bool:
@@ -313,7 +313,7 @@ def count_current(session) -> bool:
         session.error("nothing to count: generate or import a motion first")
         return False
     if item.attention is not None:
-        auto_count(session, session.edit)
+        auto_count(session)
         return True
     return session.launch(CountJob(session=session, item=item))
 

@@ -5,7 +5,6 @@ from dataclasses import dataclass
 
 import param
 
-from app.tabs.edit.counting import auto_count
 from engine.methods.edit_kinds import REGISTRY
 from engine.methods.motionclr import WEIGHT_RANGES, weight_range_text
 
@@ -16,8 +15,7 @@ PROMPT_SOURCE = "(the prompt)"
 
 
 class EditSettings(param.Parameterized):
-    """The Edit tab's settings (one per session, on ``StudioState.edit``), its last edit and the counting readout
-    of the shown motion."""
+    """The Edit tab's settings (one per session, on ``StudioState.edit``) and its last edit."""
 
     kind = param.Selector(default="emphasise", objects=list(KIND_LABELS), label="Edit", doc="which edit")
     word = param.String(default="", doc="the picked word ('' = none picked yet)")
@@ -39,14 +37,10 @@ class EditSettings(param.Parameterized):
     style_source = param.String(default=PROMPT_SOURCE, doc="style source: a prompt or a session motion")
     style_prompt = param.String(default="a person walks", label="Style prompt", doc="style source when it is a prompt")
     last_edit = param.Parameter(default=None, doc="EditSummary of the last finished edit")
-    count_result = param.Parameter(default=None, doc="CountReadout of the current motion (or None)")
 
     @classmethod
     def for_session(cls, session) -> "EditSettings":
-        """The session's edit settings; the shown motion is counted from its recorded maps as soon as it is shown."""
-        settings = cls()
-        session.param.watch(lambda *_: auto_count(session, settings), "current")
-        return settings
+        return cls()
 
     @property
     def engine_kind(self) -> str:

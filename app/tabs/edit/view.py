@@ -85,13 +85,12 @@ class EditTab(pn.viewable.Viewer):
         e.param.watch(self._on_mode, "mode")
         e.param.watch(self._on_alignment, "edited")
         e.param.watch(self._on_last_edit, "last_edit")
-        e.param.watch(self._on_count, "count_result")
         s.param.watch(self._on_prompt, "prompt_words")
         s.param.watch(self._on_prompt_text, "prompt")
         s.param.watch(self._on_seconds, "seconds")
         s.param.watch(self._on_items, "items")
         s.param.watch(self._on_running, "running")
-        s.param.watch(self._on_count, "current")
+        s.param.watch(self._on_count, ["current", "count_result"])
         self._describe_model()
         self._on_prompt()
         self._on_items()
@@ -296,7 +295,7 @@ class EditTab(pn.viewable.Viewer):
 
     def _on_count(self, *_):
         s = self.state
-        readout = s.edit.count_result
+        readout = s.count_result
         item = s.item
         if readout is None or item is None or readout.item != item.name:
             if item is None:

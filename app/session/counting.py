@@ -1,5 +1,5 @@
-"""Counting a session motion's repetitions (the Edit tab's readout, drawn in the Attention tab too): from its
-recorded self-attention (at once) or by DDIM inversion (a job)."""
+"""Counting the shown motion's repetitions (the session's ``count_result``: the Edit tab's readout, the Attention
+tab's peaks): from its recorded self-attention (at once, as it is shown) or by DDIM inversion (the Edit tab's job)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -56,14 +56,14 @@ def count_imported(loaded, joints: np.ndarray, *, item: str, prompt: str = "", s
                         span=r.span, source=f"inverted ({steps} DDIM steps), self-attention recorded while it was rebuilt")
 
 
-def auto_count(session, settings) -> None:
+def auto_count(session) -> None:
     """Generated motions are counted from their recorded maps as soon as they are shown (milliseconds)."""
     item = session.item
     if item is None or item.attention is None:
-        settings.count_result = None
+        session.count_result = None
         return
     try:
-        settings.count_result = count_record(item.attention, item.joints, item=item.name)
+        session.count_result = count_record(item.attention, item.joints, item=item.name)
     except ValueError as exc:  # e.g. too short
-        settings.count_result = None
+        session.count_result = None
         session.warning(f"cannot count on {item.name!r}: {exc}")
