@@ -1,11 +1,10 @@
-"""The Compose tab's model (DoubleTake, PriorMDM): a timeline of intervals, checks with user-facing messages,
-the job and its result.
+"""The Compose tab's job (DoubleTake, PriorMDM): checks of the timeline with user-facing messages, the job
+(``ComposeJob``, launched on the session) and its result.
 
 Nothing here touches Panel widgets. The engine does the work (``engine.methods.doubletake.compose``, the
-function ``moattn compose`` calls); this module adds what only the studio needs: an editable list of
-intervals (add, remove, move, edit) with unknown words flagged, the expected length before anything runs,
-one progress bar across both takes, and the long motion as a session motion whose skeleton is coloured per
-interval, with the handshake (transition) frames highlighted.
+function ``moattn compose`` calls); this module adds what only the studio needs: one progress bar across both
+takes, and the long motion as a session motion whose skeleton is coloured per interval, with the handshake
+(transition) frames highlighted. The timeline itself is ``ComposeSettings`` (``app.tabs.compose.settings``).
 """
 from __future__ import annotations
 

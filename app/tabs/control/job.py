@@ -1,11 +1,10 @@
-"""The Control tab's model (PriorMDM control + DiffusionBlending): drawn paths, checks with user-facing messages,
-the job, the measured error and the target paths shown in 3-D.
+"""The Control tab's job (PriorMDM control + DiffusionBlending): checks with user-facing messages, the job
+(``ControlJob``, launched on the session), the measured error and the target paths shown in 3-D.
 
 Nothing here touches Panel widgets. The engine does the work (``engine.methods.paths`` turns paths into control
 features, ``engine.methods.control.controlled`` samples; the same functions ``moattn control`` calls); this
-module adds what only the studio needs: paths as drawn on the canvases (a freehand stroke thinned to points),
-which methods this server can offer (the fine-tuned control models found, loaded once per server), blend
-weights per active control, and the result placed in the path's world with its error measured.
+module adds what only the studio needs: the drawn paths and blend weights of ``ControlSettings`` as controls,
+and the result placed in the path's world with its error measured.
 """
 from __future__ import annotations
 

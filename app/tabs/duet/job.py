@@ -1,10 +1,10 @@
-"""The Duet tab's model (ComMDM, PriorMDM): two people from one prompt, or the completion of a two-person prefix.
+"""The Duet tab's job (ComMDM, PriorMDM): two people from one prompt, or the completion of a two-person prefix
+(``DuetJob``, launched on the session).
 
 Nothing here touches Panel widgets. The engine does the work (``engine.methods.duet``, what ``moattn duet``
-calls); this module adds what only the studio needs: the duet model loaded once per server (and only on the
-prior it was trained on), prompt checks against the duet's vocabulary, prefix sources (held-out corpus
-interactions, duets of the session, an uploaded duet .npy), and the result as two session motions shown in
-one scene.
+calls); this module adds what only the studio needs: checks against the duet's vocabulary, the prefix's joints
+(a held-out example, an upload, a duet of the session), and the result as two session motions shown in one
+scene.
 """
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""The Edit tab's model: the session's edit config, checks with user-facing messages, the edit and counting jobs.
+"""The Edit tab's jobs: checks of its settings with user-facing messages, the edit (``EditJob``) and the counting
+of an imported motion (``CountJob``), both launched on the session.
 
 Nothing here touches Panel widgets. The option -> config mapping is the engine's
 (``engine.methods.edit_options``, shared with ``moattn edit``); this module adds what only the

@@ -1,5 +1,5 @@
-"""The Transfer tab's model (MoMo, leader -> follower): settings, checks with user-facing messages, the job and
-its result, and the colours the analysis views and the skeletons share.
+"""The Transfer tab's job (MoMo, leader -> follower): checks with user-facing messages, the job (``TransferJob``,
+launched on the session) and its result.
 
 Nothing here touches Panel widgets. The engine does the work (``engine.methods.momo.transfer`` and ``analyze``);
 this module adds what only the studio needs: sources picked among the session's motions, the Q/K clusters
