@@ -1,7 +1,7 @@
 """`moattn bench --exports`: seconds to export a generated motion as the studio's Export buttons do.
 
 A motion of the model's longest length (9.8 s) is generated once from a fixed prompt; each format is then
-exported through ``app.views.files.export_bytes`` (the function behind the buttons), best of ``repeats``.
+exported through ``app.tabs.files.view.export_bytes`` (the function behind the buttons), best of ``repeats``.
 The issue's targets for a 10-s motion on 2 cores: GIF <= 5 s, MP4 <= 10 s.
 """
 from __future__ import annotations
@@ -15,8 +15,8 @@ PROMPT = "a person walks forward, then jumps twice"
 
 def bench_exports(loaded, *, formats=("bvh", "joints.npy", "glb", "gif", "mp4"), repeats: int = 1, steps: int = 20,
                   log: Callable[[str], None] = lambda s: None) -> dict:
-    from app.items import MotionItem
-    from app.views.files import EXPORTS, export_bytes
+    from app.session.items import MotionItem
+    from app.tabs.files.exports import EXPORTS, export_bytes
     from engine.generate import Request, SampleConfig, generate
     from engine.units import FPS
 

@@ -2,23 +2,30 @@
 from __future__ import annotations
 
 import logging
+from functools import partial
 from pathlib import Path
 
 import panel as pn
 
+from app.components.lazy_tabs import LazyTabs
 from app.hosts import allowed_hosts, host_guard
-from app.items import MAX_UPLOAD_BYTES
-from app.state import StudioState
+from app.session.items import MAX_UPLOAD_BYTES
+from app.session.state import SettingsFactory, StudioState
+from app.tabs.attention.view import AttentionExplorer
+from app.tabs.compose.settings import ComposeSettings
+from app.tabs.compose.view import ComposeTab
+from app.tabs.control.canvas import allow_hold_then_draw
+from app.tabs.control.settings import ControlSettings
+from app.tabs.control.view import ControlTab
+from app.tabs.duet.settings import DuetSettings
+from app.tabs.duet.view import DuetTab
+from app.tabs.edit.settings import EditSettings
+from app.tabs.edit.view import EditTab
+from app.tabs.files.view import ExportPanel, ImportPanel
+from app.tabs.generate.view import GenerateControls
+from app.tabs.transfer.settings import TransferSettings
+from app.tabs.transfer.view import TransferTab
 from app.theme import Fast as OfflineFast
-from app.views.attention import AttentionExplorer
-from app.views.compose import ComposeTab
-from app.views.control import ControlTab
-from app.views.control_canvas import allow_hold_then_draw
-from app.views.duet import DuetTab
-from app.views.controls import GenerateControls
-from app.views.edit import EditTab
-from app.views.files import ExportPanel, ImportPanel
-from app.views.transfer import TransferTab
 from app.views.viewer import SkeletonViewer
 from engine.paths import ASSETS, MODEL_DIR
 
@@ -26,22 +33,34 @@ EXAMPLE = ASSETS / "examples" / "walk.npy"
 log = logging.getLogger("moattn.app")
 
 
+#: the tabs on the right, in order: (title, the view's class); the first is built with the page, each other one
+#: the first time it is selected
+TAB_VIEWS = (("Attention", AttentionExplorer), ("Edit", EditTab), ("Transfer", TransferTab), ("Compose", ComposeTab),
+             ("Control", ControlTab), ("Duet", DuetTab))
+
+
+def tab_settings(*, controls_dir: Path | None = None, duet_dir: Path | None = None) -> dict[str, SettingsFactory]:
+    """Each tab's settings, made by the session as it starts (``state.edit``, ``state.compose``, ...): they exist
+    (and keep their rules, e.g. counting a shown motion) whether or not the tab's view was ever built."""
+    return {"edit": EditSettings.for_session, "transfer": TransferSettings.for_session,
+            "compose": ComposeSettings.for_session,
+            "control": partial(ControlSettings.for_session, controls_dir=controls_dir),
+            "duet": partial(DuetSettings.for_session, duet_dir=duet_dir)}
+
+
 class Studio:
-    """One session: its state and views (no Panel server needed to build or drive it)."""
+    """One session: its state and views (no Panel server needed to build or drive it). The tabs' views are built
+    the first time they are shown (or read: ``studio.edit`` builds the Edit tab)."""
 
     def __init__(self, *, model_dir: Path | None = MODEL_DIR, initial: Path | None = None, doc=None,
                  controls_dir: Path | None = None, duet_dir: Path | None = None):
-        self.state = StudioState(model_dir=model_dir)
+        self.state = StudioState(model_dir=model_dir, tabs=tab_settings(controls_dir=controls_dir, duet_dir=duet_dir))
         if doc is not None:
             self.state.attach_document(doc)
         self.controls = GenerateControls(state=self.state)
         self.viewer = SkeletonViewer(state=self.state)
-        self.attention = AttentionExplorer(state=self.state)
-        self.edit = EditTab(state=self.state)
-        self.transfer = TransferTab(state=self.state)
-        self.compose = ComposeTab(state=self.state)
-        self.control = ControlTab(state=self.state, controls_dir=controls_dir)
-        self.duet = DuetTab(state=self.state, duet_dir=duet_dir)
+        self.tabs = LazyTabs(tabs=[(title, partial(view, state=self.state)) for title, view in TAB_VIEWS],
+                             width=600, css_classes=["right-tabs"])
         self.imports = ImportPanel(state=self.state)
         self.exports = ExportPanel(state=self.state)
         path = initial
@@ -58,6 +77,30 @@ class Studio:
             except Exception as exc:
                 self.state.error(f"no model loaded, generation is off: {exc}")
 
+    @property
+    def attention(self) -> AttentionExplorer:
+        return self.tabs.view("Attention")
+
+    @property
+    def edit(self) -> EditTab:
+        return self.tabs.view("Edit")
+
+    @property
+    def transfer(self) -> TransferTab:
+        return self.tabs.view("Transfer")
+
+    @property
+    def compose(self) -> ComposeTab:
+        return self.tabs.view("Compose")
+
+    @property
+    def control(self) -> ControlTab:
+        return self.tabs.view("Control")
+
+    @property
+    def duet(self) -> DuetTab:
+        return self.tabs.view("Duet")
+
     def close(self) -> None:
         self.state.close()
         self.viewer.close()
@@ -68,8 +111,7 @@ class Studio:
             pn.Column("### Viewer", self.viewer, sizing_mode="stretch_width", min_width=500, max_width=760,
                       css_classes=["viewer-column"],
                       styles={"position": "sticky", "top": "0px", "align-self": "flex-start", "z-index": "2"}),
-            pn.Tabs(("Attention", self.attention), ("Edit", self.edit), ("Transfer", self.transfer),
-                    ("Compose", self.compose), ("Control", self.control), ("Duet", self.duet), width=600, css_classes=["right-tabs"]),
+            self.tabs,
             sizing_mode="stretch_width",
         )
         return pn.template.FastListTemplate(
@@ -162,8 +204,8 @@ def preload(loaded, *, controls_dir: Path | None = None, duet_dir: Path | None =
     """Load the control models and the duet model on the base model, and import what a generation needs, before
     the first page (each is cached per server, so the first visitor's page builds as fast as the next ones). A
     missing or unusable folder is not an error here: its tab says why."""
-    from app.controlling import control_models
-    from app.dueting import duet_model
+    from app.tabs.control.models import control_models
+    from app.tabs.duet.models import duet_model
     from engine.paths import CONTROL_DIR, DUET_DIR
 
     control_models(controls_dir or CONTROL_DIR, base=loaded)

@@ -8,7 +8,7 @@ from pathlib import Path
 from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
-from engine.units import DEFAULT_GUIDANCE
+from engine.units import DEFAULT_GUIDANCE, FPS
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -17,12 +17,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "joined by handshakes (PriorMDM's DoubleTake). Consecutive intervals share the handshake "
                        "frames, so the motion lasts the sum of the intervals minus one handshake per transition.")
     p.add_argument("intervals", nargs="+", metavar="PROMPT:SECONDS")
-    p.add_argument("--handshake", type=float, default=1.0, help="handshake length in seconds (default 1)")
+    # defaults: the engine's DoubleTakeConfig / SecondTake (the studio's Compose tab reads them too)
+    p.add_argument("--handshake", type=float, default=None, help="handshake length in seconds (default 1)")
     p.add_argument("--first-take-only", action="store_true", help="skip the second take")
-    p.add_argument("--renoise", type=float, default=0.7, help="second take: T' as a fraction of the timesteps")
-    p.add_argument("--hard", type=float, default=0.85, help="second take: M_hard (handshake)")
-    p.add_argument("--soft", type=float, default=0.1, help="second take: M_soft (context)")
-    p.add_argument("--ramp", type=int, default=10, help="second take: b, ramp frames")
+    p.add_argument("--renoise", type=float, default=None, help="second take: T' as a fraction of the timesteps "
+                   "(default 0.7)")
+    p.add_argument("--hard", type=float, default=None, help="second take: M_hard (handshake; default 0.85)")
+    p.add_argument("--soft", type=float, default=None, help="second take: M_soft (context; default 0.1)")
+    p.add_argument("--ramp", type=int, default=None, help="second take: b, ramp frames (default 10)")
     p.add_argument("--second-take-text", action="store_true",
                    help="second take: denoise each transition with 'A, then B' (default: without text, as the "
                         "authors' code)")
@@ -40,9 +42,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def config_from_args(args: argparse.Namespace):
     from engine.methods.doubletake import DoubleTakeConfig, SecondTake
 
-    take = None if args.first_take_only else SecondTake(renoise=args.renoise, hard=args.hard, soft=args.soft,
-                                                          ramp=args.ramp, text=args.second_take_text)
-    return DoubleTakeConfig(handshake=int(round(args.handshake * 20)), second_take=take)
+    given = {name: getattr(args, name) for name in ("renoise", "hard", "soft", "ramp") if getattr(args, name) is not None}
+    take = None if args.first_take_only else SecondTake(**given, text=args.second_take_text)
+    if args.handshake is None:
+        return DoubleTakeConfig(second_take=take)
+    return DoubleTakeConfig(handshake=int(round(args.handshake * FPS)), second_take=take)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -24,7 +24,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="length (default 5 s; with --prefix: seconds completed after the prefix, default 3)")
     p.add_argument("--prefix", type=Path, nargs="+", default=None, metavar="FILE",
                    help="a duet .npy (2, T, 22, 3), or two motions (.bvh/.npy), person a then person b")
-    p.add_argument("--prefix-seconds", type=float, default=1.0, help="seconds of the prefix kept (default 1)")
+    p.add_argument("--prefix-seconds", type=float, default=None, help="seconds of the prefix kept (default 1)")
     p.add_argument("--no-communication", action="store_true",
                    help="the baseline: the prior run twice without the block (fixed placement)")
     p.add_argument("--no-contact", action="store_true",
@@ -83,7 +83,7 @@ def render_duet(joints: np.ndarray, path: Path, *, title: str | None = None) -> 
 def run(args: argparse.Namespace) -> int:
     from engine.generate import SampleConfig
     from engine.train_commdm import load_trained
-    from engine.methods.duet import COMPLETE_SECONDS, complete, text_to_duet
+    from engine.methods.duet import COMPLETE_SECONDS, PREFIX_SECONDS, TEXT_SECONDS, complete, text_to_duet
     from engine.methods.duet_contact import ContactConfig
 
     if args.out.suffix.lower() not in (".npy", ".bvh"):
@@ -105,10 +105,11 @@ def run(args: argparse.Namespace) -> int:
     communicate = not args.no_communication
     if args.prefix is not None:
         a, b = read_prefix(args.prefix)
-        duet = complete(model, a, b, prefix_seconds=args.prefix_seconds, prompt=args.prompt,
+        given = args.prefix_seconds if args.prefix_seconds is not None else PREFIX_SECONDS
+        duet = complete(model, a, b, prefix_seconds=given, prompt=args.prompt,
                         seconds=args.seconds or COMPLETE_SECONDS, sample=sample, communicate=communicate)
     else:
-        duet = text_to_duet(model, args.prompt, seconds=args.seconds or 5.0, sample=sample, communicate=communicate,
+        duet = text_to_duet(model, args.prompt, seconds=args.seconds or TEXT_SECONDS, sample=sample, communicate=communicate,
                             contact=None if args.no_contact else ContactConfig())
     written = write_duet(duet.joints, args.out)
     p = duet.placement

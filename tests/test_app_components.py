@@ -14,9 +14,11 @@ from PIL import Image
 
 from app.attention_record import estimate_bytes, plan_steps
 from app.main import Studio
-from app.state import StudioState
+from app.session.state import StudioState
 from app.testing import tiny_model
-from app.views.files import EXPORTS, MAX_UPLOAD_BYTES, export_bytes, import_bytes
+from app.session.items import MAX_UPLOAD_BYTES
+from app.tabs.files.exports import EXPORTS, export_bytes
+from app.uploads import import_bytes
 
 
 @pytest.fixture(scope="module")
@@ -325,7 +327,7 @@ def _run_async(coro):
 
 
 def test_an_export_button_shows_a_spinner_until_its_file_is_ready(studio, monkeypatch):
-    from app.views import files
+    from app.tabs.files import exports
 
     button = studio.exports.buttons["gif"]
     seen = []
@@ -334,14 +336,14 @@ def test_an_export_button_shows_a_spinner_until_its_file_is_ready(studio, monkey
         seen.append((fmt, button.loading))
         return b"GIF89a..."
 
-    monkeypatch.setattr(files, "export_bytes", export)
+    monkeypatch.setattr(exports, "export_bytes", export)
     data = _run_async(button.callback())
     assert data.read() == b"GIF89a..." and seen == [("gif", True)] and not button.loading
 
     def broken(item, fmt, *, selection=None):
         raise RuntimeError("disk full")
 
-    monkeypatch.setattr(files, "export_bytes", broken)
+    monkeypatch.setattr(exports, "export_bytes", broken)
     with pytest.raises(RuntimeError):
         _run_async(button.callback())
     assert not button.loading and "disk full" in studio.state.notices[-1][1]
@@ -376,7 +378,8 @@ def test_exports_give_valid_files(studio, real_joints, tmp_path):
 
 def test_preload_loads_the_control_and_duet_models_once_per_server(tiny_model_dir, tmp_path, monkeypatch):
     """``moattn serve`` loads them before the first page; building a page then loads nothing more."""
-    from app import controlling, dueting
+    from app.tabs.control import models as controlling
+    from app.tabs.duet import models as dueting
     from app.main import preload
     from app.model_cache import get_model
     from engine.methods import control, duet
@@ -421,7 +424,7 @@ def test_generate_box_shows_the_parsed_intent(tiny_model_dir):
 def test_no_intent_line_when_the_model_knows_words_beyond_the_action_lexicon():
     """A model trained on a real dataset knows 'pirouettes'; the action lexicon does not: no amber line then.
     With a word the model does not know either, the line says so."""
-    from app.views.controls import intent_line
+    from app.components.words import intent_line
 
     assert intent_line("someone pirouettes twice") == ""
     assert "not understood: pirouettes" in intent_line("someone pirouettes twice", unknown=["pirouettes"])

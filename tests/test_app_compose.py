@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from bokeh.events import Tap
 
-from app.composing import INTERVAL_COLORS, TRANSITION_COLOR, IntervalRow, frame_colors, transition_at
+from app.tabs.compose.job import INTERVAL_COLORS, TRANSITION_COLOR, frame_colors, transition_at
+from app.tabs.compose.settings import IntervalRow
 from app.main import Studio
 from viz.colors import default_joint_colors
 
@@ -130,7 +131,7 @@ def test_one_interval_and_first_take_only(studio):
 
 
 def test_second_take_with_text(studio):
-    from app.composing import prepare
+    from app.tabs.compose.job import prepare
 
     s, tab = studio.state, studio.compose
     c = tab.settings

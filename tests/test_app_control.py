@@ -6,24 +6,37 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.controlling import DEFAULT_ROOT, ControlSettings, thin
+from app.tabs.control.paths import DEFAULT_ROOT, thin
+from app.tabs.control.settings import ControlSettings
 from app.main import Studio
-from app.views.control import ControlTab
 from engine.methods.paths import RootPath
 
 pytestmark = pytest.mark.timeout(600)
 
 
+def _studio(tiny_model_dir, **folders) -> Studio:
+    st = Studio(model_dir=tiny_model_dir, initial=None, **folders)
+    st.state.param.update(steps=6, seed=1)
+    return st
+
+
 @pytest.fixture()
 def studio(tiny_model_dir):
-    st = Studio(model_dir=tiny_model_dir, initial=None)
-    st.state.param.update(steps=6, seed=1)
+    st = _studio(tiny_model_dir)
     yield st
     st.close()
 
 
-def test_inpainting_only_without_control_models(studio, tmp_path):
-    tab = ControlTab(state=studio.state, controls_dir=tmp_path / "none")
+@pytest.fixture()
+def studio_without_controls(tiny_model_dir, tmp_path):
+    st = _studio(tiny_model_dir, controls_dir=tmp_path / "none")
+    yield st
+    st.close()
+
+
+def test_inpainting_only_without_control_models(studio_without_controls):
+    studio = studio_without_controls
+    tab = studio.control
     k = tab.settings
     assert k.available == [] and k.method == "inpainting"
     assert list(tab.method.options.values()) == ["inpainting"]
@@ -129,15 +142,15 @@ def test_weights_are_normalised(tiny_model_dir, tmp_path):
     assert k.normalized_weights() == {"root": 0.5, "right_wrist": 0.5}
 
 
-def test_blending_with_a_fine_tuned_root_model(studio, tiny_model_dir, tmp_path):
+def test_blending_with_a_fine_tuned_root_model(tiny_model_dir, tmp_path):
     from engine.cli import main
 
     folder = tmp_path / "control"
     assert main(["train", "--control", "root", "--init-from", str(tiny_model_dir), "--out", str(folder / "root"),
                  "--steps", "2", "--batch-size", "4", "--stats-samples", "20", "--snapshot-every", "0",
                  "--threads", "1", "--no-progress"]) == 0
-    s = studio.state
-    tab = ControlTab(state=s, controls_dir=folder)
+    studio = _studio(tiny_model_dir, controls_dir=folder)
+    s, tab = studio.state, studio.control
     k = tab.settings
     assert k.available == ["root"] and set(tab.method.options.values()) == {"blending", "inpainting"}
     tab.method.value = "blending"
@@ -148,3 +161,4 @@ def test_blending_with_a_fine_tuned_root_model(studio, tiny_model_dir, tmp_path)
     tab.wrist.value = "left_wrist"  # no fine-tuned wrist model: refused with a clear message
     k.wrist_points = [(0.2, 1.0), (0.4, 1.4)]
     assert not tab.generate() and "no fine-tuned model for the left wrist" in s.notices[-1][1]
+    studio.close()

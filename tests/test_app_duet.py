@@ -10,9 +10,11 @@ import zipfile
 import numpy as np
 import pytest
 
-from app.dueting import EXAMPLE, PREFIX_COLOR, is_duet
+from app.session.duets import is_duet
+from app.tabs.duet.job import PREFIX_COLOR, DuetJob
+from app.tabs.duet.models import EXAMPLE
 from app.main import Studio
-from app.views.files import export_bytes, export_filename
+from app.tabs.files.exports import export_bytes, export_filename
 from viz.colors import default_joint_colors
 
 pytestmark = pytest.mark.timeout(600)
@@ -58,7 +60,7 @@ def test_duet_from_a_prompt_is_shown_in_one_scene(studio):
 
 
 def test_completion_of_an_example_keeps_and_greys_the_prefix(studio):
-    from app.dueting import example
+    from app.tabs.duet.models import example
 
     s, tab = studio.state, studio.duet
     tab.mode.value = "prefix"
@@ -94,9 +96,7 @@ def test_bad_input_gets_a_clear_message(studio, change, message):
     s, d = studio.state, studio.duet.settings
     d.param.update(**change)
     assert not studio.duet.settings.mode == "text" or not d.unknown_words or "flibber" in message
-    from app.dueting import start_duet
-
-    assert not start_duet(s, d)
+    assert not s.launch(DuetJob(session=s, settings=d))
     level, text = s.notices[-1]
     assert level == "error" and text.startswith("cannot make a duet:") and message in text, text
     assert not s.running
@@ -192,9 +192,8 @@ def test_no_duet_model_is_said_once_and_refused(tiny_model_dir, tmp_path):
     st = Studio(model_dir=tiny_model_dir, initial=None, duet_dir=tmp_path / "none")
     try:
         assert "no duet model" in st.duet.model_note.object
-        from app.dueting import start_duet
 
-        assert not start_duet(st.state, st.duet.settings)
+        assert not st.state.launch(DuetJob(session=st.state, settings=st.duet.settings))
         assert "no duet model" in st.state.notices[-1][1]
     finally:
         st.close()

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from app.attention_record import AttentionRecord
-from app.editing import alignment, word_choice
+from app.tabs.edit.job import alignment, run_edit, word_choice
 from app.main import Studio
 from app.testing import tiny_model
 from engine.methods.edit_options import EditOptions, build_config
@@ -37,7 +37,7 @@ def _run(studio, kind: str) -> None:
     s, tab = studio.state, studio.edit
     tab.kind.value = kind
     before = len(s.notices)
-    assert s.run_edit(), s.notices[-1:]
+    assert run_edit(s), s.notices[-1:]
     assert s.wait(120)
     assert not s.running
     errors = [n for n in s.notices[before:] if n[0] == "error"]
@@ -139,7 +139,7 @@ def test_example_based_and_style_transfer_with_session_sources(studio):
     assert np.abs(outs[0].joints - outs[1].joints).max() > 1e-3  # diverse outputs
     # style transfer: sources among the session's motions. A generated one is used through its prompt, an
     # imported one as joints (DDIM-inverted by the engine function).
-    from app.editing import resolve_source
+    from app.tabs.edit.job import resolve_source
 
     imported = s.show_motion(_plain(studio).joints[:41], title="imported: jumps")
     tab.kind.value = "style transfer"
@@ -166,7 +166,7 @@ def test_replace_needs_aligned_prompts_and_says_why(studio):
     assert "align-bad" in tab.alignment.object and "4 words" in tab.alignment.object
     assert tab.run.disabled
     n_items = len(s.items)
-    assert s.run_edit() is False  # refused with a visible error, no worker, no crash
+    assert run_edit(s) is False  # refused with a visible error, no worker, no crash
     level, text = s.notices[-1]
     assert level == "error" and "not aligned" in text and "word by word" in text
     assert not s.running and len(s.items) == n_items
@@ -187,7 +187,7 @@ def test_bad_settings_are_notifications(studio):
     s, tab = studio.state, studio.edit
     tab.kind.value = "emphasise"
     s.edit.word = ""
-    assert s.run_edit() is False and "pick a word" in s.notices[-1][1]
+    assert run_edit(s) is False and "pick a word" in s.notices[-1][1]
     s.prompt = "a person walks"
     assert s.edit.word == "" and list(tab.words.options) == ["a", "person", "walks"]
     s.prompt = "a person jumps twice"
@@ -199,7 +199,7 @@ def test_cancel_stops_an_edit(tiny_model_dir):
         s = st.state
         s.param.update(prompt="a person walks", steps=1000, record_steps=0, seconds=2.0)
         st.edit.kind.value = "shift"
-        assert s.run_edit()
+        assert run_edit(s)
         assert not st.edit.cancel.disabled and st.edit.run.disabled and st.controls.generate.disabled
         s.cancel()
         assert s.wait(60)
@@ -220,7 +220,7 @@ def _periodic_record(n: int = 128, period: int = 32, words=("a", "person", "jump
 
 
 def test_counting_readout_shows_count_baseline_and_peaks(studio):
-    from app.state import MotionItem
+    from app.session.items import MotionItem
 
     s, tab, ex = studio.state, studio.edit, studio.attention
     t = np.arange(128)
@@ -228,7 +228,7 @@ def test_counting_readout_shows_count_baseline_and_peaks(studio):
     joints[:, :, 1] += 0.1 * np.maximum(0, np.sin(2 * np.pi * t / 32))[:, None]  # ...that hops four times
     s.add_item(MotionItem(name="periodic", joints=joints, source="generated", prompt="a person jumps",
                           words=("a", "person", "jumps"), attention=_periodic_record()))
-    readout = s.edit.count_result
+    readout = s.count_result
     assert readout is not None and readout.item == "periodic"  # counted as soon as it is shown
     assert readout.rounded == 4 and readout.baseline == 4 and len(readout.peaks) > 4
     assert 'class="count-attention">4.' in tab.readout.object and 'class="count-baseline">4<' in tab.readout.object
@@ -244,12 +244,12 @@ def test_counting_readout_shows_count_baseline_and_peaks(studio):
         == set(readout.peaks)
     # an imported motion: no maps until Count inverts it (on the worker)
     s.show_motion(joints, title="imported: hops")
-    assert s.edit.count_result is None and "no recorded attention" in tab.readout.object
+    assert s.count_result is None and "no recorded attention" in tab.readout.object
     assert ex.peak_src.data["x"] == []
     tab.kind.value = "count"
     assert tab.run.label == "Count this motion"
-    assert s.run_edit() and s.wait(120)
-    readout = s.edit.count_result
+    assert run_edit(s) and s.wait(120)
+    readout = s.count_result
     assert readout.item == "imported: hops" and readout.baseline == 4 and "inverted" in readout.source
     assert "count-attention" in tab.readout.object
     tab.kind.value = "emphasise"

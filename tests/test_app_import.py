@@ -1,4 +1,4 @@
-"""The studio's import (app/views/files.py): the Start / Seconds window of a long file, bounded by the model's limit;
+"""The studio's import (app/tabs/files/view.py): the Start / Seconds window of a long file, bounded by the model's limit;
 bad input is a one-line message and the session goes on."""
 from __future__ import annotations
 
@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from app import model_cache
-from app.state import StudioState
-from app.views.files import ImportPanel, import_window
+from app.session.state import StudioState
+from app.tabs.files.view import ImportPanel
+from app.uploads import import_window
 
 
 def _npy(frames: int) -> bytes:

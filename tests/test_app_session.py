@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from app.main import Studio
-from app.state import MAX_ITEMS_WITH_ATTENTION
+from app.session.items import MAX_ITEMS_WITH_ATTENTION
+from app.tabs.edit.job import run_edit
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +70,7 @@ def test_idle_bars_are_empty_and_a_kind_switch_clears_the_last_edit(studio):
     assert studio.controls.progress.value == 0 and studio.controls.progress.max == 6
     edit.kind.value = "emphasise"
     edit.words.value = 2
-    assert s.run_edit() and s.wait(120)
+    assert run_edit(s) and s.wait(120)
     assert edit.result.object and edit.status.object
     edit.kind.value = "replace"
     assert edit.result.object == "" and edit.status.object == ""

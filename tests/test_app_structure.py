@@ -1,5 +1,5 @@
-"""The studio's rooms have one-way doors: no import cycle in app/ (lazy imports included), and no module reaches
-into another object's private names."""
+"""The studio's rooms have one-way doors: no import cycle in app/ (lazy imports included), the session core knows no
+tab, no tab imports another, and no module reaches into another object's private names."""
 from __future__ import annotations
 
 import ast
@@ -41,6 +41,34 @@ def test_app_has_no_import_cycle():
     for name in graph:
         visit(name, [name], {name})
     assert not cycles, [" -> ".join(c) for c in cycles[:5]]
+
+
+def _tab(module: str) -> str | None:
+    """The tab a module belongs to ('edit' for app.tabs.edit.job), or None."""
+    parts = module.split(".")
+    return parts[2] if len(parts) > 2 and parts[:2] == ["app", "tabs"] else None
+
+
+def test_the_session_core_knows_no_tab():
+    bad = [f"{name} imports {dep}" for name, tree in _modules().items() if name.startswith("app.session")
+           for dep in sorted(_imports(tree)) if dep == "app.tabs" or dep.startswith("app.tabs.")]
+    assert not bad, bad
+
+
+def test_no_tab_imports_another_tab():
+    bad = []
+    for name, tree in _modules().items():
+        tab = _tab(name)
+        for dep in sorted(_imports(tree)):
+            if tab is not None and (dep == "app.tabs" or (_tab(dep) is not None and _tab(dep) != tab)):
+                bad.append(f"{name} imports {dep}")
+    assert not bad, bad
+
+
+def test_every_tab_is_a_package_with_a_view():
+    tabs = sorted(p.name for p in (APP / "tabs").iterdir() if p.is_dir() and not p.name.startswith("_"))
+    assert tabs == sorted(["generate", "edit", "attention", "transfer", "compose", "control", "duet", "files"])
+    assert all((APP / "tabs" / t / "view.py").exists() for t in tabs)
 
 
 # the one exception: Panel's design classes carry their resources in a class attribute that a design subclass

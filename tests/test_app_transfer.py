@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from app.main import Studio
+from app.tabs.transfer.job import TransferJob
 from engine.generate import frames_for
 
 
@@ -22,7 +23,7 @@ def studio(tiny_model_dir):
 def _run(studio) -> None:
     s = studio.state
     before = len(s.notices)
-    assert s.run_transfer(), s.notices[-1:]
+    assert s.launch(TransferJob(session=s)), s.notices[-1:]
     assert s.wait(180) and not s.running
     errors = [n for n in s.notices[before:] if n[0] == "error"]
     assert not errors, errors
@@ -96,7 +97,7 @@ def test_picking_frames_and_cluster_colours(studio):
     assert len(colours) == 3 and "K cluster" in spec.title
     leader_rgb = colours[spec.motions[0][0]]
     assert leader_rgb.shape == (n, 3) and leader_rgb.dtype == np.uint8
-    from app.transfer import cluster_colors, hex_rgb, n_clusters
+    from app.tabs.transfer.colors import cluster_colors, hex_rgb, n_clusters
 
     expected = hex_rgb(cluster_colors(view.analysis.k_labels["leader"], n_clusters(view)))
     np.testing.assert_array_equal(leader_rgb, expected)
@@ -138,7 +139,7 @@ def test_transfer_from_an_imported_motion(studio):
 
 
 def test_footwork_option_reaches_the_engine(studio):
-    from app.transfer import prepare
+    from app.tabs.transfer.job import prepare
 
     s, tab = studio.state, studio.transfer
     _set_prompts(tab, "a person walks forward", "a person jumps twice")
@@ -207,7 +208,7 @@ def test_bad_input_is_refused_with_a_message(studio, change, message):
     s.transfer.layers = None
     n_items = len(s.items)
     change(tab, s)
-    assert s.run_transfer() is False  # refused up front: no worker, no crash
+    assert s.launch(TransferJob(session=s)) is False  # refused up front: no worker, no crash
     level, text = s.notices[-1]
     assert level == "error" and text.startswith("cannot transfer") and message in text, text
     assert not s.running and len(s.items) == n_items
@@ -227,7 +228,7 @@ def test_cancel_stops_the_transfer_and_keeps_the_session(studio):
     s.steps = 120
     n_items, last = len(s.items), s.transfer.result
     try:
-        assert s.run_transfer() and s.running and not tab.cancel.disabled
+        assert s.launch(TransferJob(session=s)) and s.running and not tab.cancel.disabled
         end = time.monotonic() + 60
         while s.progress < 2 and s.running and time.monotonic() < end:
             time.sleep(0.01)

@@ -11,7 +11,7 @@ from engine.methods.edit_options import EditOptions, build_config, run_edit
 
 
 def test_the_cli_and_the_tab_offer_the_registry():
-    from app.editing import KIND_HELP, KIND_LABELS
+    from app.tabs.edit.settings import KIND_HELP, KIND_LABELS
 
     parser = build_parser()
     for kind in KINDS:

@@ -243,10 +243,11 @@ def test_convert_writes_glb_and_errors_stay_one_line(tmp_path, capsys):
 
 
 def test_studio_exports_glb(tmp_path, run_coroutine):
-    from app.dueting import DuetPair
-    from app.items import MotionItem
-    from app.state import StudioState
-    from app.views.files import EXPORTS, ExportPanel, export_bytes, export_filename
+    from app.session.duets import DuetPair
+    from app.session.items import MotionItem
+    from app.session.state import StudioState
+    from app.tabs.files.exports import EXPORTS, export_bytes, export_filename
+    from app.tabs.files.view import ExportPanel
 
     assert EXPORTS["glb"] == "GLB"
     walk = synthetic_walk(40)

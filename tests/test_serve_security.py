@@ -14,7 +14,7 @@ import pytest
 from app.browser import free_port
 from app.cli_serve import is_loopback
 from app.main import MAX_MESSAGE_BYTES
-from app.items import MAX_UPLOAD_BYTES
+from app.session.items import MAX_UPLOAD_BYTES
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -5,9 +5,9 @@ import panel as pn
 import param
 
 from app.components.skeleton_view import SkeletonView
-from app.dueting import is_duet
 from app.scene_payload import SceneSpec, preview_message, scene_message
-from app.state import StudioState
+from app.session.duets import is_duet
+from app.session.state import StudioState
 
 NONE = "(none)"
 

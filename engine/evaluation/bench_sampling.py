@@ -20,7 +20,7 @@ import torch
 from engine.generate import FPS, Request, SampleConfig, generate
 
 SETTINGS = {"10": ("ddim", 10), "20": ("ddim", 20), "50": ("ddim", 50), "ddpm1000": ("ddpm", 1000)}
-STUDIO_RECORD_STEPS = 10  # the studio's default (app.state.StudioState.record_steps)
+STUDIO_RECORD_STEPS = 10  # the studio's default (app.session.state.StudioState.record_steps)
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ import pytest
 from playwright.sync_api import expect
 
 from app import browser as br
-from app.state import MAX_ITEMS_WITH_ATTENTION
+from app.session.items import MAX_ITEMS_WITH_ATTENTION
 
 pytestmark = pytest.mark.timeout(300)
 

@@ -1,0 +1,235 @@
+"""The Compose tab (DoubleTake): a timeline of intervals (prompt + seconds, add / remove / move), the handshake and
+the second take, Generate with progress and cancel; the long motion in the viewer, coloured per interval with the
+transitions highlighted, and a timeline strip of the result (click it to move the viewer there).
+
+The settings live on the session (``state.compose``, a ``ComposeSettings``); the widgets are made from them.
+"""
+from __future__ import annotations
+
+import html
+
+import panel as pn
+import param
+from bokeh.events import Tap
+from bokeh.models import ColumnDataSource, LabelSet, Range1d, Span
+from bokeh.plotting import figure
+
+from app.components.jobbar import UNKNOWN_CSS, JobBar, flag_unknown, on_text
+from app.session.state import StudioState
+from app.tabs.compose.job import FPS, INTERVAL_COLORS, TRANSITION_COLOR, ComposeJob, transition_at
+from engine.units import MAX_SECONDS
+
+HELP = ("Each interval is generated as its own clip; consecutive clips share a **handshake** (the end of one is the "
+        "start of the next), so the long motion lasts the sum of the intervals minus one handshake per transition. "
+        "The **second take** re-denoises every transition with soft masks, without text as in the authors' code, or "
+        "*with text* (\"A, then B\"). Seed, steps and guidance come from the sidebar.")
+
+
+class IntervalRowView:
+    """The widgets of one timeline row (index i of the settings' intervals)."""
+
+    def __init__(self, tab: "ComposeTab", index: int):
+        row = tab.settings.intervals[index]
+        self.index = index
+        self.prompt = pn.widgets.TextInput(value=row.prompt, placeholder="a person walks forward",
+                                           css_classes=["compose-prompt"], sizing_mode="stretch_width")
+        self.seconds = pn.widgets.FloatInput(value=row.seconds, start=0.5, end=MAX_SECONDS, step=0.5, width=70,
+                                             css_classes=["compose-seconds"])
+        self.up = pn.widgets.Button(label="↑", width=34, css_classes=["compose-up"])
+        self.down = pn.widgets.Button(label="↓", width=34, css_classes=["compose-down"])
+        self.remove = pn.widgets.Button(label="✕", width=34, css_classes=["compose-remove"])
+        self.flag = pn.pane.HTML("", margin=(0, 10), stylesheets=[UNKNOWN_CSS], css_classes=["compose-flag"])
+        on_text(self.prompt, lambda text: tab.edit_row(self.index, prompt=text))
+        self.seconds.param.watch(lambda e: tab.edit_row(self.index, seconds=e.new), "value")
+        self.up.on_click(lambda _: tab.settings.move(self.index, -1))
+        self.down.on_click(lambda _: tab.settings.move(self.index, +1))
+        self.remove.on_click(lambda _: tab.remove_row(self.index))
+        self.label = pn.pane.Markdown(f"**{index + 1}**", width=22, margin=(12, 2))
+        self.view = pn.Column(pn.Row(self.label, self.prompt, self.seconds, self.up, self.down, self.remove,
+                                     sizing_mode="stretch_width"), self.flag,
+                              css_classes=["compose-row"], sizing_mode="stretch_width", margin=0)
+
+
+class ComposeTab(pn.viewable.Viewer):
+    state = param.ClassSelector(class_=StudioState)
+
+    def __init__(self, **params):
+        super().__init__(**params)
+        self.settings = c = self.state.compose
+        self._syncing = False
+        self.rows: list[IntervalRowView] = []
+        self.rows_box = pn.Column(sizing_mode="stretch_width", css_classes=["compose-rows"])
+        self.add = pn.widgets.Button(label="+ Add interval", width=140, css_classes=["compose-add"])
+        self.add.on_click(lambda _: c.add())
+        self.handshake = pn.widgets.FloatSlider.from_param(c.param.handshake, css_classes=["compose-handshake"],
+                                                           sizing_mode="stretch_width")
+        self.second_take = pn.widgets.Checkbox.from_param(c.param.second_take, css_classes=["compose-second-take"])
+        self.second_take_text = pn.widgets.Checkbox.from_param(c.param.second_take_text, disabled=not c.second_take,
+                                                               css_classes=["compose-second-take-text"])
+        c.param.watch(lambda e: setattr(self.second_take_text, "disabled", not e.new), "second_take")
+        self.length = pn.pane.Markdown("", css_classes=["compose-length"], margin=(0, 10))
+        self.bar = JobBar(state=self.state, jobs=["composition"], label="Generate long motion", prefix="compose",
+                          on_run=self.generate)
+        self.result = pn.pane.HTML("", css_classes=["compose-result"], margin=(0, 10), stylesheets=[_CSS])
+        self.jumps = pn.Row(css_classes=["compose-jumps"], sizing_mode="stretch_width")
+        self._build_strip()
+        self.strip_pane = pn.pane.Bokeh(self.strip, margin=(0, 10), css_classes=["compose-strip"])
+        c.param.watch(self._on_intervals, "intervals")
+        c.param.watch(self._on_length, ["intervals", "handshake"])
+        c.param.watch(self._on_result, "result")
+        self.state.param.watch(self._on_frame, ["frame", "current"])
+        self.state.param.watch(self._on_length, "prompt_words")  # a model loaded late: unknown words change
+        self._on_intervals()
+        self._on_length()
+        self._on_result()
+
+    # ------------------------------------------------------------------ widgets -> settings
+    def generate(self) -> bool:
+        return self.state.launch(ComposeJob(session=self.state, settings=self.settings))
+
+    def edit_row(self, index: int, *, prompt: str | None = None, seconds: float | None = None) -> None:
+        if self._syncing or index >= len(self.settings.intervals):
+            return
+        if seconds is None and prompt is None:
+            return
+        self.settings.edit(index, prompt=prompt, seconds=seconds)
+
+    def remove_row(self, index: int) -> None:
+        try:
+            self.settings.remove(index)
+        except ValueError as exc:
+            self.state.error(str(exc))
+
+    # ------------------------------------------------------------------ settings -> widgets
+    def _on_intervals(self, *_):
+        rows = self.settings.intervals
+        if len(rows) != len(self.rows):
+            self.rows = [IntervalRowView(self, i) for i in range(len(rows))]
+            self.rows_box.objects = [r.view for r in self.rows]
+        self._syncing = True
+        try:
+            for view, row in zip(self.rows, rows):
+                if view.prompt.value != row.prompt:
+                    view.prompt.value = row.prompt
+                if view.seconds.value != row.seconds:
+                    view.seconds.value = row.seconds
+                view.up.disabled = view.index == 0
+                view.down.disabled = view.index == len(rows) - 1
+                view.remove.disabled = len(rows) == 1
+        finally:
+            self._syncing = False
+        tokenizer = self.settings.tokenizer()
+        suggestions = {}
+        for view, unknown in zip(self.rows, self.settings.unknown_words()):
+            if tokenizer is not None:
+                suggestions = {w: tokenizer.suggest(w) for w in unknown}
+            view.flag.object = flag_unknown(unknown, suggestions)
+            view.flag.visible = bool(unknown)
+
+    def _on_length(self, *_):
+        c = self.settings
+        n = c.expected_frames()
+        k = max(0, len(c.intervals) - 1)
+        total = sum(r.seconds for r in c.intervals)
+        self.length.object = (f"Long motion: **{n} frames ({n / FPS:.1f} s)** = {total:g} s of intervals − {k} "
+                              f"handshake{'s' * (k != 1)} of {c.handshake_frames} frames")
+
+    def _on_result(self, *_):
+        r = self.settings.result
+        if r is None:
+            self.result.object = '<div class="compose-empty">No long motion yet: build the timeline and press ' \
+                                 '<i>Generate long motion</i>.</div>'
+            self.strip_src.data, self.hand_src.data = _empty_intervals(), _empty_transitions()
+            self.jumps.objects = []
+            return
+        take = ("first + second take" + (" (with text)" if r.second_take_text else "")) if r.second_take \
+            else "first take only"
+        spans = ", ".join(f"{a}–{b - 1}" for a, b in r.transitions) or "none"
+        self.result.object = (
+            f'<div class="compose-box"><b>{html.escape(r.name)}</b><br>'
+            f'<span class="compose-frames">{r.n_frames} frames ({r.n_frames / FPS:.1f} s of motion)</span> · '
+            f'<span class="compose-wall">wall time {r.seconds_taken:.1f} s</span> · {take}<br>'
+            f'<span class="compose-transitions">transitions (handshake {r.handshake} frames): {spans}</span>'
+            f'<div class="compose-legend"><span style="color:{INTERVAL_COLORS[0]}">■</span>'
+            f'<span style="color:{INTERVAL_COLORS[1]}">■</span> intervals · '
+            f'<span style="color:{TRANSITION_COLOR}">■</span> transitions (skeleton and strip)</div></div>')
+        self.strip_src.data = dict(left=r.starts, right=r.ends, color=[INTERVAL_COLORS[i % 2] for i in range(len(r.starts))],
+                                   label=[f"{i + 1}. {p}" for i, p in enumerate(r.prompts)],
+                                   middle=[(a + b) / 2 for a, b in zip(r.starts, r.ends)],
+                                   y=[0.62 if i % 2 == 0 else 0.18 for i in range(len(r.starts))])
+        self.hand_src.data = dict(left=[a for a, _ in r.transitions], right=[b for _, b in r.transitions])
+        self.strip.x_range.start, self.strip.x_range.end = 0, max(1, r.n_frames)
+        buttons = []
+        for k, (a, b) in enumerate(r.transitions):
+            button = pn.widgets.Button(label=f"▶ transition {k + 1} ({a}–{b - 1})", width=170,
+                                       css_classes=["compose-jump"])
+            button.on_click(lambda _, a=a: self.jump(a))
+            buttons.append(button)
+        self.jumps.objects = buttons
+        self._on_frame()
+
+    def _on_frame(self, *_):
+        r = self.settings.result
+        mine = r is not None and self.state.current == r.name
+        self.playhead.visible = mine
+        if mine:
+            self.playhead.location = self.state.frame
+            k = transition_at(r, self.state.frame)
+            self.strip.title.text = (f"frame {self.state.frame}" + (f" — in transition {k + 1}" if k is not None
+                                                                     else "") + " (click to move the viewer)")
+
+    # ------------------------------------------------------------------ the timeline strip
+    def _build_strip(self) -> None:
+        self.strip_src = ColumnDataSource(_empty_intervals())
+        self.hand_src = ColumnDataSource(_empty_transitions())
+        fig = figure(height=120, width=560, tools="", toolbar_location=None, x_range=Range1d(0, 1),
+                     y_range=Range1d(-0.1, 1.1), title="Timeline (click to move the viewer)", x_axis_label="frame",
+                     css_classes=["compose-timeline"])
+        fig.quad(left="left", right="right", bottom=0.05, top=0.95, color="color", alpha=0.35, source=self.strip_src)
+        fig.quad(left="left", right="right", bottom=-0.05, top=1.05, color=TRANSITION_COLOR, alpha=0.55,
+                 hatch_pattern="/", hatch_color="white", source=self.hand_src)
+        fig.add_layout(LabelSet(x="left", y="y", text="label", x_offset=4, source=self.strip_src,
+                                text_font_size="11px", text_color="#223"))
+        self.playhead = Span(location=0, dimension="height", line_color="#111", line_width=2, visible=False,
+                             level="overlay")
+        fig.add_layout(self.playhead)
+        self.state.follow_playhead(self.playhead)
+        fig.yaxis.visible = False
+        fig.ygrid.visible = False
+        fig.title.text_font_size = "11px"
+        fig.on_event(Tap, lambda event: self.jump(event.x))
+        self.strip = fig
+
+    def jump(self, frame) -> None:
+        """Show the long motion at ``frame`` (a click on the strip or a transition button)."""
+        r = self.settings.result
+        if r is None or frame is None:
+            return
+        if r.name not in self.state.items:
+            self.state.error("the long motion is no longer in the session: generate it again")
+            return
+        if self.state.current != r.name:
+            self.state.show(r.name)
+        self.state.pick_frame(int(round(float(frame))))
+
+    def __panel__(self):
+        return pn.Column(
+            pn.pane.Markdown(HELP, styles={"font-size": "12px", "color": "#444"}, margin=(0, 10)),
+            "#### Timeline", self.rows_box, self.add, self.length,
+            pn.Row(self.handshake, self.second_take, self.second_take_text, sizing_mode="stretch_width"),
+            self.bar, self.result, self.strip_pane, self.jumps,
+            css_classes=["compose-tab"], sizing_mode="stretch_width")
+
+
+def _empty_intervals() -> dict:
+    return dict(left=[], right=[], color=[], label=[], middle=[], y=[])
+
+
+def _empty_transitions() -> dict:
+    return dict(left=[], right=[])
+
+
+_CSS = """
+.compose-box { font-size: 13px; line-height: 1.5; }
+.compose-empty, .compose-legend { color: #555; font-size: 12px; }
+"""

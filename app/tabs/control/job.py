@@ -1,0 +1,212 @@
+"""The Control tab's job (PriorMDM control + DiffusionBlending): checks with user-facing messages, the job
+(``ControlJob``, launched on the session), the measured error and the target paths shown in 3-D.
+
+Nothing here touches Panel widgets. The engine does the work (``engine.methods.paths`` turns paths into control
+features, ``engine.methods.control.controlled`` samples; the same functions ``moattn control`` calls); this
+module adds what only the studio needs: the drawn paths and blend weights of ``ControlSettings`` as controls,
+and the result placed in the path's world with its error measured.
+"""
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from app.generation import Cancelled, checked_frames, sampling_slot
+from app.session.items import MotionItem
+from app.session.jobs import JobDescription, Worker
+from app.tabs.control.models import control_models
+from app.tabs.control.paths import LABELS, ROOT_COLOR, WRIST_COLOR
+from app.tabs.control.settings import ControlSettings
+
+
+@dataclass
+class ControlPlan:
+    """A checked controlled generation, ready for the worker."""
+
+    prompt: str
+    controls: list  # engine Controls
+    frame: dict | None  # the root path's world frame (None: no root control)
+    wrist_target: np.ndarray | None  # (T, 3) body-frame values of the controlled wrist
+    models: dict | None  # None: plain inpainting
+    weights: list[float]
+    sample: object
+    seconds: float
+    method: str
+    description: str
+
+
+@dataclass
+class ControlSummary:
+    name: str  # the session motion
+    method: str
+    controls: list[str]
+    weights: dict[str, float]
+    root_error: dict | None  # path_error: mean_m, max_m, off_0_5m
+    wrist_error: dict | None  # mean_m, max_m of the wrist in the body frame
+    seconds_taken: float
+    guides: list[tuple[str, np.ndarray]] = field(default_factory=list)  # colour, (N, 3) world points
+    joints: np.ndarray | None = None  # (T, 22, 3) in the path's world
+
+
+def prepare(state, settings: ControlSettings) -> ControlPlan:
+    """Every check before any work starts; raises ValueError with a message for the user."""
+    from engine.generate import SampleConfig
+    from engine.methods.control import Control
+    from engine.methods.paths import RootPath, WristPath, root_controls
+
+    loaded = state.model
+    if not settings.prompt.strip():
+        raise ValueError("type what the person does (e.g. 'a person walks')")
+    loaded.tokenizer.encode(settings.prompt)
+    frames = checked_frames(loaded, settings.seconds)
+    seconds = frames / 20
+    names = settings.active
+    if not names:
+        raise ValueError("turn on at least one control: the root path or a wrist")
+    controls, frame, wrist_target = [], None, None
+    if "root" in names:
+        if len(settings.root_points) < 2:
+            raise ValueError("root path: draw it on the top-down canvas (at least 2 points)")
+        values, frame = root_controls(RootPath(points=tuple(map(tuple, settings.root_points))), seconds)
+        controls.append(Control("root", values))
+    if settings.wrist != "none":
+        label = LABELS[settings.wrist]
+        if len(settings.wrist_points) < 2:
+            raise ValueError(f"{label} path: draw it on the front-view canvas (at least 2 points)")
+        pts = tuple((float(x), float(y), float(settings.wrist_depth)) for x, y in settings.wrist_points)
+        try:
+            wrist_target = WristPath(points=pts).controls(seconds)
+        except ValueError as exc:
+            raise ValueError(f"{label}: {exc}") from None
+        controls.append(Control(settings.wrist, wrist_target))
+    models = None
+    if settings.method == "blending":
+        found, problem = control_models(settings.controls_dir, base=loaded)
+        missing = [n for n in names if n not in found]
+        if missing:
+            raise ValueError(f"no fine-tuned model for the {', '.join(LABELS[n] for n in missing)}: "
+                             f"{problem or 'choose inpainting'}")
+        models = {n: found[n] for n in names}
+    shares = settings.normalized_weights()
+    sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
+    what = " + ".join(LABELS[n] for n in names)
+    return ControlPlan(prompt=settings.prompt.strip(), controls=controls, frame=frame, wrist_target=wrist_target,
+                      models=models, weights=[shares[n] for n in names], sample=sample, seconds=seconds,
+                      method=settings.method, description=f"{what} by {settings.method}")
+
+
+def run_job(loaded, job: ControlPlan, *, on_step: Callable[[int, int], None], cancel: threading.Event,
+            on_wait: Callable[[], None] | None = None) -> ControlSummary:
+    """Sample on the worker (holding the sampling slot), place the motion on the path, measure the errors."""
+    import time
+
+    from engine.methods.control import controlled
+
+    def step(state) -> None:
+        if cancel.is_set():
+            raise Cancelled()
+        on_step(state.step + 1, state.num_steps)
+
+    t0 = time.perf_counter()
+    with sampling_slot(cancel, on_wait):
+        gen = controlled(loaded, job.prompt, job.controls, seconds=job.seconds, models=job.models,
+                         weights=job.weights, sample=job.sample, on_step=step)
+    joints = np.asarray(gen.joints[0], dtype=np.float32)
+    if not np.isfinite(joints).all():
+        raise ValueError("the model produced non-finite joints")
+    summary = measure(job, joints, features=np.asarray(gen.features[0]))
+    summary.seconds_taken = time.perf_counter() - t0
+    summary.joints = joints if job.frame is None else _world(joints, job.frame)
+    return summary
+
+
+def _world(joints: np.ndarray, frame: dict) -> np.ndarray:
+    from engine.methods.paths import to_world
+
+    return np.asarray(to_world(joints, frame), dtype=np.float32)
+
+
+def measure(job: ControlPlan, joints: np.ndarray, *, features: np.ndarray) -> ControlSummary:
+    """Root error on the floor (path_error, world frame), wrist error in the body frame, and the 3-D guides."""
+    from engine.methods.control import control_dims
+    from engine.methods.paths import path_error
+    from engine.representation import features_to_joints, joints_to_features
+    from engine.skeleton import JOINT_INDEX
+
+    names = [c.name for c in job.controls]
+    world = joints if job.frame is None else _world(joints, job.frame)
+    guides, root_error, wrist_error = [], None, None
+    if job.frame is not None:
+        root_error = path_error(world, job.frame["target"])
+        xz = np.asarray(job.frame["target"], dtype=np.float64)
+        guides.append((ROOT_COLOR, np.stack([xz[:, 0], np.full(len(xz), 0.012), xz[:, 1]], -1)))
+    if job.wrist_target is not None:
+        name = names[-1]
+        dims = control_dims(name)
+        measured = joints_to_features(joints)[:, dims]
+        n = min(len(measured), len(job.wrist_target))
+        d = np.linalg.norm(measured[:n] - job.wrist_target[:n], axis=1)
+        wrist_error = {"mean_m": float(d.mean()), "max_m": float(d.max())}
+        # the target in the world: the generated body carrying the target wrist instead of its own
+        feats = np.array(features[: len(job.wrist_target)], dtype=np.float64)
+        feats[:, dims] = job.wrist_target[: len(feats)]
+        target = features_to_joints(feats)[:, JOINT_INDEX[name]]
+        if job.frame is not None:
+            target = _world(target[:, None], job.frame)[:, 0]
+        guides.append((WRIST_COLOR, np.asarray(target, dtype=np.float64)))
+    return ControlSummary(name="", method=job.method, controls=names, weights=dict(zip(names, job.weights)),
+                          root_error=root_error, wrist_error=wrist_error, seconds_taken=0.0, guides=guides)
+
+
+@dataclass
+class ControlJob:
+    """One generation following the drawn paths: the motion in the path's world, its guides and errors, when done."""
+
+    session: object  # StudioState
+    settings: ControlSettings
+    plan: ControlPlan | None = field(default=None, init=False)
+    refused: ClassVar[str] = "cannot generate with control"
+
+    def prepare(self, loaded) -> None:
+        self.plan = prepare(self.session, self.settings)
+
+    def describe(self) -> JobDescription:
+        p = self.plan
+        return JobDescription(what="controlled generation", status=f"{p.description}: step 0 / {p.sample.steps}",
+                              verb=p.description, total=p.sample.steps)
+
+    def run(self, loaded, worker: Worker) -> ControlSummary:
+        return run_job(loaded, self.plan, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting)
+
+    def finish(self, summary: ControlSummary) -> None:
+        finish(self.session, self.settings, self.plan, summary)
+
+
+def finish(state, settings: ControlSettings, job: ControlPlan, summary: ControlSummary) -> None:
+    """The motion (in the path's world) becomes a session motion with its target paths as guides; shown."""
+    joints = summary.joints
+    title = f"control · {job.prompt} · {' + '.join(LABELS[n] for n in summary.controls)} · {job.method}"
+    item = MotionItem(name=state.unique_name(title), joints=joints, source="generated", prompt=job.prompt,
+                      info={"control": summary, "guides": summary.guides})
+    summary.name = item.name
+    state.end_job(f"{job.description}: done in {summary.seconds_taken:.1f} s ({job.sample.steps} steps)"
+                  + (f", root error {summary.root_error['mean_m']:.3f} m" if summary.root_error else ""))
+    state.add_item(item)
+    settings.result = summary
+
+
+def describe(summary: ControlSummary) -> list[tuple[str, str]]:
+    """(label, value) rows of the measured errors for the readout."""
+    rows = []
+    if summary.root_error is not None:
+        e = summary.root_error
+        rows += [("root error, mean", f"{e['mean_m']:.3f} m"), ("root error, max", f"{e['max_m']:.3f} m"),
+                 ("frames > 0.5 m off", f"{100 * e['off_0_5m']:.0f} %")]
+    if summary.wrist_error is not None:
+        e = summary.wrist_error
+        rows += [("wrist error, mean", f"{e['mean_m']:.3f} m"), ("wrist error, max", f"{e['max_m']:.3f} m")]
+    return rows

@@ -1,0 +1,361 @@
+"""The Edit tab's jobs: checks of its settings with user-facing messages, the edit (``EditJob``) and the counting
+of an imported motion (``CountJob``), both launched on the session.
+
+Nothing here touches Panel widgets. The option -> config mapping is the engine's
+(``engine.methods.edit_options``, shared with ``moattn edit``); this module adds what only the
+studio needs: the picked word as (word, occurrence), sources among the session's motions,
+word-by-word alignment messages for replacement, recording the edited motions' attention into
+``AttentionRecord``s, and counting a session motion (recorded maps, or inversion for an imported one).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+import param
+
+from app.attention_record import AttentionRecord, estimate_bytes, plan_steps
+from app.generation import Cancelled, sampling_slot
+from app.session.items import MotionItem
+from app.session.jobs import JobDescription, Worker
+from app.session.counting import CountReadout, auto_count, count_imported
+from app.tabs.edit.settings import PROMPT_SOURCE, EditSettings, EditSummary
+
+RECORD_BUDGET = 400 * 1024 * 1024  # the edit's AttentionStore keeps 512 MB at most: stay below it
+
+
+def word_choice(words: list[str] | tuple[str, ...], position: int) -> tuple[str, int]:
+    """The word at ``position`` of a prompt as (word, occurrence): edits name words, never token indices."""
+    word = words[position]
+    return word, list(words[:position]).count(word)
+
+
+def alignment(tokenizer, reference: str, edited: str) -> tuple[bool, str]:
+    """Word-by-word alignment for in-place replacement: (ok, a message for the user)."""
+    from engine.text import split_words
+
+    ref, new = split_words(reference), split_words(edited)
+    if not new:
+        return False, "type the edited prompt: the same words as the prompt with the action swapped"
+    unknown = [w for w in dict.fromkeys(new) if tokenizer is not None and tokenizer.read_as(w) is None]
+    if unknown:
+        return False, f"unknown word(s) in the edited prompt: {', '.join(unknown)}"
+    if len(ref) != len(new):
+        return False, (f"not aligned: the prompt has {len(ref)} words and the edited prompt {len(new)}; replacement "
+                       f"swaps words in place, word by word (e.g. '{' '.join(ref)}' → "
+                       f"'{' '.join(swap_example(ref))}')")
+    changed = [(a, b) for a, b in zip(ref, new) if a != b]
+    if not changed:
+        return False, "the edited prompt is the same as the prompt: change a word (e.g. the verb)"
+    pairs = ", ".join(f"'{a}' → '{b}'" for a, b in changed)
+    return True, f"aligned word by word ({len(ref)} words): {pairs}"
+
+
+def swap_example(words: list[str]) -> list[str]:
+    verbs = {"jumps": "kicks", "walks": "runs", "runs": "walks", "kicks": "jumps", "waves": "claps"}
+    out = list(words)
+    for i, w in enumerate(out):
+        if w in verbs:
+            out[i] = verbs[w]
+            return out
+    return out
+
+
+@dataclass
+class EditPlan:
+    """A checked edit, ready for the worker."""
+
+    options: object  # engine.methods.edit_options.EditOptions
+    sample: object  # engine.generate.SampleConfig
+    frames: int
+    record_steps: int
+    label: str
+    description: str
+    prompt: str
+    record: bool
+
+
+@dataclass
+class EditedMotion:
+    role: str
+    joints: np.ndarray
+    prompt: str
+    words: tuple[str, ...]
+    attention: AttentionRecord | None
+    title: str
+
+
+@dataclass
+class EditResult:
+    job: EditPlan
+    before: EditedMotion
+    after: list[EditedMotion] = field(default_factory=list)
+    seconds_taken: float = 0.0
+
+
+# ---------------------------------------------------------------------------------------------- checks
+def prepare(state) -> EditPlan:
+    """Check the tab's settings against the session (prompt, model, sources); raises ValueError with a message."""
+    from engine.generate import SampleConfig, frames_for
+    from engine.methods.edit_options import EditOptions, build_config
+
+    cfg: EditSettings = state.edit
+    kind = cfg.engine_kind
+    if kind == "count":
+        raise ValueError("counting is not an edit: use Count")
+    loaded = state.model
+    prompt = state.prompt
+    frames = frames_for(state.duration())
+    if frames > loaded.model.config.max_frames:
+        raise ValueError(f"this model handles at most {loaded.model.config.max_frames / 20:.1f} s")
+    sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
+    word = cfg.word or None
+    if kind in ("emphasize", "erase", "ground"):
+        if word is None:
+            raise ValueError("pick a word: click it in the prompt")
+        words = state.prompt_words
+        if words.count(word) <= cfg.occurrence:
+            raise ValueError(f"the word '{word}' is not in the prompt any more: pick a word again")
+    source = style = None
+    if kind in ("example", "style"):
+        source = resolve_source(state, cfg.source)
+    if kind == "style":
+        style = resolve_source(state, cfg.style_source, prompt=cfg.style_prompt)
+    text_sources = [s for s in (prompt if kind not in ("example", "style") else source, style) if isinstance(s, str)]
+    for text in text_sources:
+        loaded.tokenizer.encode(text)  # PromptError (a ValueError) with the unknown words
+    if kind == "replace":
+        ok, message = alignment(loaded.tokenizer, prompt, cfg.edited)
+        if not ok:
+            raise ValueError(message)
+    weight = float(cfg.weight)
+    span = tuple(int(f) for f in cfg.frames) if cfg.frames is not None else None
+    if span is not None and kind != "erase" and span[0] <= 0 and span[1] >= frames:
+        span = None  # the whole motion (erase's default is the last half, so its span stays explicit)
+    options = EditOptions(
+        kind=kind, prompt=source if kind in ("example", "style") else prompt, word=word, occurrence=cfg.occurrence,
+        weight=weight, mode=cfg.mode, frames=span,
+        edited=cfg.edited, fraction=float(cfg.fraction), style=style, count=int(cfg.count),
+        step_window=tuple(cfg.step_window) if cfg.step_window is not None else None,
+        layers=tuple(cfg.layers) or None, seed=int(state.seed))
+    build_config(options, frames=frames, model_config=loaded.config)  # the config's own checks (weight ranges, windows) before any work
+    description = describe(options, frames=frames)
+    m = loaded.config["model"]
+    slots = 2 + (int(cfg.count) - 1 if kind == "example" else 0) + (1 if kind == "style" else 0)
+    size = slots * estimate_bytes(num_steps=sample.steps, record_steps=sample.steps, layers=m["layers"],
+                                  heads=m["heads"], frames=frames, words=16)
+    return EditPlan(options=options, sample=sample, frames=frames, record_steps=int(state.record_steps),
+                   label=cfg.kind, description=description,
+                   prompt=prompt if isinstance(prompt, str) else "", record=state.record_steps > 0 and size < RECORD_BUDGET)
+
+
+def resolve_source(state, name: str, *, prompt: str | None = None):
+    """A source for example-based / style transfer: a prompt (generated in the batch) or an imported motion's joints
+    (DDIM-inverted by the engine). A generated session motion is used through its prompt."""
+    if not name or name == PROMPT_SOURCE:
+        text = state.prompt if prompt is None else prompt
+        if not text.strip():
+            raise ValueError("type a prompt for the source")
+        return text
+    item = state.items.get(name)
+    if item is None:
+        raise ValueError(f"the motion {name!r} is no longer in the session: pick another source")
+    if item.source == "generated" and item.prompt:
+        return item.prompt
+    if item.n_frames < 20:
+        raise ValueError(f"{name!r} is too short to use as a source (at least 1 s)")
+    return np.asarray(item.joints[: 196])
+
+
+def describe(options, *, frames: int) -> str:
+    o = options
+    if o.kind in ("emphasize", "ground"):
+        sign = "+" if o.mode == "add" and o.weight >= 0 else ""
+        w = f"{sign}{o.weight:.2f}" if o.mode == "add" else f"×{o.weight:.2f}"
+        what = "emphasise" if o.kind == "emphasize" else "ground"
+        span = "" if o.frames is None else f" frames {o.frames[0]}–{min(o.frames[1], frames)}"
+        return f"{what} '{o.word}' {w}{span}"
+    if o.kind == "erase":
+        return f"erase '{o.word}'"
+    if o.kind == "replace":
+        from engine.text import split_words
+
+        pairs = [(a, b) for a, b in zip(split_words(o.prompt), split_words(o.edited)) if a != b]
+        return "replace " + ", ".join(f"'{a}' → '{b}'" for a, b in pairs)
+    if o.kind == "shift":
+        return f"shift {o.fraction:.0%}"
+    if o.kind == "example":
+        return "example-based"
+    return "style transfer"
+
+
+# ---------------------------------------------------------------------------------------------- the worker
+def run_edit_job(loaded, job: EditPlan, *, on_step=None, cancel=None, on_wait=None) -> EditResult:
+    """Run one edit (waits for the sampling slot); ``on_step(done, total)`` after every step."""
+    from engine.methods.edit_options import run_edit as run_engine_edit
+
+    timesteps: dict[int, int] = {}
+
+    def step(state) -> None:
+        timesteps[state.step] = int(state.t)
+        if cancel is not None and cancel.is_set():
+            raise Cancelled()
+        if on_step is not None:
+            on_step(state.step + 1, state.num_steps)
+
+    with sampling_slot(cancel, on_wait):
+        start = time.perf_counter()
+        out = run_engine_edit(loaded, job.options, frames=job.frames, sample=job.sample, record=job.record, on_step=step)
+    gen = out.generation
+    keep = plan_steps(job.sample.steps, job.record_steps) if job.record_steps else []
+
+    def motion(role: str, index: int, title: str) -> EditedMotion:
+        slots = [i for i, r in enumerate(gen.roles.names) if r == role]
+        slot = slots[index]
+        joints = np.asarray(gen.joints[slot], dtype=np.float32)
+        if not np.isfinite(joints).all():
+            raise ValueError("the model produced non-finite joints")
+        tokens = gen.tokens[slot]
+        words = tuple(tokens.words) if tokens is not None else ()
+        prompt = tokens.prompt if tokens is not None else ""
+        record = _record(out.store, role, index, words, job.sample.steps, keep, timesteps)
+        return EditedMotion(role=role, joints=joints, prompt=prompt or "", words=words, attention=record, title=title)
+
+    o = job.options
+    n_after = o.count if o.kind == "example" else 1
+    before_title = {"example": "example", "style": "content"}.get(o.kind, "reference")
+    before = motion(out.before_role, 0, before_title)
+    after = [motion(out.after_role, i, job.description + (f" #{i + 1}" if n_after > 1 else ""))
+             for i in range(n_after)]
+    return EditResult(job=job, before=before, after=after, seconds_taken=time.perf_counter() - start)
+
+
+def _record(store, role: str, index: int, words, num_steps: int, keep: list[int], timesteps) -> AttentionRecord | None:
+    """The recorded maps of one role's slot, at the session's recording plan (None if not recorded)."""
+    if store is None or not keep or not store.records or store.skipped_sites:
+        return None
+    try:
+        first = store.records[store.sites(kind="self")[0]]
+        positions = [i for i, r in enumerate(first.roles) if r == role]
+        record = AttentionRecord.from_store(store, words=words, num_steps=num_steps, timesteps=timesteps,
+                                            slot=positions[index], steps=keep)
+        # the batch pads every prompt to its longest: keep this prompt's words only
+        record.cross_maps = np.ascontiguousarray(record.cross_maps[..., : len(words)])
+        return record
+    except (IndexError, KeyError, ValueError):
+        return None  # e.g. a text-less (inverted) slot has no cross-attention
+
+
+# ---------------------------------------------------------------------------------------------- the jobs
+@dataclass
+class EditJob:
+    """One MotionCLR edit of the session's prompt (or sources): before and after side by side when done."""
+
+    session: object  # StudioState
+    plan: EditPlan | None = field(default=None, init=False)
+
+    @property
+    def refused(self) -> str:
+        return f"cannot {self.session.edit.kind}"
+
+    def prepare(self, loaded) -> None:
+        self.plan = prepare(self.session)
+
+    def describe(self) -> JobDescription:
+        p = self.plan
+        return JobDescription(what="edit", status=f"{p.description}: step 0 / {p.sample.steps}", verb=p.description,
+                              total=p.sample.steps)
+
+    def run(self, loaded, worker: Worker) -> EditResult:
+        return run_edit_job(loaded, self.plan, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting)
+
+    def finish(self, result: EditResult) -> None:
+        finish_edit(self.session, result)
+
+
+@dataclass
+class CountJob:
+    """Count a motion without recorded maps: DDIM-invert it and record its self-attention while it is rebuilt."""
+
+    session: object  # StudioState
+    item: MotionItem
+    refused: ClassVar[str] = "cannot count"
+
+    def prepare(self, loaded) -> None:
+        if self.item.n_frames < 8:
+            raise ValueError("the motion is too short to count on")
+
+    def describe(self) -> JobDescription:
+        return JobDescription(what="counting", status=f"counting {self.item.name!r}: inverting the motion…",
+                              verb="counting", total=1)
+
+    def run(self, loaded, worker: Worker) -> CountReadout:
+        with sampling_slot(worker.cancel, worker.waiting):
+            return count_imported(loaded, self.item.joints[:196], item=self.item.name, prompt=self.item.prompt)
+
+    def finish(self, readout: CountReadout) -> None:
+        self.session.end_job(f"counted {self.item.name!r}: {readout.count:.2f} (baseline {readout.baseline})")
+        self.session.count_result = readout
+
+
+def run_edit(session) -> bool:
+    """The Edit tab's Run: the edit (or counting) on the worker; False (and a notification) if refused."""
+    if session.edit.engine_kind == "count":
+        return count_current(session)
+    return session.launch(EditJob(session=session))
+
+
+def count_current(session) -> bool:
+    """The counting readout for the shown motion: from its recorded maps (at once) or by inversion (worker)."""
+    item = session.item
+    if item is None:
+        session.error("nothing to count: generate or import a motion first")
+        return False
+    if item.attention is not None:
+        auto_count(session)
+        return True
+    return session.launch(CountJob(session=session, item=item))
+
+
+def finish_edit(session, result: EditResult) -> None:
+    """The reference (re-used when the session has it already) and the edited motions; shown side by side."""
+    job = result.job
+    seed = job.sample.seed
+
+    def item(m, title: str) -> MotionItem:
+        return MotionItem(name=session.unique_name(title), joints=m.joints, source="generated", prompt=m.prompt,
+                          words=m.words, attention=m.attention,
+                          info={"edit": job.description, "role": m.role, "seed": seed})
+
+    base = job.prompt if job.options.kind not in ("example", "style") else (result.before.prompt or "imported")
+    title = f"{base} · seed {seed} · {result.before.title}"
+    before = same_motion(session, title, result.before.joints)
+    if before is None:
+        before = item(result.before, title)
+        session.add_item(before, show=False)
+    afters = []
+    for m in result.after:
+        it = item(m, f"{m.prompt or base} · {m.title}")
+        session.add_item(it, show=False)
+        afters.append(it)
+    first = afters[0]
+    n = min(len(first.joints), len(before.joints))
+    diff = float(np.linalg.norm(first.joints[:n] - before.joints[:n], axis=-1).max()) if n else 0.0
+    session.end_job(f"{job.description}: done in {result.seconds_taken:.1f} s ({job.sample.steps} steps)")
+    with param.parameterized.batch_call_watchers(session):
+        session.show(first.name)
+        session.compare = before.name
+    session.edit.last_edit = EditSummary(kind=job.label, description=job.description, before=before.name,
+                                         after=[a.name for a in afters], seconds_taken=result.seconds_taken,
+                                         max_difference=diff)
+
+
+def same_motion(session, title: str, joints: np.ndarray) -> MotionItem | None:
+    """An item already in the list with this title and these joints (a reference re-made by another edit)."""
+    for name, it in session.items.items():
+        if (name == title or name.startswith(title + " (")) and it.joints.shape == joints.shape \
+                and np.allclose(it.joints, joints, atol=1e-5):
+            return it
+    return None

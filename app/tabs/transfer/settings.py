@@ -1,0 +1,82 @@
+"""The Transfer tab's settings (MoMo): the leader and the follower (a prompt or a session motion), the layer and
+step windows, the root, the colouring; the last transfer."""
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import param
+
+from app.generation import prompt_analysis
+from app.tabs.transfer.colors import paint_clusters
+from engine.methods.momo import TransferConfig
+
+SOURCE_KINDS = {"prompt": "prompt", "imported motion": "motion"}  # label -> kind
+ROOT_LABELS = {"leader's path": "trajectory", "leader's heading (paper)": "rotation", "its own": "none"}
+COLOR_BY = ("roles", "Q cluster", "K cluster")
+_ENGINE = TransferConfig()  # the engine's defaults (``moattn transfer`` runs the same)
+
+
+class SourceSettings(param.Parameterized):
+    """A leader or a follower: a prompt to generate, or a session motion to DDIM-invert."""
+
+    role = param.String(default="leader", doc="'leader' or 'follower'")
+    kind = param.Selector(default="prompt", objects=SOURCE_KINDS, label="Source",
+                          doc="generate from text or invert a motion")
+    prompt = param.String(default="", label="Prompt", doc="what to generate; for a motion, an optional description")
+    motion = param.String(default="", doc="name of a session motion (kind 'motion')")
+    seconds = param.Number(default=4.0, step=0.5, label="Seconds",
+                           doc="duration of a generated stream")
+    words = param.List(default=[], doc="words of the prompt")
+    unknown_words = param.List(default=[], doc="words of the prompt the model does not know")
+
+    def __init__(self, *, tokenizer: Callable[[], object] | None = None, **params):
+        super().__init__(**params)
+        self.tokenizer = tokenizer or (lambda: None)
+        self.param.watch(self.analyse, "prompt")
+        self.analyse()
+
+    def analyse(self, *_) -> None:
+        words, unknown, _ = prompt_analysis(self.tokenizer(), self.prompt)
+        self.param.update(words=words, unknown_words=unknown)
+
+
+class TransferSettings(param.Parameterized):
+    """The Transfer tab's settings (one per session, on ``StudioState.transfer``), its last transfer and what the
+    analysis shows."""
+
+    leader = param.ClassSelector(class_=SourceSettings)
+    follower = param.ClassSelector(class_=SourceSettings)
+    layers = param.Range(default=None, allow_None=True, doc="first and last 0-based layer that mix (None = all but "
+                                                             "the first)")
+    steps = param.Range(default=(_ENGINE.start, _ENGINE.end), bounds=(0.0, 1.0), step=0.05,
+                        label="Steps that mix (fraction of the run)",
+                        doc="fractions of the sampling run that mix (paper: 0.1-0.9)")
+    root = param.Selector(default=_ENGINE.root, objects=ROOT_LABELS, label="Root of the out",
+                          doc="what the out takes from the leader's root")
+    color_by = param.Selector(default="roles", objects=list(COLOR_BY), label="Skeleton colours",
+                              doc="skeleton colours in the viewer")
+    feet = param.Boolean(default=_ENGINE.feet, label="keep the leader's footwork (feet and contacts; not in the paper)",
+                         doc="the out also keeps the leader's footwork (foot contacts, feet and ankles; not in the "
+                             "paper)")
+    more_followers = param.String(default="", label="More followers (optional): one prompt per line, each gets its "
+                                                    "own out",
+                                  doc="more follower prompts, one per line: the leader drives each of them too (one "
+                                      "out per follower, in the same batch)")
+    result = param.Parameter(default=None, doc="TransferView of the last finished transfer")
+    analysed = param.Integer(default=1, bounds=(1, None), doc="which follower (1-based) the analysis views and "
+                                                              "the cluster colours show")
+
+    def __init__(self, *, tokenizer: Callable[[], object] | None = None, **params):
+        super().__init__(**params)
+        if self.leader is None:
+            self.leader = SourceSettings(role="leader", prompt="a person walks forward", tokenizer=tokenizer)
+        if self.follower is None:
+            self.follower = SourceSettings(role="follower", prompt="a person jumps twice", seconds=3.0,
+                                           tokenizer=tokenizer)
+
+    @classmethod
+    def for_session(cls, session) -> "TransferSettings":
+        """The session's transfer settings; the skeletons take the chosen cluster colours as they change."""
+        settings = cls(tokenizer=session.tokenizer)
+        settings.param.watch(lambda *_: paint_clusters(session, settings), ["color_by", "result", "analysed"])
+        return settings

@@ -1,0 +1,190 @@
+"""The Transfer tab (MoMo, "Monkey See, Monkey Do"): a leader (what and when) and a follower (how), each a prompt
+or an imported motion; layer and step windows; run off the UI thread with progress and cancel; then leader /
+follower / out side by side in the viewer and the analysis views (``app.tabs.transfer.plots``).
+
+All settings live on ``state.transfer`` (an ``app.tabs.transfer.settings.TransferSettings``); the widgets only mirror
+it. The transfer itself is a ``TransferJob`` launched on the session (checks, then the shared worker).
+"""
+from __future__ import annotations
+
+import html
+
+import panel as pn
+import param
+
+from app.components.jobbar import JobBar, text_from_param
+from app.components.number_box import FloatBox
+from app.components.words import WORD_CSS, word_chips
+from app.session.state import StudioState
+from app.tabs.transfer.job import TransferJob, describe_inversion, show_roles
+from app.tabs.transfer.plots import TransferPlots
+from app.tabs.transfer.settings import SourceSettings
+
+NO_MOTION = "(import a motion)"
+HELP = {"leader": "**Leader**: what and when (outline, timing).", "follower": "**Follower**: how (motifs)."}
+
+
+class SourcePicker(pn.viewable.Viewer):
+    """One source: a prompt (unknown words flagged) with its seconds, or an imported motion (+ an optional
+    description) that is DDIM-inverted when the transfer runs."""
+
+    state = param.ClassSelector(class_=StudioState)
+    source = param.ClassSelector(class_=SourceSettings)
+
+    def __init__(self, **params):
+        super().__init__(**params)
+        src = self.source
+        self.kind = pn.widgets.RadioButtonGroup.from_param(src.param.kind, color="primary", variant="outline",
+                                                           css_classes=["source-kind"])
+        self.prompt = text_from_param(src.param.prompt, css_classes=["source-prompt"], sizing_mode="stretch_width")
+        self.words = pn.pane.HTML("", css_classes=["source-words"], margin=(0, 10), stylesheets=[WORD_CSS])
+        self.seconds = FloatBox.from_param(src.param.seconds, width=90, css_classes=["source-seconds"])
+        self.motion = pn.widgets.Select(label="Imported motion", options=[NO_MOTION], css_classes=["source-motion"],
+                                        sizing_mode="stretch_width")
+        self.upload = pn.widgets.FileInput(accept=".bvh,.npy", multiple=False, css_classes=["source-upload"],
+                                           sizing_mode="stretch_width")
+        self.info = pn.pane.Markdown("", css_classes=["source-info"], margin=(0, 10),
+                                     styles={"font-size": "12px", "color": "#444"})
+        self.motion.param.watch(lambda e: setattr(src, "motion", "" if e.new == NO_MOTION else e.new), "value")
+        self.upload.param.watch(self._on_upload, "value")
+        src.param.watch(self._on_kind, ["kind", "motion"])
+        src.param.watch(self._on_words, ["words", "unknown_words"])
+        self.state.param.watch(self._on_items, "items")
+        self.state.transfer.param.watch(self._on_info, "result")
+        self._on_items()
+        self._on_kind()
+        self._on_words()
+
+    def _on_upload(self, event) -> None:
+        from app.uploads import import_bytes
+
+        if not event.new:
+            return
+        name = self.upload.filename or "upload"
+        try:
+            item = self.state.show_motion(import_bytes(event.new, name), title=f"imported: {name}")
+        except Exception as exc:  # the user's file, not a crash
+            self.state.error(f"Could not import {name}: {exc}")
+            return
+        self.source.param.update(kind="motion", motion=item.name)
+
+    def _on_items(self, *_):
+        names = [n for n, it in self.state.items.items() if it.source == "imported"]
+        self.motion.options = names or [NO_MOTION]
+        picked = self.source.motion
+        self.motion.value = picked if picked in names else (names[-1] if names else NO_MOTION)
+
+    def _on_kind(self, *_):
+        src = self.source
+        is_prompt = src.kind == "prompt"
+        if src.motion and src.motion in self.motion.options and self.motion.value != src.motion:
+            self.motion.value = src.motion
+        self.prompt.label = "Prompt" if is_prompt else "Description (optional, guides the inversion; empty = read without text)"
+        self.prompt.placeholder = "a person walks forward" if is_prompt else "e.g. a person walks"
+        self.seconds.visible = is_prompt
+        self.motion.visible = self.upload.visible = not is_prompt
+        self._on_info()
+
+    def _on_words(self, *_):
+        src = self.source
+        self.words.object = word_chips(src.words, src.unknown_words) if src.words or src.kind == "prompt" else ""
+
+    def _on_info(self, *_):
+        src, view = self.source, self.state.transfer.result
+        if src.kind == "prompt":
+            self.info.object = ""
+            return
+        item = self.state.items.get(src.motion)
+        text = "Import a BVH or .npy motion here or in the sidebar." if item is None else (
+            f"{item.n_frames} frames ({item.n_frames / 20:.1f} s), DDIM-inverted when the transfer runs.")
+        if view is not None and item is not None and view.inversion.get(src.role):
+            text += f" Last run: **{describe_inversion(view.inversion[src.role])}**."
+        self.info.object = text
+
+    def __panel__(self):
+        return pn.Column(HELP[self.source.role], self.kind, self.prompt, self.words, self.seconds, self.motion,
+                         self.upload, self.info, css_classes=[f"transfer-{self.source.role}"], width=285)
+
+
+class TransferTab(pn.viewable.Viewer):
+    state = param.ClassSelector(class_=StudioState)
+
+    def __init__(self, **params):
+        super().__init__(**params)
+        s, t = self.state, self.state.transfer
+        self.leader = SourcePicker(state=s, source=t.leader)
+        self.follower = SourcePicker(state=s, source=t.follower)
+        self.more = text_from_param(t.param.more_followers, widget_type=pn.widgets.TextAreaInput, rows=3,
+                                    placeholder="a person runs like a zombie\na person walks and waves",
+                                    css_classes=["transfer-more"], sizing_mode="stretch_width")
+        layers = self._n_layers()
+        default = (min(1, layers - 1), layers - 1)
+        self.layers = pn.widgets.IntRangeSlider(label="Layers that mix (0-based)", start=0, end=max(layers - 1, 1),
+                                                value=default if t.layers is None else t.layers,
+                                                css_classes=["transfer-layers"], sizing_mode="stretch_width")
+        self.steps = pn.widgets.RangeSlider.from_param(t.param.steps, css_classes=["transfer-steps"],
+                                                       sizing_mode="stretch_width")
+        self.root = pn.widgets.RadioButtonGroup.from_param(t.param.root, color="primary", variant="outline",
+                                                           css_classes=["transfer-root"])
+        self.feet = pn.widgets.Checkbox.from_param(t.param.feet, css_classes=["transfer-feet"])
+        self.bar = JobBar(state=s, jobs=["transfer"], label="Run transfer", busy_label="Running…", prefix="transfer",
+                          on_run=lambda: self.state.launch(TransferJob(session=self.state)), blocked=self._unknown_words)
+        self.run, self.cancel, self.progress, self.status = self.bar.run, self.bar.cancel, self.bar.progress, self.bar.status
+        self.result = pn.pane.HTML("", css_classes=["transfer-result"], margin=(0, 10))
+        self.show = pn.widgets.Button(label="Show leader / follower / out", css_classes=["transfer-show"],
+                                      width=230, disabled=True)
+        self.color = pn.widgets.RadioButtonGroup.from_param(t.param.color_by, color="primary", variant="outline",
+                                                            css_classes=["transfer-color"])
+        self.analysed = pn.widgets.RadioButtonGroup(options={"follower 1": 1}, value=t.analysed, color="primary",
+                                                    variant="outline", css_classes=["transfer-analysed"])
+        self.analysed_row = pn.Row(pn.pane.Markdown("Analysis of", margin=(8, 10)), self.analysed, visible=False)
+        self.plots = TransferPlots(state=s)
+
+        self.layers.param.watch(lambda e: self._set("layers", tuple(int(v) for v in e.new)), "value")
+        self.analysed.param.watch(lambda e: self._set("analysed", int(e.new)), "value")
+        self.show.on_click(lambda _: show_roles(self.state))
+        for src in (t.leader, t.follower):
+            src.param.watch(self.bar.refresh, ["unknown_words", "kind"])
+        t.param.watch(self._on_result, "result")
+        self._on_result()
+
+    def _n_layers(self) -> int:
+        try:
+            return int(self.state.model.config["model"]["layers"])
+        except Exception:
+            return 2
+
+    def _set(self, name: str, value) -> None:
+        try:
+            setattr(self.state.transfer, name, value)
+        except ValueError as exc:
+            self.state.error(f"{name}: {exc}")
+
+    def _unknown_words(self) -> bool:
+        t = self.state.transfer
+        return any(src.kind == "prompt" and src.unknown_words for src in (t.leader, t.follower))
+
+    def _on_result(self, *_):
+        view = self.state.transfer.result
+        self.show.disabled = view is None
+        n = 1 if view is None else view.followers
+        self.analysed.options = {f"follower {k}": k for k in range(1, n + 1)}
+        self.analysed.value = min(self.state.transfer.analysed, n)
+        self.analysed_row.visible = n > 1
+        if view is None:
+            self.result.object = ""
+            return
+        parts = [f"<b>{html.escape(view.description)}</b> in {view.seconds_taken:.1f} s"]
+        for role in view.frames:
+            inv = describe_inversion(view.inversion.get(role))
+            extra = f" · <span class='inversion-error'>{html.escape(inv)}</span>" if inv else ""
+            parts.append(f"{role}: {view.frames[role]} frames{extra}")
+        self.result.object = "<br>".join(parts) + "<br><i>Shown side by side in the viewer.</i>"
+
+    def __panel__(self):
+        sources = pn.Row(self.leader, self.follower)
+        settings = pn.Column(self.more, self.layers, self.steps, pn.pane.Markdown("Root of the out", margin=(0, 10)),
+                             self.root, self.feet, sizing_mode="stretch_width")
+        colours = pn.Row(pn.pane.Markdown("Skeleton colours", margin=(8, 10)), self.color)
+        return pn.Column(sources, settings, self.bar, self.result, pn.Row(self.show), colours, self.analysed_row,
+                         pn.layout.Divider(), self.plots, css_classes=["transfer-tab"], sizing_mode="stretch_width")
