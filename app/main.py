@@ -26,7 +26,7 @@ from app.tabs.generate.view import GenerateControls
 from app.tabs.transfer.settings import TransferSettings
 from app.tabs.transfer.view import TransferTab
 from app.theme import Fast as OfflineFast
-from app.views.viewer import SkeletonViewer
+from app.viewer.view import SkeletonViewer
 from engine.paths import ASSETS, MODEL_DIR
 
 EXAMPLE = ASSETS / "examples" / "walk.npy"

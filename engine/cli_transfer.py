@@ -8,7 +8,8 @@ from pathlib import Path
 from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, check_output_folder, check_outputs, seed_argument
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
-from engine.units import DEFAULT_GUIDANCE
+from engine.methods.transfer_config import ROOT_MODES, TransferConfig
+from engine.units import DEFAULT_GUIDANCE, DEFAULT_STEPS
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -26,14 +27,15 @@ def _common(p: argparse.ArgumentParser) -> None:
                         "without it a file is taken whole")
     p.add_argument("--layers", type=int, nargs=2, default=None, metavar=("FIRST", "LAST"),
                    help="mixed layers, inclusive 0-based range (default: every layer but the first)")
-    p.add_argument("--step-window", type=float, nargs=2, default=(0.1, 0.9), metavar=("START", "END"),
-                   help="fractions of the sampling steps that mix (default 0.1 0.9)")
-    p.add_argument("--root", choices=("trajectory", "rotation", "none"), default="trajectory",
-                   help="what the output takes from the leader's root (default: its whole trajectory)")
+    p.add_argument("--step-window", type=float, nargs=2, default=(TransferConfig.start, TransferConfig.end),
+                   metavar=("START", "END"),
+                   help=f"fractions of the sampling steps that mix (default {TransferConfig.start} {TransferConfig.end})")
+    p.add_argument("--root", choices=ROOT_MODES, default=TransferConfig.root,
+                   help=f"what the output takes from the leader's root (default: {TransferConfig.root}, its whole path)")
     p.add_argument("--keep-feet", action="store_true",
                    help="also keep the leader's footwork (foot contacts, feet and ankle positions); not in the paper")
     p.add_argument("--seed", type=seed_argument, default=0)
-    p.add_argument("--steps", type=int, default=50)
+    p.add_argument("--steps", type=int, default=DEFAULT_STEPS)
     p.add_argument("--guidance", type=float, default=DEFAULT_GUIDANCE)
     p.add_argument("--model", type=Path, default=MODEL_DIR)
     add_runtime_arguments(p)

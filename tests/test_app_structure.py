@@ -65,6 +65,18 @@ def test_no_tab_imports_another_tab():
     assert not bad, bad
 
 
+def test_the_viewer_reads_the_core_and_nothing_reads_the_viewer_but_the_page():
+    """The viewer shows what the core says is shown; neither the core nor a tab drives it directly."""
+    bad = []
+    for name, tree in _modules().items():
+        deps = _imports(tree)
+        if name.startswith("app.viewer"):
+            bad += [f"{name} imports {d}" for d in sorted(deps) if d == "app.tabs" or d.startswith("app.tabs.")]
+        elif name.startswith(("app.session", "app.tabs")):
+            bad += [f"{name} imports {d}" for d in sorted(deps) if d == "app.viewer" or d.startswith("app.viewer.")]
+    assert not bad, bad
+
+
 def test_every_tab_is_a_package_with_a_view():
     tabs = sorted(p.name for p in (APP / "tabs").iterdir() if p.is_dir() and not p.name.startswith("_"))
     assert tabs == sorted(["generate", "edit", "attention", "transfer", "compose", "control", "duet", "files"])

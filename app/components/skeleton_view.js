@@ -1,5 +1,5 @@
 // The studio's 3-D skeleton viewer: drawn in the browser on a 2-D canvas (no WebGL, no library, no network).
-// The server sends a scene once per change (app/scene_payload.py); every frame, orbit and zoom is drawn here.
+// The server sends a scene once per change (app/viewer/scene.py); every frame, orbit and zoom is drawn here.
 // Perspective projection, painter's order (far to near) for bones and joints, a checker floor, root paths and
 // drawn guides. Poses are interpolated between the motion's 20-fps frames, so playback is as smooth as the display.
 

@@ -1,6 +1,6 @@
 """``SkeletonView``: the studio's 3-D viewer, drawn in the browser (``skeleton_view.js``; no CDN, no WebGL).
 
-The server sets ``scene`` (``app.scene_payload.scene_message``) once per change of what is shown; the
+The server sets ``scene`` (``app.viewer.scene.scene_message``) once per change of what is shown; the
 page draws every frame, orbit, pan and zoom itself, interpolating poses between the motion's frames.
 While sampling, :meth:`preview` sends the current x̂0 motion as a custom message; the page shows it
 until the result's scene arrives (or :meth:`end_preview`, on cancel or error).
@@ -20,7 +20,7 @@ import param
 
 
 class SkeletonView(pn.custom.JSComponent):
-    scene = param.Dict(default={}, doc="what is drawn (app.scene_payload.scene_message)")
+    scene = param.Dict(default={}, doc="what is drawn (app.viewer.scene.scene_message)")
     frame = param.Integer(default=0, bounds=(0, None))
     playing = param.Boolean(default=False)
     loop = param.Boolean(default=True)
@@ -48,7 +48,7 @@ class SkeletonView(pn.custom.JSComponent):
         self.closed = False  # the session is gone: nothing more is sent
 
     def preview(self, message: dict) -> None:
-        """Show a live x̂0 motion (``app.scene_payload.preview_message``)."""
+        """Show a live x̂0 motion (``app.viewer.scene.preview_message``)."""
         if not self.closed:
             self._send_msg(message)
 

@@ -76,6 +76,8 @@ class StudioState(param.Parameterized):
     also = param.List(default=[], item_type=str, doc="more motions shown side by side after the compared one "
                                                        "(e.g. a transfer's output); cleared when another is shown")
     frame_colors = param.Dict(default={}, doc="motion name -> (T, 3) uint8 colour per frame (e.g. Q/K clusters)")
+    color_notes = param.Dict(default={}, doc="motion name -> what its frame colours mean (the viewer's title while "
+                                             "it is shown with them)")
     preview = param.ClassSelector(class_=Preview, default=None, allow_None=True,
                                   doc="the running generation's x̂0 motion (None: no live preview)")
     frame = param.Integer(default=0, bounds=(0, None), doc="the playhead")

@@ -37,7 +37,8 @@ def paint_clusters(state, cfg) -> None:
         n = n_clusters(view)
         colors = {view.names[r]: hex_rgb(cluster_colors(labels[r], n)) for r in ROLES if r in view.names}
     if colors or state.frame_colors:
-        state.frame_colors = colors
+        note = f"colour: {cfg.color_by} (legend in the Transfer tab)"
+        state.param.update(frame_colors=colors, color_notes={name: note for name in colors})
 
 
 def focused(settings):

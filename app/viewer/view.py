@@ -5,7 +5,7 @@ import panel as pn
 import param
 
 from app.components.skeleton_view import SkeletonView
-from app.scene_payload import SceneSpec, preview_message, scene_message
+from app.viewer.scene import SceneSpec, preview_message, scene_message
 from app.session.duets import is_duet
 from app.session.state import StudioState
 
@@ -61,19 +61,20 @@ class SkeletonViewer(pn.viewable.Viewer):
         if not shown:
             return None
         item = shown[0]
-        motions, colors, guides = [], [], []
+        motions, colors, guides, notes = [], [], [], []
         for it in shown:
             role = _role(it.name, avoid=[r for r, _ in motions])
             motions.append((role, it.joints))
             guides += [(role, color, points) for color, points in it.info.get("guides", ())]
             if it.name in s.frame_colors:
                 colors.append((role, s.frame_colors[it.name]))
+                notes += [s.color_notes[it.name]] if it.name in s.color_notes else []
         values = s.word_values() if s.color_by_word else None
         title = item.name if len(shown) == 1 else ""
         if values is not None and s.word is not None and item.attention is not None:
             title = f'{item.name}  —  colour: "{item.attention.words[s.word]}"'
-        if colors and s.transfer.color_by != "roles":
-            title = f"colour: {s.transfer.color_by} (legend in the Transfer tab)"
+        if notes:
+            title = notes[0]
         return SceneSpec(motions=tuple(motions), follow=s.follow, show_path=s.show_path, frame_values=values,
                          role_colors=tuple(colors), title=title, guides=tuple(guides), together=is_duet(shown),
                          denoising=item.denoising if len(shown) == 1 else None)
