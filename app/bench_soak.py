@@ -6,7 +6,7 @@ minutes are up (a cycle under way is finished, and every session does at least o
 
 - generates its own prompt (a distinct one per session, 10 steps) and checks that the Motion list shows it;
 - emphasises its prompt's action word on the Edit tab and checks the result is its own;
-- plays the motion for a second once all its frames have arrived (at least two frames must be drawn);
+- plays the motion for a second (at least two frames must be drawn);
 - reloads the page (a new server session: none of the prompts may be listed) and closes it (the next cycle opens
   a new page).
 
@@ -17,7 +17,9 @@ Reported: the server log's errors (``server_errors``: tracebacks, ERROR / Error:
 with counts) and, apart, its warnings (``server_warnings``, not failing), the server's resident memory (its children included) and thread count before the pages, once every
 session finished its first cycle (``warm``), at the end after closed sessions had time to be discarded
 (``after``) and the peak; each session's worst time to result (click -> first frame of the generated or edited
-motion, page clock); cross-talk (a session listing a motion of another prompt); failures (a step that raised or
+motion, page clock); ``page_loads`` and ``rss_growth_per_load_mb`` (memory after minus warm, per page load after
+the first ones); ``burst_get_s`` (as many concurrent ``GET /`` as sessions, at the start: each builds a page on the
+server); cross-talk (a session listing a motion of another prompt); failures (a step that raised or
 timed out); page errors in the browser. ``ok``: no server error, no cross-talk, no failure, no page error, and
 every session finished a cycle.
 
@@ -347,6 +349,24 @@ def run_session(session: Session, browser, url: str, *, keep_going, others: list
 # ------------------------------------------------------------------ the soak
 
 
+def page_load_burst(url: str, n: int) -> dict:
+    """``n`` concurrent ``GET /`` (each builds a session's page on the server): seconds until all are served."""
+    import concurrent.futures
+    import urllib.request
+
+    def get(_):
+        t0 = time.perf_counter()
+        with urllib.request.urlopen(url, timeout=120) as response:
+            response.read()
+        return time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    with concurrent.futures.ThreadPoolExecutor(n) as pool:
+        each = list(pool.map(get, range(n)))
+    return {"all_s": round(time.perf_counter() - t0, 2), "slowest_s": round(max(each), 2),
+            "each_s": [round(x, 2) for x in each]}
+
+
 def bench_soak(model_dir: Path, *, sessions: int = 5, minutes: float = 10.0, log_path: Path | None = None,
                steps: int = 10, close_every: int = 1, settle_s: float = 40.0, timeout_s: float = 300.0,
                log=None) -> dict:
@@ -383,6 +403,8 @@ def bench_soak(model_dir: Path, *, sessions: int = 5, minutes: float = 10.0, log
         warm = None
         say(f"server {url} (pid {pid}): {before['rss_mb']} MB, {before['threads']} threads; "
             f"{sessions} sessions for {minutes:g} min")
+        burst = page_load_burst(url, sessions)
+        say(f"{sessions} concurrent GET /: all served in {burst['all_s']} s (slowest {burst['slowest_s']} s)")
         deadline = time.monotonic() + minutes * 60
         browser = br.launch(pw)
         try:
@@ -443,8 +465,11 @@ def bench_soak(model_dir: Path, *, sessions: int = 5, minutes: float = 10.0, log
     per_session = {s.name: {"cycles": s.cycles, "generations": s.generations, "edits": s.edits, "plays": s.plays,
                             "reloads": s.reloads, "closes": s.closes, "worst_generate_s": worst(s.generate_s),
                             "worst_edit_s": worst(s.edit_s)} for s in group}
+    loads = sum(s.reloads + s.closes for s in group) + sessions  # every page opened or reloaded
+    growth = None if warm is None else round((after["rss_mb"] - warm["rss_mb"]) / max(1, loads - sessions), 3)
     result = {
         "sessions": sessions, "minutes": minutes, "model": str(model_dir), "steps": steps,
+        "page_loads": loads, "rss_growth_per_load_mb": growth, "burst_get_s": burst,
         "cycles": sum(s.cycles for s in group),
         "soak_s": round(soak_s, 1), "settle_s": settle_s,
         "server_log": str(log_path),
@@ -483,7 +508,11 @@ def format_table(r: dict) -> str:
     out += ["", f"server memory   before {num(m['before'])} MB, warm {num(m['warm'])} MB, after {num(m['after'])} MB "
                 f"({r['settle_s']:g} s after the last page closed), peak {num(m['peak'])} MB",
             f"server threads  before {num(t['before'])}, warm {num(t['warm'])}, after {num(t['after'])}, "
-            f"peak {num(t['peak'])}"]
+            f"peak {num(t['peak'])}",
+            f"page loads      {r['page_loads']}; memory after - warm per load after the first: "
+            f"{num(r['rss_growth_per_load_mb'])} MB",
+            f"{r['sessions']} concurrent GET / at the start: all served in {num(r['burst_get_s']['all_s'])} s "
+            f"(slowest {num(r['burst_get_s']['slowest_s'])} s)"]
     for title, rows in (("server errors", r["server_errors"]), ("server warnings (not failing)", r["server_warnings"]),
                         ("page errors", r["page_errors"])):
         out.append(f"{title}: {'none' if not rows else len(rows)}")

@@ -251,29 +251,11 @@ def wait_all_frames(page, timeout_ms: float = 120000) -> None:
                            timeout=timeout_ms)
 
 
-def measure_playback(page, seconds: float = 3.0) -> dict:
-    """Press Play, count the distinct frames drawn over about ``seconds``, press Pause.
-
-    The rate is frames per second between the first and the last frame change seen (page clock), so a window's
-    ragged ends do not count as a missing frame; ``skipped``: frames the player jumped over because the page was
-    too slow to show them (0 at full rate)."""
-    read = "[window.moattnPlayer.distinct, window.moattnPlayer.distinct_at, window.moattnPlayer.skipped]"
-    page.locator(".skeleton-view .moattn-play").click()
-    page.wait_for_function("window.moattnPlayer.playing", timeout=5000)
-    page.wait_for_timeout(300)
-    a = page.evaluate(read)
-    page.wait_for_timeout(seconds * 1000)
-    b = page.evaluate(read)
-    page.locator(".skeleton-view .moattn-play").click()
-    elapsed = (b[1] - a[1]) / 1000.0
-    fps = (b[0] - a[0]) / elapsed if elapsed > 0 else 0.0
-    return {"playback_fps": fps, "frames_drawn": b[0] - a[0], "seconds": elapsed, "skipped": b[2] - a[2]}
-
-
 def measure_draw_rate(page, seconds: float = 3.0) -> dict:
     """Press Play and count the pictures the viewer draws per second (poses are interpolated between the motion's
-    frames, so the rate is the display's when the page keeps up); ``draw_ms``: the median cost of one picture."""
-    read = "[window.moattnPlayer.draws, performance.now()]"
+    frames, so the rate is the display's when the page keeps up); ``frames``: the motion's frames shown meanwhile,
+    ``draw_ms``: the median cost of one picture. Pauses again."""
+    read = "[window.moattnPlayer.draws, performance.now(), window.moattnPlayer.distinct]"
     page.locator(".skeleton-view .moattn-play").click()
     page.wait_for_function("window.moattnPlayer.playing", timeout=5000)
     page.wait_for_timeout(300)
@@ -285,7 +267,8 @@ def measure_draw_rate(page, seconds: float = 3.0) -> dict:
     page.locator(".skeleton-view .moattn-play").click()
     page.wait_for_function("!window.moattnPlayer.playing", timeout=5000)
     elapsed = (b[1] - a[1]) / 1000.0
-    return {"fps": (b[0] - a[0]) / elapsed if elapsed > 0 else 0.0, "draws": b[0] - a[0], "draw_ms": cost}
+    return {"fps": (b[0] - a[0]) / elapsed if elapsed > 0 else 0.0, "draws": b[0] - a[0], "frames": b[2] - a[2],
+            "draw_ms": cost}
 
 
 def measure_orbit(page, *, moves: int = 40) -> dict:
