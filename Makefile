@@ -1,13 +1,13 @@
 # Motion Attention Studio — two entry points on a fresh machine:
 #   make run    set up .venv and start the studio with the shipped model
-#   make test   set up .venv (and Debian's chromium for browser tests) and run the tests
+#   make test   set up .venv (and Debian's chromium for browser tests, npm's glTF validator) and run the tests
 SHELL := /bin/bash
 ROOT := $(dir $(abspath $(lastword $(MAKEFILE_LIST))))
 VENV := $(ROOT).venv
 PY := $(VENV)/bin/python
 PORT ?= 5006
 
-.PHONY: run test setup chromium
+.PHONY: run test setup chromium gltf-validator
 
 setup: $(VENV)/.installed
 
@@ -26,5 +26,14 @@ chromium:
 	command -v chromium >/dev/null || { SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
 	  $$SUDO apt-get update && $$SUDO apt-get install -y chromium; }
 
-test: setup chromium
+# Khronos' glTF validator checks the GLB export in the tests (npm's gltf-validator, a test tool only: the app needs no node)
+GLTF_VALIDATOR := $(ROOT).tools/node/node_modules/gltf-validator/package.json
+gltf-validator: $(GLTF_VALIDATOR)
+
+$(GLTF_VALIDATOR):
+	command -v npm >/dev/null || { SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
+	  $$SUDO apt-get update && $$SUDO apt-get install -y nodejs npm; }
+	npm install --silent --no-audit --no-fund --prefix $(ROOT).tools/node gltf-validator@2.0.0-dev.3.10
+
+test: setup chromium gltf-validator
 	cd $(ROOT) && $(PY) -m pytest -q

@@ -5,7 +5,10 @@ from __future__ import annotations
 
 import asyncio
 import json
+import shutil
 import struct
+import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -175,6 +178,28 @@ def test_glb_keyframes_reproduce_the_joints(source, tmp_path):
             r, t = pr @ r, pt + pr @ t
         world[n] = (r, t)
     np.testing.assert_allclose(np.array([world[n][1] for n in range(len(nodes))]), joints[0], atol=TOLERANCE_M)
+
+
+VALIDATOR = Path(__file__).resolve().parents[1] / ".tools" / "node" / "node_modules" / "gltf-validator"
+
+
+def test_khronos_gltf_validator_finds_no_error_or_warning(tmp_path):
+    """Khronos' own validator (npm's gltf-validator, installed by `make test`) on the three kinds of source and a
+    duet; what Blender's and three.js's importers read."""
+    assert shutil.which("node"), "node is not installed: run `make test` (it installs the glTF validator)"
+    assert VALIDATOR.exists(), f"{VALIDATOR} is missing: run `make test` (or `make gltf-validator`)"
+    walk = synthetic_walk(60)
+    files = [save_glb(load_motion(real_file("humanml3d_012314_joints.npy")), tmp_path / "hml.glb"),
+             save_glb(load_motion(real_file("cmu_131_01_walk.bvh")), tmp_path / "cmu.glb"),
+             save_glb(walk, tmp_path / "walk.glb"),
+             save_glb(np.stack([walk, walk + np.float32([1, 0, 0])]), tmp_path / "duet.glb")]
+    script = Path(__file__).with_name("gltf_validate.js")
+    done = subprocess.run(["node", str(script), *map(str, files)], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    reports = [json.loads(line) for line in done.stdout.splitlines()]
+    assert [r["file"] for r in reports] == [str(f) for f in files]
+    for r in reports:
+        assert r["numErrors"] == 0 and r["numWarnings"] == 0, r
 
 
 def test_trimesh_reads_the_glb_back(real_glb, tmp_path):
