@@ -459,7 +459,7 @@ export function render({ model, el, view }) {
       if (!first) { sc.azimuth = scene.azimuth; }
       scene = prepare(sc);
       if (first) { pos = 0; fit(); stats.preview_first[msg.key] = performance.now(); }
-      stats.previews += 1; stats.preview_step = msg.step; (stats.preview_log = stats.preview_log || []).push([msg.step, performance.now()]);
+      stats.previews += 1; stats.preview_step = msg.step;
       stepBar.style.display = "none"; stepIndex = -1;
       dirty = true; updateLabel(true);
     } else if (msg.type === "preview_end") {
