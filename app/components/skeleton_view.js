@@ -106,15 +106,14 @@ export function render({ model, el, view }) {
   let playing = false, t0 = 0, p0 = 0, lastLabel = 0, dirty = true, lastInt = -1;
   let stepIndex = -1;     // denoising step shown (-1: the final motion)
   const cam = {az: 0, el: 18, dist: 4, target: [0, 1, 0], rel: true};
-  const stats = {draws: 0, distinct: 0, distinct_at: 0, skipped: 0, last_drawn: -1, loaded: 0, n_frames: 0,
-                 motion_key: -1, version: 0, first_draw: {}, frame: 0, playing: false, draw_ms: [], previews: 0,
-                 preview_step: -1, preview_first: {}, scene_at: {}, camera: null,
+  const stats = {draws: 0, distinct: 0, last_drawn: -1, loaded: 0, n_frames: 0,
+                 motion_key: -1, first_draw: {}, frame: 0, playing: false, draw_ms: [], previews: 0,
+                 preview_step: -1, preview_first: {}, camera: null,
                  first_draw_wall: {}, job: {}, roles: {}, cursor_moves: 0,
                  scene_sent: {}, scene_received_wall: {}};
   window.moattnPlayer = stats;
 
   const n = () => scene ? scene.T : 0;
-  const roleT = (r) => (stepIndex >= 0 && scene.denoising && r === scene.roles[0]) ? scene.denoising.T : r.T;
 
   // ----------------------------------------------------------------- geometry of a scene
   function track(sc) {
@@ -133,7 +132,6 @@ export function render({ model, el, view }) {
     const grow = (x, y, z) => { lo = [Math.min(lo[0], x), Math.min(lo[1], y), Math.min(lo[2], z)]; hi = [Math.max(hi[0], x), Math.max(hi[1], y), Math.max(hi[2], z)]; };
     for (const r of sc.roles) for (let i = 0; i < r.joints.length; i += 3) grow(r.joints[i], r.joints[i + 1], r.joints[i + 2]);
     for (const g of sc.guides) for (let i = 0; i < g.points.length; i += 3) grow(g.points[i], g.points[i + 1], g.points[i + 2]);
-    sc.lo = lo; sc.hi = hi;
     const pad = 0.8;
     sc.floor = [Math.floor((lo[0] - pad) / TILE), Math.ceil((hi[0] + pad) / TILE), Math.floor((lo[2] - pad) / TILE), Math.ceil((hi[2] + pad) / TILE)];
     return sc;
@@ -286,7 +284,7 @@ export function render({ model, el, view }) {
       ctx.fillStyle = "#a33"; ctx.fillText(`x\u03020 after step ${scene.denoising.steps[stepIndex]} / ${scene.denoising.numSteps}`, 12, 44);
     }
     stats.draws += 1;
-    if (k !== stats.last_drawn) { stats.distinct += 1; stats.distinct_at = performance.now(); stats.last_drawn = k; }
+    if (k !== stats.last_drawn) { stats.distinct += 1; stats.last_drawn = k; }
     if (!(stats.motion_key in stats.first_draw) && !scene.preview) {
       stats.first_draw[stats.motion_key] = performance.now(); stats.first_draw_wall[stats.motion_key] = Date.now() / 1000;
       stats.job[stats.motion_key] = scene.job; stats.roles[stats.motion_key] = scene.roles.length;
@@ -355,7 +353,7 @@ export function render({ model, el, view }) {
     const newKey = !scene || sc.key !== scene.key || !!sc.preview !== !!scene.preview;
     scene = prepare(sc);
     if (!sc.preview) {
-      result = sc; stats.motion_key = sc.key; stats.scene_at[sc.key] = performance.now();
+      result = sc; stats.motion_key = sc.key;
       stats.scene_sent[sc.key] = sc.sentAt; stats.scene_received_wall[sc.key] = Date.now() / 1000;
     }
     if (newKey && !keepCamera) fit();
@@ -447,7 +445,7 @@ export function render({ model, el, view }) {
     }
   });
   model.on("playing", () => { if (model.playing !== playing) setPlaying(model.playing, false); });
-  model.on("follow", () => { const t = currentTarget(); cam.rel = !!model.follow; fit(); });
+  model.on("follow", () => fit());  // fit() reads model.follow
   model.on("show_path", () => { dirty = true; });
   model.on("loop", () => { loopInput.checked = model.loop; });
   model.on("msg:custom", (msg) => {

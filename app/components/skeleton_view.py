@@ -9,7 +9,7 @@ until the result's scene arrives (or :meth:`end_preview`, on cancel or error).
 itself (``cursor_ids``: Bokeh ``Span`` ids) and tells the server the frame only when playback stops, so
 playback costs the server nothing. ``window.moattnPlayer`` exposes counters for tests and
 ``moattn bench --app``: ``draws``, ``distinct``, ``draw_ms``, ``n_frames``, ``motion_key``,
-``first_draw`` / ``scene_at`` / ``preview_first`` (performance.now() per key), ``previews``, ``camera``.
+``first_draw`` / ``preview_first`` (performance.now() per key), ``previews``, ``camera``.
 """
 from __future__ import annotations
 

@@ -379,7 +379,6 @@ class StudioState(param.Parameterized):
         """The worker's result has arrived: progress full, the controls free again."""
         with param.parameterized.batch_call_watchers(self):
             self.running = False
-            self.preview = None
             self.progress = self.progress_total
             self.status = status
 

@@ -34,8 +34,6 @@ class SceneSpec:
     """What the viewer shows: roles -> joints, and how to draw them."""
 
     motions: tuple[tuple[str, np.ndarray], ...]
-    follow: bool = True
-    show_path: bool = True
     frame_values: np.ndarray | None = None  # (T,) colours for the first role (e.g. a word's attention)
     role_colors: tuple[tuple[str, np.ndarray], ...] = ()  # role -> (T, 3) uint8 per-frame colours (wins over values)
     title: str = ""

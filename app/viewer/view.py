@@ -75,7 +75,7 @@ class SkeletonViewer(pn.viewable.Viewer):
             title = f'{item.name}  —  colour: "{item.attention.words[s.word]}"'
         if notes:
             title = notes[0]
-        return SceneSpec(motions=tuple(motions), follow=s.follow, show_path=s.show_path, frame_values=values,
+        return SceneSpec(motions=tuple(motions), frame_values=values,
                          role_colors=tuple(colors), title=title, guides=tuple(guides), together=is_duet(shown),
                          denoising=item.denoising if len(shown) == 1 else None)
 
