@@ -71,6 +71,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     b.add_argument("--init-from", type=Path, default=None,
                    help="start from a shipped model folder (e.g. assets/model): its weights, vocabulary, stats and "
                         "step; a fresh optimizer (used when no checkpoint in --out exists)")
+    b.add_argument("--fresh-schedule", action="store_true",
+                   help="with --init-from: fine-tune with this call's hyper-parameters (--lr, --warmup, levers), "
+                        "steps counted from 0, the model folder's architecture")
 
     c = trainers.add_parser("control", help="fine-tune a control model from a base (PriorMDM Algorithm 1)")
     c.add_argument("--control", required=True, choices=("root", "left_wrist", "right_wrist"),
@@ -119,8 +122,11 @@ def run(args: argparse.Namespace) -> int:
     model = ModelConfig(**{f.name: getattr(args, f"model_{f.name}") for f in fields(ModelConfig)
                            if hasattr(args, f"model_{f.name}")})
     config = base_type(model=model, **given)
+    fresh = getattr(args, "fresh_schedule", False)
+    if fresh and args.init_from is None:
+        raise SystemExit("moattn train: --fresh-schedule needs --init-from (the model it fine-tunes)")
     result = train(config, resume=args.resume, progress=not args.no_progress, init_from=args.init_from,
-                   given=tuple(given))
+                   given=tuple(given), fresh_schedule=fresh)
     print(json.dumps(result))
     return 0
 

@@ -173,9 +173,16 @@ def batch_loader(
     workers: int = 0,
     pin_memory: bool = False,
     prefetch_factor: int = 2,
+    length_groups: int = 1,
     **collate_kwargs,
 ) -> Iterator[Batch]:
     """An endless stream of batches, built in this process (``workers=0``) or by DataLoader worker processes.
+
+    ``length_groups`` G > 1: batches of similar length. The items of G consecutive batches (a group) are sorted
+    by their cropped length and cut into G batches, sent in an order drawn per group, so padding goes to the
+    longest of similar items instead of the longest of a random batch (the corpus's random batches are 56 %
+    real frames). Every item is still seen once, in the same groups of G x batch_size; the order of batches then
+    depends on ``workers`` too (worker w builds whole groups g = w mod W).
 
     Batch k is a pure function of (seed, start_index, stride, k): its items are source indices
     ``start_index + stride * (k * batch_size + j)`` for j < batch_size (DDP ranks interleave with stride = world
@@ -191,8 +198,11 @@ def batch_loader(
         raise ValueError(f"start_index must be >= 0 and stride >= 1, got {start_index} and {stride}")
     if workers < 0:
         raise ValueError(f"workers must be 0 or more, got {workers}")
+    if length_groups < 1:
+        raise ValueError(f"length_groups must be 1 or more, got {length_groups}")
     dataset = _BatchStream(source, tokenizer=tokenizer, normalize=normalize, batch_size=batch_size, seed=seed,
-                           start_index=start_index, stride=stride, collate_kwargs=collate_kwargs)
+                           start_index=start_index, stride=stride, collate_kwargs=collate_kwargs,
+                           length_groups=length_groups)
     pin = pin_memory and torch.cuda.is_available()
     if workers == 0:
         return _in_process(dataset, pin)
@@ -230,34 +240,57 @@ def _as_is(item):
 
 
 class _BatchStream(torch.utils.data.IterableDataset):
-    """Batch k for every k this process builds (all of them, or worker w's share k = w mod W)."""
+    """Batch k for every k this process builds (all of them, or worker w's share k = w mod W); with length
+    groups, group g's batches for every group this process builds (all, or g = w mod W)."""
 
     def __init__(self, source: MotionSource, *, tokenizer: Tokenizer, normalize, batch_size: int, seed: int,
-                 start_index: int, stride: int, collate_kwargs: dict):
+                 start_index: int, stride: int, collate_kwargs: dict, length_groups: int = 1):
         super().__init__()
         self.source, self.tokenizer, self.normalize = source, tokenizer, normalize
         self.batch_size, self.seed, self.start_index, self.stride = batch_size, seed, start_index, stride
         self.collate_kwargs = collate_kwargs
+        self.length_groups = length_groups
 
-    def batch(self, k: int) -> Batch | None:
+    def _items(self, first: int, count: int) -> list[MotionText]:
+        """Finite items of the slots first .. first + count - 1."""
         items = []
-        for j in range(self.batch_size):
-            index = self.start_index + self.stride * (k * self.batch_size + j)
+        for j in range(first, first + count):
+            index = self.start_index + self.stride * j
             item = self.source.get(index)
             if np.isfinite(item.features).all():
                 items.append(item)
             else:  # a broken sample must never reach the model
                 warnings.warn(f"training sample {index} has non-finite features; skipped", RuntimeWarning)
+        return items
+
+    def _collate(self, items: list[MotionText], rng: np.random.Generator) -> Batch | None:
         if not items:
             return None
-        rng = np.random.default_rng([self.seed, k])
         return collate(items, tokenizer=self.tokenizer, normalize=self.normalize, rng=rng, **self.collate_kwargs)
+
+    def batch(self, k: int) -> Batch | None:
+        items = self._items(k * self.batch_size, self.batch_size)
+        return self._collate(items, np.random.default_rng([self.seed, k]))
+
+    def group(self, g: int) -> list[Batch | None]:
+        """Group g's batches: its G x batch_size items sorted by cropped length, cut into G, in a drawn order."""
+        size = self.length_groups * self.batch_size
+        items = self._items(g * size, size)
+        cap = self.collate_kwargs.get("max_frames", MAX_FRAMES)
+        items.sort(key=lambda item: min(len(item.features), cap))
+        chunks = [items[i * self.batch_size:(i + 1) * self.batch_size] for i in range(self.length_groups)]
+        order = np.random.default_rng([self.seed, g, 1]).permutation(self.length_groups)
+        return [self._collate(chunks[c], np.random.default_rng([self.seed, g, 2, int(c)])) for c in order]
 
     def __iter__(self) -> Iterator[_Packed]:
         info = torch.utils.data.get_worker_info()
         k, step = (0, 1) if info is None else (info.id, info.num_workers)
         while True:
-            yield _Packed(self.batch(k))  # an empty batch too, so the workers' round-robin order holds
+            # an empty batch is sent too, so the workers' round-robin order holds
+            if self.length_groups == 1:
+                yield _Packed(self.batch(k))
+            else:
+                yield from (_Packed(b) for b in self.group(k))
             k += step
 
 

@@ -45,6 +45,10 @@ class TrainConfig:
     ema_decay: float = 0.999
     text_dropout: float = 0.1
     velocity_weight: float = 0.5
+    # per-timestep loss weights: "uniform" (every timestep's x0 error alike) or "min_snr" (Hang et al. 2023,
+    # min-SNR-gamma: x0 error weighted by min(SNR_t, snr_gamma), normalised to mean 1 over the timesteps)
+    loss_weighting: str = "uniform"
+    snr_gamma: float = 5.0
     # corpus only: extra captions per motion that leave side, count, speed and style out, as people type them
     # ("a person waves"); with the corpus's 4 full captions, 2 make a third of the captions trained on short
     underspecified: int = 0
@@ -56,6 +60,10 @@ class TrainConfig:
     stats_samples: int = 2000
     threads: int = 0  # torch threads per process; 0 = torch's default
     workers: int = 0  # DataLoader worker processes building batches (0 = in the training process)
+    # batches of similar length: the items of this many batches are sorted by length and cut into batches
+    # (engine.data.batch_loader); 1 = random batches padded to their longest item
+    length_groups: int = 8
+    max_minutes: float = 0.0  # stop (and checkpoint) after this many minutes of training; 0 = no limit
     device: str = "auto"  # auto | cpu | cuda | cuda:N (under torchrun on CUDA: cuda:LOCAL_RANK)
     precision: str = "auto"  # auto | fp32 | bf16 | fp16 (engine.runtime: bf16 on CPUs only where native)
     # "" = the base model; a control name ("root", "left_wrist", "right_wrist") fine-tunes a control
@@ -77,7 +85,8 @@ class TrainConfig:
 
 
 # fields a resumed run takes from the new call rather than from its checkpoint
-_RUNTIME_FIELDS = ("steps", "log_every", "ckpt_every", "snapshot_every", "threads", "workers", "device", "precision")
+_RUNTIME_FIELDS = ("steps", "log_every", "ckpt_every", "snapshot_every", "threads", "workers", "device", "precision",
+                   "length_groups", "max_minutes")
 
 
 def kept_from_checkpoint(given: dict, saved: dict) -> dict[str, tuple]:
@@ -94,9 +103,13 @@ def make_source(config: TrainConfig, *, split: str = "train") -> MotionSource:
     return FolderSource(config.data, split=split)
 
 
-def masked_losses(x0_hat: torch.Tensor, x0: torch.Tensor, mask: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """Mean squared error over real frames, and of the frame-to-frame differences."""
+def masked_losses(x0_hat: torch.Tensor, x0: torch.Tensor, mask: torch.Tensor,
+                  weights: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+    """Mean squared error over real frames, and of the frame-to-frame differences; ``weights`` (B,) weigh each
+    sample's frames (per-timestep loss weights)."""
     m = mask[..., None].float()
+    if weights is not None:
+        m = m * weights.to(m.device, m.dtype)[:, None, None]
     mse = ((x0_hat - x0) ** 2 * m).sum() / (m.sum() * x0.shape[-1]).clamp_min(1)
     mv = m[:, 1:] * m[:, :-1]
     dv = (x0_hat[:, 1:] - x0_hat[:, :-1]) - (x0[:, 1:] - x0[:, :-1])
@@ -136,9 +149,14 @@ def _state_from_model_folder(folder: Path, batch_size: int) -> tuple[dict, dict]
 
 
 def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, source: MotionSource | None = None,
-          init_from: str | Path | None = None, given: tuple[str, ...] = ()) -> dict:
+          init_from: str | Path | None = None, given: tuple[str, ...] = (), fresh_schedule: bool = False) -> dict:
     """``given``: the config fields the caller set explicitly (the CLI's flags); a continued base run says which of
-    them it does not apply."""
+    them it does not apply. ``fresh_schedule`` (with ``init_from``): a fine-tune of the base model with this call's
+    hyper-parameters (learning rate, warm-up, levers), steps counted from 0; the architecture is the base's."""
+    if config.loss_weighting not in LOSS_WEIGHTINGS:
+        raise ValueError(f"--loss-weighting {config.loss_weighting!r}: expected one of {', '.join(LOSS_WEIGHTINGS)}")
+    if config.length_groups < 1 or config.max_minutes < 0:
+        raise ValueError("--length-groups must be at least 1 and --max-minutes 0 or more")
     distributed = int(os.environ.get("WORLD_SIZE", "1")) > 1
     runtime = _runtime(config, distributed=distributed)
     if distributed:
@@ -168,10 +186,10 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
             stats_folder = Path(init_from)
             if rank == 0:
                 print(f"starting from the model in {init_from} (step {state['step']}); optimizer state is new")
-        if not resumable and config.control:
-            # a control fine-tune (PriorMDM Algorithm 1): the base's architecture, this call's
-            # hyper-parameters, steps counted from 0
-            if saved["train"].get("control"):
+        if not resumable and (config.control or fresh_schedule):
+            # a control fine-tune (PriorMDM Algorithm 1) or a fresh-schedule fine-tune: the base's architecture,
+            # this call's hyper-parameters, steps counted from 0
+            if config.control and saved["train"].get("control"):
                 raise ValueError(f"{init_from} is already a control model ({saved['train']['control']}): "
                                  "fine-tune from the base model")
             config = TrainConfig.from_json({**config.to_json(), "model": saved["train"]["model"], "out": str(out)})
@@ -244,7 +262,7 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
         source, tokenizer=tokenizer, normalize=normalizer.normalize, batch_size=config.batch_size,
         seed=config.seed * 1000 + rank + start_step, start_index=next_index + rank, stride=world,
         workers=config.workers, pin_memory=runtime.device.type == "cuda",
-        max_frames=config.max_frames, text_dropout=config.text_dropout,
+        max_frames=config.max_frames, text_dropout=config.text_dropout, length_groups=config.length_groups,
     )
     gen = torch.Generator().manual_seed(config.seed * 7919 + rank * 104729 + start_step)
 
@@ -267,8 +285,10 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
         control_dims = torch.as_tensor(_dims(config.control))
     train_step = TrainStep(model=model, net=net, ema=ema, optimizer=optimizer, runtime=runtime, generator=gen,
                            velocity_weight=config.velocity_weight, grad_clip=config.grad_clip,
-                           ema_decay=config.ema_decay, control_dims=control_dims)
+                           ema_decay=config.ema_decay, control_dims=control_dims,
+                           snr_gamma=config.snr_gamma if config.loss_weighting == "min_snr" else None)
     stop = _Stop()
+    deadline = time.monotonic() + 60 * config.max_minutes if config.max_minutes else None
     previous = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
     log_path = out / "log.jsonl"
     bar = tqdm(total=config.steps, initial=start_step, disable=not progress or rank != 0, desc="train", unit="step")
@@ -277,6 +297,10 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
     try:
         model.train()
         while step < config.steps and not stop.requested:
+            if deadline is not None and time.monotonic() > deadline:
+                if rank == 0:
+                    print(f"--max-minutes {config.max_minutes:g} reached at step {step}", flush=True)
+                break
             batch = next(stream)
             index += config.batch_size * world
             outcome = train_step(batch, step=step, lr=lr_at(step, config))
@@ -322,6 +346,20 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
     return {"step": step, "stopped": stop.requested, **last}
 
 
+LOSS_WEIGHTINGS = ("uniform", "min_snr")
+
+
+def min_snr_weights(schedule: CosineSchedule, gamma: float) -> torch.Tensor:
+    """(steps,) x0-loss weights of min-SNR-gamma: min(SNR_t, gamma), SNR_t = ab / (1 - ab), scaled to mean 1 over
+    the timesteps so the learning rate keeps its meaning."""
+    if gamma <= 0:
+        raise ValueError(f"--snr-gamma must be positive, got {gamma}")
+    ab = schedule.alphas_cumprod
+    snr = ab / (1 - ab).clamp_min(1e-12)
+    w = snr.clamp(max=gamma)
+    return (w / w.mean()).float()
+
+
 class StepOutcome(NamedTuple):
     mse: float
     vel: float
@@ -348,10 +386,12 @@ class TrainStep:
     grad_clip: float = 1.0
     ema_decay: float = 0.999
     control_dims: torch.Tensor | None = None
+    snr_gamma: float | None = None  # min-SNR-gamma loss weights; None = uniform
     schedule: CosineSchedule = field(default_factory=CosineSchedule)
 
     def __post_init__(self) -> None:
         self.scaler = torch.amp.GradScaler(self.runtime.device.type, enabled=self.runtime.dtype == torch.float16)
+        self.timestep_weights = None if self.snr_gamma is None else min_snr_weights(self.schedule, self.snr_gamma)
 
     def losses(self, batch: Batch) -> tuple[torch.Tensor, torch.Tensor]:
         """(mse, velocity) of the denoiser on ``batch`` at random timesteps."""
@@ -365,7 +405,8 @@ class TrainStep:
         x0 = batch.x0.to(device, non_blocking=True)
         cond = batch.cond.to_device(device)
         x0_hat = self.net(x_t.to(device, non_blocking=True), t.to(device), cond)
-        return masked_losses(x0_hat.float(), x0, cond.frame_mask)
+        weights = None if self.timestep_weights is None else self.timestep_weights[t]
+        return masked_losses(x0_hat.float(), x0, cond.frame_mask, weights)
 
     def loss(self, batch: Batch) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """(the loss trained on, its mse, its velocity term)."""

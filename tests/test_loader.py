@@ -127,3 +127,29 @@ def test_bad_arguments_fail_at_once():
     for kw in ({"batch_size": 0}, {"batch_size": 2, "stride": 0}, {"batch_size": 2, "workers": -1}):
         with pytest.raises(ValueError):
             batch_loader(ToySource(), tokenizer=tokenizer, normalize=_identity, seed=0, **kw)
+
+
+def test_length_groups_cover_each_item_once_with_less_padding():
+    """Batches of similar length: the items of G batches are the same as random batching's, each once, sorted into
+    batches of similar length (less padding), in an order that is the same on every call."""
+    groups = 4
+    random = _take(ToySource(), groups, workers=0, batch_size=4)
+    grouped = _take(ToySource(), groups, workers=0, batch_size=4, length_groups=groups)
+    assert sorted(i for b in grouped for i in _indices(b)) == sorted(i for b in random for i in _indices(b))
+
+    def padded_share(batches):
+        return sum(int(b.cond.frame_mask.sum()) for b in batches) / sum(b.cond.frame_mask.numel() for b in batches)
+
+    assert padded_share(grouped) > padded_share(random)
+    for b in grouped:  # within a batch, lengths come from one slice of the sorted group
+        lengths = b.cond.frame_mask.sum(1)
+        assert int(lengths.max() - lengths.min()) <= 19
+    _same(grouped, _take(ToySource(), groups, workers=0, batch_size=4, length_groups=groups))
+    with pytest.raises(ValueError, match="length_groups"):
+        _take(ToySource(), 1, workers=0, length_groups=0)
+
+
+def test_length_groups_with_workers_see_the_same_items():
+    one = _take(ToySource(), 8, workers=0, batch_size=4, length_groups=4)
+    two = _take(ToySource(), 8, workers=2, batch_size=4, length_groups=4)
+    assert sorted(i for b in one for i in _indices(b)) == sorted(i for b in two for i in _indices(b))

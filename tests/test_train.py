@@ -182,3 +182,45 @@ def test_shipped_files_carry_no_absolute_paths():
             bad += [f"{path.relative_to(ASSETS)}: {line.strip()}" for line in text.splitlines()
                     if re.search(r'["`\\s](/(work|root|home|tmp|Users)/)', line)]
     assert not bad, bad[:5]
+
+
+def test_min_snr_weights_follow_the_clamped_snr():
+    from engine.diffusion.schedule import CosineSchedule
+    from engine.train import min_snr_weights
+
+    schedule = CosineSchedule()
+    w = min_snr_weights(schedule, 5.0)
+    assert w.shape == (schedule.steps,) and abs(float(w.mean()) - 1.0) < 1e-4
+    assert bool((w[1:] <= w[:-1] + 1e-6).all())  # less weight as the noise grows (SNR falls)
+    assert float(w[0]) == float(w[:10].max()) and float(w[-1]) < 0.01 * float(w[0])  # clamped at gamma near t=0
+
+
+def test_min_snr_training_runs_and_is_recorded(tmp_path):
+    result = train(config(tmp_path, steps=20, loss_weighting="min_snr", snr_gamma=5.0), source=ToySource(),
+                   progress=False)
+    assert result["step"] == 20
+    saved = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert saved["train"]["loss_weighting"] == "min_snr"
+    import pytest
+
+    with pytest.raises(ValueError, match="loss-weighting"):
+        train(config(tmp_path, loss_weighting="snr"), source=ToySource(), progress=False)
+
+
+def test_fresh_schedule_fine_tune_takes_the_calls_hyper_parameters(tmp_path):
+    base = tmp_path / "base"
+    train(config(tmp_path, out=str(base), steps=20, lr=2e-3), source=ToySource(), progress=False)
+    out = tmp_path / "tuned"
+    result = train(config(tmp_path, out=str(out), steps=10, lr=5e-4, warmup=2), source=ToySource(), progress=False,
+                   init_from=base, fresh_schedule=True)
+    assert result["step"] == 10  # counted from 0, not from the base's 20
+    saved = json.loads((out / "config.json").read_text())
+    assert saved["train"]["lr"] == 5e-4 and saved["step"] == 10
+    assert saved["model"]["width"] == TINY.width
+
+
+def test_max_minutes_stops_with_a_checkpoint(tmp_path):
+    result = train(config(tmp_path, steps=100000, max_minutes=1e-4), source=ToySource(), progress=False)
+    assert result["step"] < 100000
+    state = torch.load(tmp_path / "run" / "train_state.pt", weights_only=True)
+    assert state["step"] == result["step"]

@@ -9,6 +9,10 @@ whether the corpus generator keeps up.
 - **FLOPs per step**: every matmul of one forward + backward (linear layers, attention's bmm / SDPA) counted by
   ``torch.utils.flop_counter.FlopCounterMode``; GFLOP/s = FLOPs per step x steps/s; the **share of peak** divides it
   by the measured peak of a large square matmul in the same precision (best of a few; fp32 on CUDA means TF32).
+- **Trainer's stream**: the trainer's own loop on real corpus batches (built in-process, as ``moattn train``
+  builds them by default) for the shipped shape and the machine's default precision, with random batches
+  (``length_groups`` 1) and with batches of similar length (TrainConfig's default): samples/s and real (unpadded)
+  frames per batch — what a training hour buys.
 - **Corpus generator**: samples/s of :func:`engine.data.batch_loader` on the training corpus with 0, 1, 2 and
   "several" (min(4, CPUs)) worker processes, compared with the trainer's samples/s.
 """
@@ -20,7 +24,7 @@ import os
 import statistics
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -59,6 +63,8 @@ class TrainBenchConfig:
     generator_batch_size: int = 32
     velocity_weight: float = 0.5  # TrainConfig's
     grad_clip: float = 1.0
+    stream_steps: int = 40  # timed steps of the trainer's stream rows (after a few warm-up steps); 0 = no rows
+    stream_groups: tuple[int, ...] = (1, 8)  # length_groups of the stream rows
 
     def __post_init__(self) -> None:
         if min(self.batch_size, self.frames, self.prompt_words, self.steps, self.peak_repeats,
@@ -67,7 +73,7 @@ class TrainBenchConfig:
 
     @classmethod
     def quick(cls) -> "TrainBenchConfig":
-        return cls(warmup=1, steps=3, peak_repeats=3, generator_batches=12)
+        return cls(warmup=1, steps=3, peak_repeats=3, generator_batches=12, stream_steps=12)
 
 
 def shipped_shapes(model_dir: str | Path) -> tuple[Shape, ...]:
@@ -79,11 +85,14 @@ def shipped_shapes(model_dir: str | Path) -> tuple[Shape, ...]:
 
 
 def runtimes(device: str = "auto", precision: str = "auto") -> list[Runtime]:
-    """The rows' runtimes: fp32 and the device's low precision (CPU: bf16, native or not; CUDA: bf16, or fp16
-    where bf16 is unsupported), or only ``precision`` when one is named. Bad devices fail here (one line)."""
+    """The rows' runtimes: fp32 and the device's low precision where it runs natively (CPU: bf16 with
+    AVX512-BF16/AMX; CUDA: bf16, or fp16 where bf16 is unsupported), or only ``precision`` when one is named
+    (``--precision bf16`` times emulated bf16 on purpose). Bad devices fail here (one line)."""
     if precision != "auto":
         return [Runtime.create(device, precision, training=True)]
     auto = Runtime.create(device, "auto", training=True)
+    if auto.device.type == "cpu" and not cpu_native_bf16():
+        return [Runtime.create(auto.device, "fp32", training=True)]  # emulated bf16 is opt-in: slow to time
     low = "bf16" if auto.device.type == "cpu" else auto.precision
     return [Runtime.create(auto.device, "fp32", training=True), Runtime.create(auto.device, low, training=True)]
 
@@ -213,6 +222,36 @@ class _Trainer:
         return statistics.median(times)
 
 
+def stream_rate(config: TrainBenchConfig, shape: Shape, runtime: Runtime, *, length_groups: int, source,
+                tokenizer, normalize, vocab_size: int) -> dict:
+    """The trainer's loop on the corpus stream: batch building in-process, then the step; samples/s over
+    ``config.stream_steps`` steps after 3 warm-up steps, and the real frames per padded frame."""
+    from engine.data import batch_loader
+
+    trainer = _Trainer(shape, runtime, replace(config, vocab_size=vocab_size))
+    stream = batch_loader(source, tokenizer=tokenizer, normalize=normalize, batch_size=config.batch_size, seed=0,
+                          max_frames=config.frames, length_groups=length_groups)
+    try:
+        for _ in range(3):
+            trainer.step_of(next(stream), step=1000, lr=2e-4)
+        _sync(runtime.device)
+        samples, real, padded = 0, 0, 0
+        t0 = time.perf_counter()
+        for _ in range(config.stream_steps):
+            batch = next(stream)
+            trainer.step_of(batch, step=1000, lr=2e-4)
+            samples += batch.x0.shape[0]
+            real += int(batch.cond.frame_mask.sum())
+            padded += batch.cond.frame_mask.numel()
+        _sync(runtime.device)
+        seconds = time.perf_counter() - t0
+    finally:
+        stream.close()
+    return {"shape": shape.name, "precision": runtime.precision, "length_groups": length_groups,
+            "samples_per_s": samples / seconds, "steps_per_s": config.stream_steps / seconds,
+            "real_frame_share": real / max(1, padded)}
+
+
 def _generator(config: TrainBenchConfig, workers: int, *, source, tokenizer, normalize, pin: bool = False) -> float:
     from engine.data import batch_loader
 
@@ -312,6 +351,15 @@ def bench_train(config: TrainBenchConfig = TrainBenchConfig(), *, device: str = 
     # with workers=0 the trainer builds each batch itself: that share of a step goes to the generator
     result["in_process_generator_share"] = (None if in_process is None
                                             else (1 / in_process) / (1 / in_process + 1 / fastest))
+    stream_rows = []
+    if config.stream_steps:
+        default = Runtime.create(dev, precision, training=True)  # what `moattn train` uses here
+        for groups in config.stream_groups:
+            log(f"trainer's stream {shapes[0].name} {default.precision}, length groups {groups}")
+            stream_rows.append(stream_rate(config, shapes[0], default, length_groups=groups, source=source,
+                                           tokenizer=tokenizer, normalize=normalize,
+                                           vocab_size=max(config.vocab_size, len(tokenizer) + 1)))
+    result["stream"] = stream_rows
     result["bench_seconds"] = time.perf_counter() - started
     return result
 
@@ -346,5 +394,12 @@ def format_table(result: dict) -> str:
     share = result["in_process_generator_share"]
     lines.append(f"generator keeps up: {'yes' if result['generator_keeps_up'] else 'no'}"
                  + ("" if share is None else f"; with workers=0 building batches takes {share:.0%} of a step's time"))
+    if result.get("stream"):
+        lines.append("trainer's stream (corpus batches built in-process, the trainer's step; samples/s):")
+        lines.append(f"{'shape':<8}{'precision':<11}{'length groups':>14}{'steps/s':>9}{'samples/s':>11}"
+                     f"{'real frames':>13}")
+        for r in result["stream"]:
+            lines.append(f"{r['shape']:<8}{r['precision']:<11}{r['length_groups']:>14}{r['steps_per_s']:>9.2f}"
+                         f"{r['samples_per_s']:>11.1f}{r['real_frame_share']:>12.0%}")
     lines.append(f"FLOPs: matmuls of forward + backward (FlopCounterMode); {result['bench_seconds']:.0f} s")
     return "\n".join(lines)
