@@ -15,6 +15,7 @@ import numpy as np
 
 from app.attention_record import AttentionRecord, plan_steps
 from app.model_cache import SAMPLING_SLOT
+from engine.analysis.followed import follow_generated
 from engine.checkpoint import LoadedModel
 from engine.generate import Request, SampleConfig, finish, frames_for, sample_states
 from engine.duration import resolve_seconds
@@ -78,6 +79,10 @@ class GenerationResult:
     attention: AttentionRecord | None
     seconds_taken: float
     denoising: Denoising | None = None
+    # what the motion followed of its prompt (engine.analysis.followed), or why it could not be read; the tokenized
+    # prompt's notes ("left out: stiffly"): what the Generate box shows under the result
+    followed: object = None  # FollowReport | str | None
+    notes: tuple[str, ...] = ()
 
 
 class Cancelled(Exception):
@@ -195,6 +200,9 @@ def run_generation(
         features = np.asarray(generation.features[0, : checked.frames], dtype=np.float32)
         recorded = [] if store is None else [s + 1 for s in plan_steps(config.steps, settings.record_steps)]
         history[-1] = (history[-1][0], joints.astype(np.float16))  # the final step is the result itself
-        return GenerationResult(settings=settings, words=tokens[0].words, joints=joints, features=features,
-                                attention=record, seconds_taken=time.perf_counter() - start,
-                                denoising=Denoising.collect(history, num_steps=config.steps, recorded=recorded))
+        seconds_taken = time.perf_counter() - start
+    follow, notes = follow_generated(settings.prompt, joints, tokens[0])  # outside the slot: others may sample
+    return GenerationResult(settings=settings, words=tokens[0].words, joints=joints, features=features,
+                            attention=record, seconds_taken=seconds_taken,
+                            denoising=Denoising.collect(history, num_steps=config.steps, recorded=recorded),
+                            followed=follow, notes=notes)

@@ -59,7 +59,37 @@ def run(args: argparse.Namespace) -> int:
         else:
             save_motion(joints, out, to="vecs" if args.vecs else "joints")
         print(f"wrote {out}")
+    # what was and was not followed: the prompt's intent beside what the detectors see in the motion
+    from engine.analysis.followed import follow_generated
+
+    follow, notes = follow_generated(args.prompt, joints, gen.tokens[0])
+    for line in follow_lines(follow, notes):
+        print(printable(line, sys.stdout))
     print(json.dumps({"prompt": args.prompt, "seconds": seconds, "seconds_from": "prompt" if args.seconds == AUTO
                       else "given", "frames": len(joints), "seed": args.seed, "steps": args.steps,
-                      "guidance": args.guidance}))
+                      "guidance": args.guidance,
+                      "followed": follow.to_json() if not isinstance(follow, str) else {"error": follow},
+                      "notes": list(notes)}))
     return 0
+
+
+def follow_lines(follow, notes) -> list[str]:
+    """The lines `moattn generate` prints after writing a motion (one sample)."""
+    lines = [f"followed: {follow if isinstance(follow, str) else follow.describe()}"]
+    if notes:
+        lines.append(f"notes: {'; '.join(notes)}")
+    return lines
+
+
+_ASCII = {"\u2713": "[yes]", "\u2717": "[no]", "\u00d7": "x", "\u2192": "->", "\u00b7": "-"}
+
+
+def printable(text: str, stream) -> str:
+    """``text`` as ``stream`` can encode it (✓ and ✗ spelled out on a terminal that has no such signs)."""
+    try:
+        text.encode(getattr(stream, "encoding", None) or "utf-8")
+        return text
+    except (UnicodeEncodeError, LookupError):
+        for sign, plain in _ASCII.items():
+            text = text.replace(sign, plain)
+        return text.encode("ascii", "replace").decode("ascii")

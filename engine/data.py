@@ -152,10 +152,11 @@ def collate(
 
 
 def _pick_caption(captions: Sequence[str], tokenizer: Tokenizer, rng: np.random.Generator) -> TokenizedPrompt:
-    """A random caption the tokenizer can read (over-long ones are passed over)."""
+    """A random caption the tokenizer can read exactly (over-long ones, or ones with words outside the vocabulary,
+    are passed over: training never reads a word by meaning or leaves one out)."""
     for i in rng.permutation(len(captions)):
         try:
-            return tokenizer.encode(captions[i])
+            return tokenizer.encode(captions[i], strict=True)
         except PromptError:
             continue
     raise ValueError(f"none of the captions can be tokenised: {list(captions)[:2]}")

@@ -15,8 +15,14 @@ from __future__ import annotations
 import re
 from dataclasses import asdict, dataclass, field, replace
 
+from typing import TYPE_CHECKING
+
+from engine import wordforms
 from engine.synth.grammar import STYLE_PHRASES
 from engine.synth.program import ACTIONS
+
+if TYPE_CHECKING:
+    from engine.text import TokenizedPrompt
 
 COUNTED_ACTIONS = ("jump", "jump_forward", "hop", "jumping_jacks", "squat", "kick", "punch", "wave", "clap",
                    "raise_arms", "bow")
@@ -207,11 +213,42 @@ class Intent:
                 "unplaced": list(self.unplaced)}
 
 
-def _tokens(text: str) -> list[str]:
-    text = text.lower()
+def _read(word: str, tokens: "TokenizedPrompt | None") -> list[str]:
+    """The lexicon words a typed word stands for: none for a word the model left out (``tokens``), the word the
+    model read it as by meaning or spelling ("skips" -> "hops"), a gait verb read as its manner as a walk with that
+    manner ("staggers" -> walk drunkenly), and a word the lexicon lacks read by meaning against the lexicon."""
+    if tokens is not None and word in tokens.left_out:
+        return []
+    base = lemma(word)
+    if base in _KNOWN:
+        return [base]
+    if wordforms.is_manner_verb(word):
+        manner = wordforms.meaning_word(word, _KNOWN)
+        return ["walk", manner] if manner and manner != "walk" else ["walk"]
+    if tokens is not None and tokens.read_by.get(word) in ("meaning", "spelling"):
+        return [lemma(tokens.read_as[word])]
+    hit = wordforms.meaning_word(word, _KNOWN)
+    return [lemma(hit) if hit else base]
+
+
+def _tokens(text: str, tokens: "TokenizedPrompt | None" = None) -> list[str]:
+    text = text.lower().replace("\u2019", "'")
     text = re.sub(r"\b([1-9])\b", lambda m: f" {NUMBER_WORDS[m.group(1)]} ", text)
     text = re.sub(r"[,;.!?]", " , ", text)
-    return [lemma(w) if w != "," else w for w in re.findall(r"[a-z]+|,", text)]
+    return [t for w in re.findall(r"[a-z]+(?:'[a-z]+)?|,", text)
+            for t in ([w] if w == "," else _read(w, tokens) if "'" not in w else _read_clitic(w, tokens))]
+
+
+def _read_clitic(word: str, tokens: "TokenizedPrompt | None") -> list[str]:
+    """"she's" -> she, "doesn't" -> do, not; "o'clock" as typed."""
+    if tokens is not None and word in tokens.left_out:
+        return []
+    head, _, tail = word.partition("'")
+    if tail == "t" and head.endswith("n"):
+        return _read(head[:-1], tokens) + ["not"]
+    if tail in ("s", "ll", "re", "ve", "d", "m"):
+        return _read(head, tokens)
+    return [word]
 
 
 def _match(tokens: list[str], used: list[bool], start: int, table) -> tuple[int, object] | None:
@@ -388,9 +425,12 @@ def _unplaced(tokens: list[str], used: list[bool]) -> list[str]:
     return [t for t, u in zip(tokens, used) if not u and t != "," and t not in FILLER]
 
 
-def parse_intent(text: str) -> Intent:
-    """The intended program of a prompt (see the module docstring)."""
-    tokens = _tokens(text)
+def parse_intent(text: str, tokens: "TokenizedPrompt | None" = None) -> Intent:
+    """The intended program of a prompt (see the module docstring). ``tokens``: the prompt as a model read it
+    (``Tokenizer.encode``): the words it left out are ignored, and those it read by meaning or as a typo's word are
+    read the same way, so the intent is that of what the model is asked. Without it, words the lexicon lacks are
+    read by meaning (engine.wordforms) where the meaning table knows them."""
+    tokens = _tokens(text, tokens)
     segments: list[IntentSegment] = []
     styles: list[str] = []
     unplaced: list[str] = []
@@ -417,13 +457,16 @@ def parse_intent(text: str) -> Intent:
             over_used = [t == "," for t in over_tokens]
             over = _parse_clause(over_tokens, over_used, styles)
             unplaced += _unplaced(over_tokens, over_used)
-            if over is not None:
+            if over is not None and seg is None:  # "goes in a curve while punching": only the gesture is known
+                seg = over
+            elif over is not None:
                 if seg.action in ("walk", "stand", "side_step", "turn", "run", "jog") and \
                         over.action in ("wave", "clap", "raise_arms", "punch"):
                     seg = replace(seg, overlay=over)
                 else:
                     segments.append(seg)
                     seg = over
-        segments.append(seg)
+        if seg is not None:
+            segments.append(seg)
     style = styles[0] if styles else None
     return Intent(text=text, segments=tuple(segments), style=style, unplaced=tuple(dict.fromkeys(unplaced)))

@@ -1,7 +1,9 @@
 """Word-level tokeniser over the corpus vocabulary and a small transformer text encoder.
 
-Token i is word i of the prompt (no start token), so the UI and the attention edits can point
-at words directly. Unknown words are reported by name with suggestions, never dropped.
+Token i is word i of the prompt's kept words (no start token), so the UI and the attention edits can point
+at words directly. A word the model does not know never refuses a prompt: it is read by meaning or as the
+word a typo is a slip of, or left out, and :meth:`TokenizedPrompt.notes` says which ("read 'skips' as 'hops'",
+"left out: stiffly"). ``encode(prompt, strict=True)`` refuses unknown words instead (training captions).
 """
 from __future__ import annotations
 
@@ -9,7 +11,7 @@ import math
 import re
 import unicodedata
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import torch
 from torch import nn
@@ -53,7 +55,8 @@ def split_words(prompt: str) -> list[str]:
 
 
 class PromptError(ValueError):
-    """A prompt the model cannot read: empty, too long, or with unknown words."""
+    """A prompt the model cannot read: empty, too long, or with no word it knows (or, with ``strict``, any word it
+    does not know)."""
 
     def __init__(self, message: str, *, unknown: Sequence[str] = (), suggestions: dict[str, list[str]] | None = None):
         super().__init__(message)
@@ -61,19 +64,59 @@ class PromptError(ValueError):
         self.suggestions = dict(suggestions or {})
 
 
+# how a typed word was read (TokenizedPrompt.read_by)
+FORM, MEANING, SPELLING = "form", "meaning", "spelling"
+
+
 @dataclass(frozen=True)
 class TokenizedPrompt:
+    """A prompt as the model reads it. Token i is ``words[i]``: the typed words KEPT, in order (a word the model
+    cannot read is left out, never given a token).
+
+    ``read_as``: each kept typed word that is not itself a vocabulary word -> the vocabulary word whose id it got,
+    with ``read_by`` saying how: "form" (another form of it, "jump" -> "jumps"), "meaning" ("skips" -> "hops") or
+    "spelling" (a typo, "jumsp" -> "jumps"). ``left_out``: typed words given no token, in prompt order (once each);
+    ``suggestions``: replacements a person may pick for them (meaning phrases, or close spellings of a typo)."""
+
     prompt: str
     words: tuple[str, ...]
     ids: tuple[int, ...]
+    read_as: dict[str, str] = field(default_factory=dict, hash=False)
+    read_by: dict[str, str] = field(default_factory=dict, hash=False)
+    left_out: tuple[str, ...] = ()
+    suggestions: dict[str, tuple[str, ...]] = field(default_factory=dict, hash=False)
 
     def word_index(self, word: str, occurrence: int = 0) -> int:
-        """Token index of ``word`` (its ``occurrence``-th appearance) in this prompt."""
+        """Token index of ``word`` (its ``occurrence``-th appearance) among the kept words; a word read as another
+        is also found by the vocabulary word it was read as ("hops" for a typed "skips")."""
         word = word.lower()
         hits = [i for i, w in enumerate(self.words) if w == word]
+        if not hits:
+            hits = [i for i, w in enumerate(self.words) if self.read_as.get(w) == word]
         if len(hits) <= occurrence:
+            if word in self.left_out:
+                raise PromptError(f"the word {word!r} was left out of the prompt {self.prompt!r} (the model does not "
+                                  f"know it), so it cannot be pointed at; words read: {', '.join(self.words)}",
+                                  unknown=[word], suggestions={word: list(self.suggestions.get(word, ()))})
             raise PromptError(f"the word {word!r} is not in the prompt {self.prompt!r} (words: {', '.join(self.words)})")
         return hits[occurrence]
+
+    @property
+    def exact(self) -> bool:
+        """Every typed word was read as itself or another form of itself (nothing left out or read by meaning)."""
+        return not self.left_out and all(how == FORM for how in self.read_by.values())
+
+    def notes(self) -> list[str]:
+        """What the model did with the words it does not know, to show beside the prompt:
+        ["read 'skips' as 'hops'", "read 'jumsp' as 'jumps'", "left out: head, stiffly"]. Other forms of known
+        words ("jump" -> "jumps") are not noted: they are the same word."""
+        out = [f"read {w!r} as {self.read_as[w]!r}" for w in self.read_as if self.read_by.get(w) != FORM]
+        if self.left_out:
+            out.append("left out: " + ", ".join(
+                w + (f" (did you mean {' or '.join(wordforms.shown(s) for s in self.suggestions[w])}?)"
+                     if self.suggestions.get(w) else "")
+                for w in self.left_out))
+        return out
 
 
 class Tokenizer:
@@ -89,6 +132,8 @@ class Tokenizer:
         self._ids = {w: i for i, w in enumerate(self.words)}
         self._known = frozenset(words)
         self._read_as: dict[str, str | None] = {}
+        self._reading: dict[str, tuple[str | None, str | None]] = {}
+        self._meanings: dict[str, tuple[str, ...]] = {}
 
     def extended(self, vocabulary: Iterable[str]) -> "Tokenizer":
         """This tokenizer plus new words appended at the end (existing ids unchanged)."""
@@ -101,14 +146,45 @@ class Tokenizer:
         return word.lower() in self._ids and word != PAD
 
     def read_as(self, word: str) -> str | None:
-        """The vocabulary word a typed word is read as: itself, another form of it ("jump" -> "jumps",
-        "ran" -> "runs"), or None (unknown). See engine.wordforms."""
+        """The vocabulary word a typed word is read as by its form: itself, another form of it ("jump" -> "jumps",
+        "ran" -> "runs"), or None (unknown). See engine.wordforms; :meth:`reading` also reads by meaning."""
         word = word.lower()
         if word in self._ids and word != PAD:
             return word
         if word not in self._read_as:
+            if len(self._read_as) > 20000:
+                self._read_as.clear()
             self._read_as[word] = wordforms.read_as(word, self._known)
         return self._read_as[word]
+
+    def reading(self, word: str) -> tuple[str | None, str | None]:
+        """(vocabulary word, how) a typed word is read as in :meth:`encode`: (itself or another form, "form"),
+        (a word of the same meaning, "meaning": "skips" -> "hops"), (the word a typo is a slip of, "spelling":
+        "jumsp" -> "jumps"; only a non-English word, one edit from exactly one known word), or (None, None): left
+        out."""
+        word = word.lower()
+        form = self.read_as(word)
+        if form is not None:
+            return form, FORM
+        if word not in self._reading:
+            if len(self._reading) > 20000:
+                self._reading.clear()
+            if meanings := self.meanings(word):
+                self._reading[word] = (meanings[0], MEANING)
+            elif (hit := wordforms.typo_reading(word, self._known)) is not None:
+                self._reading[word] = (hit, SPELLING)
+            else:
+                self._reading[word] = (None, None)
+        return self._reading[word]
+
+    def meanings(self, word: str) -> tuple[str, ...]:
+        """Vocabulary words of the same meaning as an unknown word, best first (engine.wordforms.MEANING)."""
+        word = word.lower()
+        if word not in self._meanings:
+            if len(self._meanings) > 20000:
+                self._meanings.clear()
+            self._meanings[word] = tuple(wordforms.meaning_words(word, self._known))
+        return self._meanings[word]
 
     def inflected(self, prompt: str) -> dict[str, str]:
         """Typed words read as another form of a known word: {"jump": "jumps"}."""
@@ -116,31 +192,76 @@ class Tokenizer:
 
     def suggest(self, word: str, n: int = 3) -> list[str]:
         """Replacements for an unknown word, by meaning first ("skips" -> "hops", "tired" -> "~wearily": an adverb
-        moved after the verb by :func:`engine.wordforms.rewrite`), close spellings only where no meaning is known."""
+        moved after the verb by :func:`engine.wordforms.rewrite`); close spellings only for a typo (not for an
+        English word: 'head' gets none) and only where no meaning is known."""
         return wordforms.suggestions(word, self._known, n=n)
 
     def unknown_words(self, prompt: str) -> list[str]:
+        """Words of the prompt the vocabulary lacks in every form (encode reads them by meaning or leaves them out)."""
         return [w for w in split_words(prompt) if self.read_as(w) is None]
 
-    def encode(self, prompt: str, *, max_words: int = MAX_WORDS) -> TokenizedPrompt:
+    def left_out_words(self, prompt: str) -> list[str]:
+        """Words :meth:`encode` leaves out (once each, in prompt order)."""
+        return [w for w in dict.fromkeys(split_words(prompt)) if self.reading(w)[0] is None]
+
+    def encode(self, prompt: str, *, max_words: int = MAX_WORDS, strict: bool = False) -> TokenizedPrompt:
+        """The prompt as the model reads it (see :class:`TokenizedPrompt`). A word the vocabulary lacks is read as
+        another form of a known word, or by meaning, or (a typo) as the one known word it is a slip of, or else
+        left out; a PromptError only for an empty or too long prompt, or one where a word was left out and what is
+        left says no motion (only words like 'a', 'the', 'person', 'two': "a person flurbs").
+
+        ``strict``: every word must be a vocabulary word or another form of one (training captions: nothing read
+        by meaning, nothing dropped); else a PromptError naming the unknown words with suggestions."""
         words = split_words(prompt)
         if not words:
             raise PromptError("the prompt is empty: type a few words, e.g. 'a person jumps twice'")
         if len(words) > max_words:
             raise PromptError(f"the prompt has {len(words)} words; at most {max_words} are supported")
-        unknown = [w for w in dict.fromkeys(words) if self.read_as(w) is None]
-        if unknown:
-            suggestions = {w: self.suggest(w) for w in unknown}
-            hints = "; ".join(
-                f"{w!r} (did you mean {', '.join(wordforms.shown(s) for s in sug)}?)" if sug else repr(w)
-                for w, sug in suggestions.items()
-            )
-            raise PromptError(f"unknown word{'s' if len(unknown) > 1 else ''}: {hints}", unknown=unknown, suggestions=suggestions)
-        return TokenizedPrompt(prompt=prompt, words=tuple(words), ids=tuple(self._ids[self.read_as(w)] for w in words))
+        if strict:
+            unknown = [w for w in dict.fromkeys(words) if self.read_as(w) is None]
+            if unknown:
+                suggestions = {w: self.suggest(w) for w in unknown}
+                hints = "; ".join(
+                    f"{w!r} (did you mean {', '.join(wordforms.shown(s) for s in sug)}?)" if sug else repr(w)
+                    for w, sug in suggestions.items()
+                )
+                raise PromptError(f"unknown word{'s' if len(unknown) > 1 else ''}: {hints}", unknown=unknown,
+                                  suggestions=suggestions)
+        kept: list[str] = []
+        ids: list[int] = []
+        read_as: dict[str, str] = {}
+        read_by: dict[str, str] = {}
+        left_out: list[str] = []
+        readings = [self.reading(w) for w in words]
+        taken = {hit for hit, how in readings if hit is not None and how != MEANING}
+        for w, (hit, how) in zip(words, readings):
+            if how == MEANING and hit in taken and wordforms.is_manner_verb(w):
+                # a manner the prompt already says ("tiptoes sneakily": not "sneakily sneakily"): the plain verb
+                hit = next((m for m in self.meanings(w) if not m.endswith("ly") and m not in taken), hit)
+            if how == MEANING:
+                taken.add(hit)
+            if hit is None:
+                if w not in left_out:
+                    left_out.append(w)
+                continue
+            kept.append(w)
+            ids.append(self._ids[hit])
+            if hit != w:
+                read_as[w], read_by[w] = hit, how
+        suggestions = {w: tuple(self.suggest(w)) for w in left_out}
+        if left_out and all((read_as.get(w) or w) in wordforms.NOT_A_MOTION for w in kept):
+            # nothing left says what to do ("a person flurbs"): refuse, naming the words
+            raise PromptError(
+                f"unknown word{'s' if len(left_out) > 1 else ''} {', '.join(repr(w) for w in left_out)}: nothing "
+                "else in the prompt says what to do; describe a motion, e.g. 'a person jumps twice'",
+                unknown=left_out, suggestions={w: list(s) for w, s in suggestions.items()})
+        return TokenizedPrompt(prompt=prompt, words=tuple(kept), ids=tuple(ids), read_as=read_as, read_by=read_by,
+                               left_out=tuple(left_out), suggestions=suggestions)
 
-    def batch(self, prompts: Sequence[str | TokenizedPrompt]) -> tuple[torch.Tensor, torch.Tensor]:
-        """Pad a batch: ids (B, L) long and mask (B, L) bool (True = a real word)."""
-        tokenized = [p if isinstance(p, TokenizedPrompt) else self.encode(p) for p in prompts]
+    def batch(self, prompts: Sequence[str | TokenizedPrompt], *, strict: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
+        """Pad a batch: ids (B, L) long and mask (B, L) bool (True = a real word). Prompts given as text are encoded
+        here (``strict`` as in :meth:`encode`)."""
+        tokenized = [p if isinstance(p, TokenizedPrompt) else self.encode(p, strict=strict) for p in prompts]
         length = max(1, max(len(t.ids) for t in tokenized))  # at least one (padding) column
         ids = torch.zeros(len(tokenized), length, dtype=torch.long)
         mask = torch.zeros(len(tokenized), length, dtype=torch.bool)

@@ -65,11 +65,43 @@ def test_sequences_keep_time_order():
 def test_styles_and_unknown_words():
     assert parse_intent("a zombie walks slowly").style == "zombie"
     assert parse_intent("a man jumps like a monkey").style == "gorilla"
-    unknown = parse_intent("a person staggers")
-    assert unknown.segments == () and unknown.unplaced == ("staggers",) and not unknown.complete
-    partly = parse_intent("a person walks gracefully")
-    assert partly.segments[0].action == "walk" and partly.unplaced == ("gracefully",)
-    assert "not understood: gracefully" in partly.describe()
+    unknown = parse_intent("a person flurbs")
+    assert unknown.segments == () and unknown.unplaced == ("flurbs",) and not unknown.complete
+    partly = parse_intent("a person walks mysteriously")
+    assert partly.segments[0].action == "walk" and partly.unplaced == ("mysteriously",)
+    assert "not understood: mysteriously" in partly.describe()
+
+
+def test_words_outside_the_lexicon_are_read_by_meaning():
+    staggers = parse_intent("a person staggers forward stiffly")  # a gait verb read as a walk with its manner
+    assert [s.action for s in staggers.segments] == ["walk"] and staggers.segments[0].direction == "forward"
+    assert staggers.style == "drunk" and staggers.complete
+    assert [s.action for s in parse_intent("a kid skips twice").segments] == ["hop"]
+    assert parse_intent("a person walks gracefully").segments[0].speed == "slowly"  # gracefully -> gently
+    assert parse_intent("she's waving").segments[0].action == "wave"
+
+
+def test_the_intent_of_what_the_model_reads():
+    """With the tokenizer's reading: words it left out are ignored, words it read by meaning or as a typo's
+    word are read the same way."""
+    from engine.text import Tokenizer
+
+    tok = Tokenizer(["a", "person", "man", "jumps", "walks", "hops", "drunkenly", "forward", "then", "both", "hands",
+                     "lifts", "the", "twice"])
+    typed = "a man jumsp twice then lifts both hands above the head"
+    read = tok.encode(typed)
+    assert read.read_as["jumsp"] == "jumps" and set(read.left_out) == {"above", "head"}
+    intent = parse_intent(typed, read)
+    assert [s.action for s in intent.segments] == ["jump", "raise_arms"] and intent.segments[0].count == 2
+    assert intent.unplaced == ()  # 'above', 'head' were left out: not asked for
+    assert "jumsp" in parse_intent(typed).unplaced  # on its own the parser knows no typos
+    for prompt in ("a person staggers forward stiffly", "a guy stiffly walks over and waves at someone",
+                   "the woman staggers forward like she is drunk", "someone tiptoes sneakily across the room"):
+        parse_intent(prompt)  # never raises
+        try:
+            parse_intent(prompt, tok.encode(prompt))
+        except Exception as exc:  # noqa: BLE001 - only the tokenizer's PromptError (nothing readable) is allowed
+            assert type(exc).__name__ == "PromptError", exc
 
 
 def test_corpus_captions_parse_back_to_their_programs():

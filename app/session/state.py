@@ -389,7 +389,9 @@ class StudioState(param.Parameterized):
             self.add_item(MotionItem(name=self.unique_name(f"{s.prompt} · seed {s.seed}"), joints=result.joints,
                                      source="generated", prompt=s.prompt, words=result.words,
                                      attention=result.attention, features=result.features, settings=s,
-                                     denoising=result.denoising, info={"seconds_taken": result.seconds_taken}))
+                                     denoising=result.denoising,
+                                     info={"seconds_taken": result.seconds_taken, "followed": result.followed,
+                                           "notes": tuple(result.notes)}))
         with param.parameterized.batch_call_watchers(self):
             self.running = False
             self.preview = None

@@ -95,7 +95,7 @@ def check_segments(joints: np.ndarray | MotionSignals, intent: Intent) -> list[S
     return out
 
 
-def _order(checks: list[SegmentCheck], intent: Intent) -> bool | None:
+def check_order(checks: list[SegmentCheck], intent: Intent) -> bool | None:
     """The main segments' first events in the prompt's order (standing is everywhere: not ordered)."""
     mains = [c for c in checks if any(c.segment is s for s in intent.segments) and c.segment.action != "stand"]
     if len(mains) < 2 or len({c.segment.action for c in mains}) < len(mains):
@@ -118,7 +118,7 @@ def check_motion(joints: np.ndarray, intent: Intent, *, reliable: Reliability | 
     # order is judged on detected actions: every action check and the order check itself must be reliable
     scored = reliable is None or (reliable.get(("order", "*"), False) and
                                   all(reliable.get(("action", c.segment.action), False) for c in checks))
-    out["order"] = _order(checks, intent) if scored else None
+    out["order"] = check_order(checks, intent) if scored else None
     return out
 
 
@@ -229,7 +229,7 @@ def validate(*, motions: int = 500, split: str = "test", start: int = 0,
             for attr in ATTRIBUTES[:-1]:
                 if c.result[attr] is not None:
                     hits[(attr, c.segment.action)].append(bool(c.result[attr]))
-        order = _order(checks, intent)
+        order = check_order(checks, intent)
         if order is not None:
             hits[("order", "*")].append(order)
         present = {c.segment.action for c in checks}

@@ -88,7 +88,10 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
     log(f"validating the detectors on {config.validation_motions} corpus test motions")
     validation = validate(motions=config.validation_motions, log=log)
     reliable = reliability(validation)
+    from engine.evaluation.metrics import foot_skate
+
     per_prompt, model_rows, truth_rows, unparsed, refused = [], [], [], [], []
+    skates = {"model": [], "ground_truth": []}
     for i, prompt in enumerate(prompts):
         intent: Intent = parse_intent(prompt)
         if not intent.complete:
@@ -97,10 +100,17 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
             continue
         truths = [ground_truth_motion(intent, config.seed + 1000 * i + k) for k in range(config.seeds)]
         truth_checks = [check_motion(j, intent, reliable=reliable) for j in truths]
+        skates["ground_truth"] += [foot_skate(j) for j in truths]
         truth_rows += truth_checks
         row = {"prompt": prompt, "intent": intent.describe(), "ground_truth": _shares(truth_checks)}
         if loaded is not None:
-            unknown = loaded.tokenizer.unknown_words(prompt)
+            from engine.text import PromptError
+
+            try:  # what a user gets: unknown words are read by meaning or left out; refused only when nothing is left
+                loaded.tokenizer.encode(prompt)
+                unknown = []
+            except PromptError as exc:
+                unknown = exc.unknown or [str(exc)]
             if unknown:
                 refused.append({"prompt": prompt, "unknown": unknown})
                 model_checks = [{a: (False if v is not None else None) for a, v in c.items()} for c in truth_checks]
@@ -114,9 +124,12 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
                     lengths = [len(j) for j in truths]
                 motions = _model_motions(loaded, prompt, lengths, config)
                 model_checks = [check_motion(j, intent, reliable=reliable) for j in motions]
+                skates["model"] += [foot_skate(j) for j in motions]
                 row["counts"] = _counts(motions, intent)
             model_rows += model_checks
             row["model"] = _shares(model_checks)
+            # per seed (True/False/None) per attribute: the spread between seeds is the bench's noise
+            row["model_seeds"] = {a: [None if c[a] is None else bool(c[a]) for c in model_checks] for a in ATTRIBUTES}
         per_prompt.append(row)
         log(f"[{i + 1}/{len(prompts)}] {prompt!r}: " + ", ".join(
             f"{a} {v:.2f}" for a, v in row.get("model", row["ground_truth"]).items() if v is not None))
@@ -125,10 +138,20 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
             "validation_absent": validation["absent"], "unreliable": unreliable,
             "model": score(model_rows) if loaded is not None else None, "ground_truth": score(truth_rows),
             "unparsed": unparsed, "refused": refused, "per_prompt": per_prompt,
+            "foot_skate": _skate_summary(skates),
             "settings": {"seeds": config.seeds, "steps": config.steps, "guidance": config.guidance,
                          "lengths": config.lengths,
                          "prompts": len(prompts), "validation_motions": config.validation_motions},
             "seconds": time.perf_counter() - t0}
+
+
+def _skate_summary(skates: dict[str, list[float]]) -> dict:
+    """Mean foot skate (share of grounded foot frame pairs that slide) of the model's and the truth's motions,
+    and their ratio (1 = slides as much as the truth)."""
+    model = float(np.mean(skates["model"])) if skates["model"] else None
+    truth = float(np.mean(skates["ground_truth"])) if skates["ground_truth"] else None
+    ratio = model / truth if model is not None and truth else None
+    return {"model": model, "ground_truth": truth, "ratio": ratio}
 
 
 def _shares(checks: list[dict]) -> dict:
@@ -171,6 +194,10 @@ def format_table(result: dict) -> str:
         if row is None:
             continue
         lines.append(f"{name:<16}" + "".join(f"{_fmt(row[a]):>6} ({row[a + '_n']:>3})" for a in TOTALS))
+    skate = result.get("foot_skate") or {}
+    if skate.get("ground_truth") is not None:
+        lines.append(f"foot skate: model {_fmt(skate.get('model')).strip()}, ground truth {skate['ground_truth']:.2f}"
+                     + (f" ({skate['ratio']:.1f}x the truth)" if skate.get("ratio") is not None else ""))
     lines.append("")
     lines.append(f"{'prompt':<52} " + " ".join(f"{a[:5]:>5}" for a in TOTALS) + "   (model / truth)")
     for row in result["per_prompt"]:

@@ -110,6 +110,44 @@ def test_generate_shows_skeleton_heatmap_and_word_curves(page, generated, screen
     assert [w.inner_text() for w in words.all()] == ["a", "person", "jumps", "twice"]
 
 
+def test_the_generate_box_says_what_was_followed(page, generated, screens):
+    """Under the result: the prompt as parsed beside what the detectors saw, ✓ green / ✗ red / not checked grey."""
+    report = page.locator(".followed-report .followed")
+    expect(report).to_be_visible(timeout=15000)
+    text = report.inner_text()
+    assert "asked: jump \u00d72 \u00b7 seen: " in text, text
+    marks = page.locator(".followed-report .followed-yes, .followed-report .followed-no, "
+                         ".followed-report .followed-unchecked")
+    assert marks.count() >= 1
+    colours = {"followed-yes": "rgb(26, 127, 55)", "followed-no": "rgb(198, 40, 40)",
+               "followed-unchecked": "rgb(138, 138, 138)"}
+    for k in range(marks.count()):
+        mark = marks.nth(k)
+        cls = next(c for c in colours if c in mark.get_attribute("class").split())
+        assert mark.evaluate("e => getComputedStyle(e).color") == colours[cls]
+    _save(screens, "generate_followed.png", page.locator(".generate-controls").screenshot())
+
+
+def test_the_followed_lines_are_replaced_by_the_next_generation(browser, server_url, screens):
+    """A second generation (its own page: the module's page keeps its jumps) replaces the lines: never stale; an
+    attribute no validated detector reads says "not checked" in grey."""
+    page = br.open_studio(browser, server_url)
+    try:
+        br.generate(page, "a person jumps twice")
+        report = page.locator(".followed-report .followed")
+        expect(report).to_contain_text("asked: jump \u00d72", timeout=30000)
+        br.generate(page, "a zombie waves with the left hand then walks forward slowly")
+        expect(report).to_contain_text("asked: wave (left)", timeout=30000)
+        text = report.inner_text()
+        assert "jump" not in text.split("seen:")[0] and "asked: walk (forward, slowly)" in text, text
+        assert "style zombie: not checked" in text and "speed not checked" in text, text
+        grey = page.locator(".followed-report .followed-unchecked").first
+        assert grey.evaluate("e => getComputedStyle(e).color") == "rgb(138, 138, 138)"
+        _save(screens, "generate_followed_sequence.png", page.locator(".generate-controls").screenshot())
+    finally:
+        page.close()
+
+
 def test_clicking_a_heatmap_cell_moves_the_viewer_to_that_frame(page, generated, screens):
     before = br.player_stats(page)["frame"]
     before_img = _img(page.locator(".skeleton-view canvas").screenshot())

@@ -10,6 +10,7 @@ from app.attention_record import estimate_bytes
 from app.components.number_box import FloatBox, IntBox
 from app.components.words import WORD_CSS, intent_line, word_chips
 from app.session.state import StudioState
+from app.tabs.generate.followed import FOLLOWED_CSS, item_followed_html
 from engine.duration import auto_seconds
 from engine.units import FPS, MAX_SECONDS, MIN_SECONDS
 
@@ -49,6 +50,9 @@ class GenerateControls(pn.viewable.Viewer):
         self.progress = pn.indicators.Progress(value=0, max=1, sizing_mode="stretch_width", bar_color="primary",
                                                css_classes=["generation-progress"], height=14)
         self.status = pn.pane.Markdown("", css_classes=["generation-status"], margin=(0, 10))
+        # what the shown motion followed of its prompt: its own report, cleared for any other motion (never stale)
+        self.followed = pn.pane.HTML("", css_classes=["followed-report"], sizing_mode="stretch_width", margin=(0, 10),
+                                     stylesheets=[FOLLOWED_CSS])
         self.model_info = pn.pane.Markdown("", css_classes=["model-info"], margin=(0, 10),
                                            styles={"font-size": "12px", "color": "#555"})
         self.vocab = pn.pane.Markdown("", styles={"font-size": "12px"})
@@ -57,7 +61,9 @@ class GenerateControls(pn.viewable.Viewer):
         s.param.watch(self._on_prompt, "prompt")
         s.param.watch(self._on_progress, ["running", "progress", "progress_total", "status"])
         s.param.watch(self._on_memory, ["steps", "record_steps", "seconds", "prompt_words"])
+        s.param.watch(self._on_followed, ["current", "items", "preview", "running"])
         self._on_analysis()
+        self._on_followed()
         self._on_progress()
         self._on_memory()
         self._describe_model()
@@ -97,6 +103,14 @@ class GenerateControls(pn.viewable.Viewer):
             self.generate.label = "Generating…" if s.running else "Generate"
             self.cancel.disabled = not s.running
             self.status.object = html.escape(s.status)
+
+    def _on_followed(self, *_):
+        s = self.state
+        generating = s.preview is not None or (s.running and s.job == "generation")  # the viewer shows the new one
+        text = "" if generating else item_followed_html(s.item)
+        if self.followed.object != text:
+            self.followed.object = text
+        self.followed.visible = bool(text)
 
     def _on_memory(self, *_):
         s = self.state
@@ -138,6 +152,6 @@ class GenerateControls(pn.viewable.Viewer):
         return pn.Column(
             self.prompt, self.words, self.intent, self.suggestion_row, settings, advanced,
             pn.Row(self.generate, self.cancel, sizing_mode="stretch_width"),
-            self.progress, self.status, self.model_info, vocab,
+            self.progress, self.status, self.followed, self.model_info, vocab,
             sizing_mode="stretch_width", css_classes=["generate-controls"],
         )
