@@ -12,8 +12,8 @@
 --duet       ComMDM vs the prior run twice on held-out duets: prefix completion and text-to-duet
 --adherence  does a generated motion do what its prompt says? detectors validated on corpus labels first,
              then the model and the ground truth on prompts people type (engine/evaluation/bench_adherence.py)
---sampling   seconds for a 6-s motion at 10/20/50 DDIM steps and DDPM 1000, with adherence and FID per
-             setting, and the attention-recording overhead (engine/evaluation/bench_sampling.py)
+--sampling   seconds for a 6-s motion at 10/20/50 DDIM steps (and DDPM 1000 with --ddpm or --full: slow), with
+             adherence and FID per setting, and the attention-recording overhead (engine/evaluation/bench_sampling.py)
 --train      training steps/s, samples/s, GFLOP/s and share of the matmul peak for the shipped model's shape
              and one twice as wide (fp32 and bf16 on the CPU; --device / --precision), and whether the corpus
              generator keeps up with 0/1/2/several DataLoader workers (engine/evaluation/bench_train.py)
@@ -93,6 +93,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     edits.add_argument("--steps", type=int, default=None,
                        help="sampling steps for every benchmark but --app and --train (default: the benchmark's "
                             "preset, 50; --quick: its own; --soak: 10); --train: timed training steps per row (default 5)")
+    edits.add_argument("--ddpm", action="store_true",
+                       help="--sampling: add the DDPM-1000 row, the slow baseline (12.5 x the steps of the DDIM rows "
+                            "together; left out by default)")
+    edits.add_argument("--full", action="store_true",
+                       help="--sampling: the thorough run: 16 prompts, FID on 64 motions, 3 repeats, 500 validation "
+                            "motions and the DDPM row (over half an hour on 2 cores; default: 8 prompts, FID on 32)")
     edits.add_argument("--no-real-data", action="store_true",
                        help="--inversion: skip the motion files of the shared real-data folder (../shared/data/real/)")
     edits.add_argument("files", nargs="*", type=Path, help="--inversion: real motions (.bvh/.npy) to invert as well")
@@ -104,7 +110,11 @@ def run(args: argparse.Namespace) -> int:
     if args.seeds is not None and not (args.duet or args.adherence or args.sampling):
         raise ValueError("--seeds goes with --duet, --adherence or --sampling")
     if args.sampling and args.steps is not None:
-        raise ValueError("--sampling measures its own step counts (10, 20, 50, DDPM 1000): drop --steps")
+        raise ValueError("--sampling measures its own step counts (10, 20, 50; DDPM 1000 with --ddpm): drop --steps")
+    if (args.ddpm or args.full) and not args.sampling:
+        raise ValueError("--ddpm and --full go with --sampling")
+    if args.full and args.quick:
+        raise ValueError("--full and --quick are opposites: choose one")
     if args.drawn is not None and not args.control:
         raise ValueError("--drawn goes with --control")
     if args.drawn is not None and args.drawn < 0:
@@ -263,7 +273,9 @@ def run_sampling(args: argparse.Namespace) -> int:
     from engine.evaluation.bench_sampling import SamplingBenchConfig, bench_sampling, format_table
     from engine.evaluation.evaluator import load_evaluator
 
-    config = preset(SamplingBenchConfig, args, seeds=args.seeds)
+    config = preset(SamplingBenchConfig, args, seeds=args.seeds, ddpm=args.ddpm or None)
+    if args.full:
+        config = replace(SamplingBenchConfig.full(), **({"seeds": args.seeds} if args.seeds is not None else {}))
     prompts = read_prompts(args.prompts) if args.prompts is not None else None
     result = bench_sampling(_model(args), load_evaluator(args.evaluator), config, prompts=prompts, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
@@ -60,14 +61,19 @@ def run(args: argparse.Namespace) -> int:
     intervals = [Interval.parse(text) for text in args.intervals]
     config = config_from_args(args)
     loaded = load_model(args.model, runtime=runtime_from_args(args))
-    for iv in intervals:
-        loaded.tokenizer.encode(iv.prompt)  # unknown words fail before any sampling
+    notes = {}
+    for iv in intervals:  # a prompt with nothing readable fails before any sampling; other words are noted
+        if said := loaded.tokenizer.encode(iv.prompt).notes():
+            notes[iv.prompt] = said
+            print(f"notes: {iv.prompt!r}: {'; '.join(said)}", file=sys.stderr)
     result = compose(loaded, intervals, config, sample=SampleConfig(steps=args.steps, guidance=args.guidance,
                                                                     seed=args.seed))
     save_motion(result.joints, args.out)
     report = {"out": str(args.out), "frames": int(len(result.joints)), "seconds_of_motion": len(result.joints) / 20,
               "intervals": [{"prompt": iv.prompt, "start_frame": s} for iv, s in zip(intervals, result.starts)],
               "transitions": result.transitions, "wall_seconds": round(result.seconds, 2)}
+    if notes:
+        report["notes"] = notes
     if args.render is not None:
         from viz.render import render_file
 
@@ -196,10 +202,12 @@ def build_controls(args: argparse.Namespace):
 
 
 def run_control(args: argparse.Namespace) -> int:
+    import sys
+
     from engine.checkpoint import load_model
     from engine.generate import SampleConfig, frames_for
     from engine.io import save_motion
-    from engine.methods.control import controlled, load_controls, same_base
+    from engine.methods.control import control_base, controlled, load_controls
     from engine.methods.paths import path_error, to_world
 
     check_outputs([args.out], MOTION_SUFFIXES)
@@ -207,24 +215,41 @@ def run_control(args: argparse.Namespace) -> int:
     frames_for(args.seconds)  # the length first: a path is resampled to it (--seconds 1e9 must not allocate)
     controls, frame = build_controls(args)
     loaded = load_model(args.model, runtime=runtime_from_args(args))
-    loaded.tokenizer.encode(args.prompt)
+    try:
+        found = load_controls(args.controls, runtime=loaded.runtime)
+    except ValueError:  # a broken control folder: the --inpaint baseline does not need it
+        if not args.inpaint:
+            raise
+        found = {}
+    # the base control runs on: the loaded one, or the control models' own (args.controls/prior) when they were
+    # fine-tuned on another vocabulary; inpainting runs on it too, so both methods read the same prompt
+    run = control_base(loaded, found, folder=args.controls)
+    if run.note:
+        print(f"note: {run.note}", file=sys.stderr)
+    tokens = run.loaded.tokenizer.encode(args.prompt)  # read by the model that runs it
     models = None
     if not args.inpaint:
-        models = load_controls(args.controls, runtime=loaded.runtime)
-        missing = [c.name for c in controls if c.name not in models]
+        missing = [c.name for c in controls if c.name not in found]
         if missing:
             raise FileNotFoundError(f"no fine-tuned control model for {', '.join(missing)} in {args.controls} "
                                     "(train one with `moattn train --control NAME --init-from assets/model`, or use --inpaint)")
-        other = [c.name for c in controls if not same_base(loaded, models[c.name])]
+        other = [c.name for c in controls if c.name not in run.models]
         if other:
             raise ValueError(f"the control models for {', '.join(other)} in {args.controls} were fine-tuned from another "
                              f"base model than {args.model}: use the base they came from, or --inpaint")
+        models = run.models
     sample = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed)
-    gen = controlled(loaded, args.prompt, controls, seconds=args.seconds, models=models, weights=args.weights,
+    gen = controlled(run.loaded, args.prompt, controls, seconds=args.seconds, models=models, weights=args.weights,
                      sample=sample)
     joints = gen.joints[0]
     report = {"out": str(args.out), "method": "inpainting" if args.inpaint else "blending",
-              "controls": [c.name for c in controls]}
+              "controls": [c.name for c in controls],
+              "base": str(run.loaded.folder) if run.on_prior else str(args.model)}
+    if run.note:
+        report["base_note"] = run.note
+    if tokens.notes():
+        report["notes"] = tokens.notes()
+        print(f"notes: {'; '.join(tokens.notes())}", file=sys.stderr)
     if frame is not None:
         joints = to_world(joints, frame)
         report["root_error"] = path_error(joints, frame["target"])

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -98,8 +99,11 @@ def run(args: argparse.Namespace) -> int:
     if args.prompt is None and args.prefix is None:
         raise ValueError("give a prompt (e.g. 'two people shake hands') or --prefix FILE")
     model = load_trained(args.duet_model, args.model, runtime=runtime_from_args(args))
-    if args.prompt is not None:
-        model.tokenizer.encode(args.prompt)  # unknown words fail before any sampling
+    notes = []
+    if args.prompt is not None:  # a prompt with nothing readable fails before any sampling; other words are noted
+        notes = model.tokenizer.encode(args.prompt).notes()
+        if notes:
+            print(f"notes: {'; '.join(notes)}", file=sys.stderr)
     guidance = args.guidance if args.guidance is not None else (1.0 if args.prompt is None else 2.5)
     sample = SampleConfig(steps=args.steps, guidance=guidance, seed=args.seed)
     communicate = not args.no_communication
@@ -118,6 +122,8 @@ def run(args: argparse.Namespace) -> int:
               "placement_of_b_from_a": {"x_m": round(p.x, 3), "z_m": round(p.z, 3),
                                         "facing_deg": round(float(np.degrees(p.yaw)), 1)},
               "contacts": [{**c.to_json(), "interaction": duet.interaction} for c in duet.contacts]}
+    if notes:
+        report["notes"] = notes
     if args.render is not None:
         report["render"] = str(render_duet(duet.joints, args.render, title=args.prompt))
     print(json.dumps(report, indent=2))

@@ -1,11 +1,12 @@
 """What a prompt asks for: a parser from free text to the motion program it intends.
 
 ``parse_intent("a woman waves the left hand twice, then walks forward")`` gives two segments,
-``wave (left, x2)`` and ``walk (forward)``, and the words it could not place. It reads the corpus
-lexicon (``engine.synth.grammar``) plus the words people type for the same motions ("waving
-hello", "strides", "3 times", "jumps on one leg"), in any inflection ("walk", "walked",
-"walking"). Attributes a prompt does not state stay ``None``: "a person waves" asks for a wave
-with either hand, and the adherence benchmark scores it that way.
+``wave (left, x2)`` and ``walk (forward)``, and the words it could not place. Its lexicon is the caption
+grammar's own phrase tables (``engine.synth.grammar``: verbs, counts, speeds, styles, directions, joins,
+overlays), so every corpus caption parses back to its program, plus the words people type for the same motions
+("waving hello", "3 times", "jumps on one leg"), in any inflection ("walk", "walked", "walking"). Attributes a
+prompt does not state stay ``None``: "a person waves" asks for a wave with either hand, and the adherence
+benchmark scores it that way; so do vague counts ("repeatedly", "several times").
 
 The Generate tab shows :meth:`Intent.describe`; ``moattn bench --adherence`` scores motions
 against :class:`Intent` (``engine.evaluation.adherence``).
@@ -14,11 +15,10 @@ from __future__ import annotations
 
 import re
 from dataclasses import asdict, dataclass, field, replace
-
 from typing import TYPE_CHECKING
 
 from engine import wordforms
-from engine.synth.grammar import STYLE_PHRASES
+from engine.synth import grammar as G
 from engine.synth.program import ACTIONS
 
 if TYPE_CHECKING:
@@ -30,10 +30,12 @@ SIDES_OF = {"kick": ("left", "right"), "wave": ("left", "right", "both"), "hop":
             "punch": ("left", "right", "both"), "raise_arms": ("left", "right", "both")}  # sides a prompt may name
 
 # ------------------------------------------------------------------------------------------------ lexicon
-# Phrases in base form (lemmas, see :func:`lemma`), longest match wins. Each maps to an action.
+# Words people type beyond the grammar's tables (which are read from engine.synth.grammar below). Phrases in base
+# form (lemmas, see :func:`lemma`); the longest phrase at a place wins.
 ACTION_PHRASES: dict[str, tuple[str, ...]] = {
     "walk_backward": ("walk backward", "walk backwards", "walk back", "step backward", "step backwards",
-                      "step back", "move backward", "move backwards", "back up", "backpedal"),
+                      "step back", "move backward", "move backwards", "back up", "backpedal", "walk in reverse",
+                      "step in reverse", "move in reverse", "back away"),
     "side_step": ("side step", "sidestep", "step sideways", "step to the side", "shuffle sideways",
                   "move sideways", "walk sideways", "shuffle to the side", "side shuffle", "strafe"),
     "jump_forward": ("jump forward", "jump forwards", "jump ahead", "leap forward", "leap forwards", "leap ahead",
@@ -43,17 +45,19 @@ ACTION_PHRASES: dict[str, tuple[str, ...]] = {
     "hop": ("hop", "jump on one leg", "jump on one foot", "jump on the left leg", "jump on the right leg",
             "jump on the left foot", "jump on the right foot"),
     "walk": ("walk", "stroll", "pace", "stride", "march", "wander", "amble", "step", "move", "saunter", "trudge",
-             "take a walk", "go for a walk"),
+             "take a walk", "go for a walk", "tread", "proceed", "travel on foot"),
     "run": ("run", "sprint", "dash", "race", "rush", "hurry"),
     "jog": ("jog", "trot"),
-    "turn": ("turn", "rotate", "spin", "pivot"),
+    "turn": ("turn", "rotate", "spin", "pivot", "swivel"),
     "jump": ("jump", "leap", "bounce", "spring", "jump up", "jump up and down", "jump in place"),
-    "squat": ("squat", "squat down", "do a squat", "crouch down", "knee bend"),
+    "squat": ("squat", "squat down", "do a squat", "crouch down", "knee bend", "bend the knee", "do a knee bend"),
     "kick": ("kick", "kick out", "do a kick"),
-    "punch": ("punch", "throw a punch", "punch forward", "box", "jab", "strike"),
+    "punch": ("punch", "throw a punch", "punch forward", "box", "jab", "strike", "hit the air"),
     "wave": ("wave", "wave hello", "wave goodbye", "wave hi", "greet"),
-    "clap": ("clap", "clap the hand", "clap hand", "applaud", "clap his hand", "clap her hand"),
-    "raise_arms": ("raise", "lift", "put up", "raise up", "lift up", "hold up", "throw up"),
+    "clap": ("clap", "clap the hand", "clap hand", "applaud", "clap his hand", "clap her hand",
+             "bring the hand together"),
+    "raise_arms": ("raise", "lift", "put up", "raise up", "lift up", "hold up", "throw up", "stretch up", "reach up",
+                   "bring up"),
     "bow": ("bow", "take a bow", "bend forward to bow", "bend forward", "bend over", "bend down"),
     "dance": ("dance", "dance from side to side", "do a little dance", "groove", "boogie", "sway"),
     "stand": ("stand still", "stand in place", "stay still", "stand", "stay", "idle", "wait", "remain still",
@@ -83,14 +87,15 @@ STYLE_WORDS: dict[str, str] = {
     "happy": "happy", "happily": "happy", "cheerfully": "happy", "joyfully": "happy", "proud": "proud",
     "proudly": "proud", "soldier": "proud", "old": "old", "elderly": "old", "tiredly": "old", "wearily": "old",
     "tired": "old", "sneakily": "crouched", "stealthily": "crouched", "sneak": "crouched", "crouch": "crouched",
-    "crouching": "crouched",
+    "crouching": "crouched", "with hand up": "hands_up", "with arm up": "hands_up", "hand up": "hands_up",
+    "arm up": "hands_up",
 }
 DIRECTION_PHRASES: dict[str, str] = {
     "forward": "forward", "forwards": "forward", "ahead": "forward", "straight ahead": "forward",
     "straight": "forward", "backward": "backward", "backwards": "backward", "to the left": "left",
-    "toward the left": "left", "towards the left": "left", "and turn left": "left", "curve left": "left",
+    "toward the left": "left", "towards the left": "left", "curve left": "left",
     "left": "left", "to the right": "right", "toward the right": "right", "towards the right": "right",
-    "and turn right": "right", "curve right": "right", "right": "right", "in a circle": "circle",
+    "curve right": "right", "right": "right", "in a circle": "circle",
     "around in a circle": "circle", "in a circle to the left": "circle_left",
     "in a counterclockwise circle": "circle_left", "counterclockwise": "circle_left",
     "anticlockwise": "circle_left", "in a circle to the right": "circle_right",
@@ -99,29 +104,49 @@ DIRECTION_PHRASES: dict[str, str] = {
 }
 LIMBS = {"hand": "arm", "arm": "arm", "fist": "arm", "leg": "leg", "foot": "leg"}
 SEQUENCE_MARKS = ("and then", "then", "after that", "afterwards", "afterward", "followed by", "next", "finally",
-                  "before", "later", "subsequently")
+                  "before", "later", "subsequently", "and finally", "and after that", "and afterwards", "and later",
+                  "and next", "right after that")
+OVERLAY_MARKS = ("while", "whilst", "while also", "all the while", "and at the same time", "at the same time",
+                 "and simultaneously", "simultaneously")
+# words that place nothing: subjects, the templates' frames ("we see", "a video of"), function words
 FILLER = frozenset(
     "a an the person someone somebody man woman human he she they it his her its their this that is are be do "
     "and with using use in on to up out of at by from we see clip motion show shows can seen here keep first "
     "while place spot one hello perform time also just again some people guy girl boy lady figure character "
-    "whole body arm hand leg foot both over all way around down side air into there".split())
+    "whole body arm hand leg foot both over all way around down side air into there them him "
+    "video animation start begin make take give throw deliver".split()) | frozenset(
+    w for subject in G.SUBJECTS + tuple(G._OBJECT_CASE.values()) for w in subject.split())
 
-_SEPARATOR = "|"  # sequence boundary mark inside the token list
 _IRREGULAR = {"ran": "run", "spun": "spin", "leapt": "leap", "did": "do", "done": "do", "stood": "stand",
               "threw": "throw", "took": "take", "feet": "foot", "went": "go", "does": "do", "is": "be", "are": "be",
               "was": "be", "sprang": "spring", "sprung": "spring", "knees": "knee"}
+_DETERMINERS = ("the", "a", "an", "his", "her", "its", "their", "my", "your", "with")
+_NOUN_AFTER_DETERMINER = ("head",)  # "heads forward" walks, "above the head" does not
+_IMPLIED_WALK = "+walk"  # a gait verb read as its manner ("staggers"): a walk unless the clause names an action
+
+
+def _grammar_bases() -> set[str]:
+    """Base forms of every word a corpus caption can contain (the grammar's own lemmas: "treads" -> tread)."""
+    out = set()
+    for w in G.vocabulary():
+        base, _ = G._lemma_pos(w)
+        out.add(_IRREGULAR.get(w, base))
+    return out
 
 
 def _phrase_lemmas() -> set[str]:
     out: set[str] = set()
     tables = [p for ps in ACTION_PHRASES.values() for p in ps] + list(COUNT_PHRASES) + list(SPEED_PHRASES) + \
-        list(INTENSITY_PHRASES) + list(STYLE_WORDS) + list(DIRECTION_PHRASES) + list(LIMBS) + list(SEQUENCE_MARKS)
+        list(INTENSITY_PHRASES) + list(STYLE_WORDS) + list(DIRECTION_PHRASES) + list(LIMBS) + \
+        list(SEQUENCE_MARKS) + list(OVERLAY_MARKS)
     for phrase in tables:
         out.update(phrase.split())
-    return out | set(FILLER)
+    return out | set(FILLER) | _grammar_bases()
 
 
 _KNOWN = _phrase_lemmas()
+_VOCABULARY = frozenset(G.vocabulary())  # every word a corpus caption can contain
+_SPELLED = frozenset(_KNOWN | _VOCABULARY)  # what a typo may be a slip of
 
 
 def lemma(word: str) -> str:
@@ -150,15 +175,109 @@ def lemma(word: str) -> str:
     return word
 
 
-def _style_phrases() -> dict[tuple[str, ...], str]:
-    out = {tuple(lemma(w) for w in re.findall(r"[a-z]+", p)): name
-           for name, phrases in STYLE_PHRASES.items() for p in phrases}
-    out.update({(w,): s for w, s in STYLE_WORDS.items()})
-    out[("with", "hand", "up")] = "hands_up"
-    out[("with", "arm", "up")] = "hands_up"
-    out[("hand", "up")] = "hands_up"
-    out[("arm", "up")] = "hands_up"
+def _words(phrase: str) -> tuple[str, ...]:
+    return tuple(lemma(w) for w in re.findall(r"[a-z]+", phrase.lower()))
+
+
+def _lexicon() -> dict[tuple[str, ...], tuple[str, object]]:
+    """Every phrase -> (kind, value). Kinds: action, hop (a hop's leg: side or None), side, count (an int, or None
+    for a vague count: "repeatedly"), speed, style, direction, intensity, mark (a sequence join), overlay ("while"),
+    ignore (placed, says nothing the intent keeps: "in place", "and lowers them again", "normally").
+    A phrase two kinds claim keeps the first kind below; a grammar verb two actions share ("walks", "jumps") keeps
+    the plain action (a direction or "on one leg" makes it walk_backward or hop)."""
+    out: dict[tuple[str, ...], tuple[str, object]] = {}
+
+    def put(phrase: str, kind: str, value) -> None:
+        key = _words(phrase)
+        if key:
+            out.setdefault(key, (kind, value))
+
+    for action, phrases in ACTION_PHRASES.items():
+        for p in phrases:
+            put(p, "action", action)
+    plain_first = sorted(G.VERBS, key=lambda a: a in ("walk_backward", "hop"))
+    for action in plain_first:
+        for third, gerund in G.VERBS[action]:
+            put(third, "action", action)
+            put(gerund, "action", action)
+    for action, (one, many, verbs) in G.COUNT_NOUNS.items():
+        put(one, "action", action)
+        put(many, "action", action)
+        for third, gerund in verbs:  # "does a jump", "does three jumps" (the count is read on its own)
+            put(f"{third} a {one}", "action", action)
+    for side in ("left", "right"):
+        for p in G.HOP_SIDE:
+            put(p.format(side=side), "hop", side)
+    for p in G.HOP_UNSAID:
+        put(p, "hop", None)
+    for side in ("left", "right", "both"):
+        for limb in ("hand", "arm", "fist", "leg", "foot", "hands", "arms", "fists", "legs", "feet"):
+            put(f"{side} {limb}", "side", side)
+    for limb in ("arms", "hands"):
+        put(f"both of the {limb}", "side", "both")
+    for m in SEQUENCE_MARKS + tuple(j.strip(" ,") for j in G.SEQ_JOIN + G.ING_JOIN):
+        if m != "and":
+            put(m, "mark", True)
+    for m in OVERLAY_MARKS + tuple(j.strip(" ,") for j, _ in G.OVERLAY_JOINS):
+        put(m, "overlay", True)
+    by_phrase: dict[str, set[int]] = {}
+    for n, phrases in G.COUNT_WORDS.items():
+        for p in phrases:
+            by_phrase.setdefault(p, set()).add(n)
+    for p, ns in by_phrase.items():
+        put(p, "count", next(iter(ns)) if len(ns) == 1 else None)  # VAGUE_COUNTS: no number stated
+    for p in G.SINGLE:
+        put(p, "count", 1)
+    for p, n in COUNT_PHRASES.items():
+        put(p, "count", n)
+    for p, v in SPEED_PHRASES.items():
+        put(p, "speed", v)
+    for v, phrases in G.SPEED_WORDS.items():
+        for p in phrases:
+            put(p, "speed", v)
+    for p, v in DIRECTION_PHRASES.items():
+        put(p, "direction", v)
+    directions: dict[str, set[str]] = {}
+    for v, phrases in (*G.DIRECTION_WORDS.items(), *G.TURN_WORDS.items()):
+        for p in phrases:
+            directions.setdefault(p, set()).add(v)
+    for p, vs in directions.items():
+        if p.startswith("and turn"):  # "walks and turns left": see _split_sequence
+            continue
+        put(p, "direction", next(iter(vs)) if len(vs) == 1 else "circle" if vs <= {"circle_left", "circle_right"} else None)
+    for p, vs in directions.items():  # "runs along a straight path": the verb took "along"
+        if p.startswith("along ") and len(vs) == 1:
+            put(p[len("along "):], "direction", next(iter(vs)))
+    for side in ("left", "right"):
+        for p in G.SIDE_STEP_WORDS:
+            put(p.format(d=side), "direction", side)
+    for name, phrases in G.STYLE_PHRASES.items():
+        for p in phrases:
+            put(p, "style", name)
+    for p, v in STYLE_WORDS.items():
+        put(p, "style", v)
+    for p in INTENSITY_PHRASES:
+        put(p, "intensity", True)
+    for levels in G.INTENSITY_WORDS.values():
+        for phrases in levels.values():
+            for p in phrases:
+                put(p, "intensity", True)
+    ignored = (*G.NEUTRAL_PHRASES, *G.IN_PLACE, *G.JUMP_PLACE, *G.RAISE_WHERE, *G._strings(G.RAISE_LOWER),
+               *G._strings(G.RAISE_LOWER_ING), *(p for pair in G.BOW_BACK for p in pair))
+    for third, gerund in G.VERBS["jumping_jacks"]:  # "works out with two jumping jacks": the count is read apart
+        for verb in (third, gerund):
+            head = re.split(r"\b(?:some|jumping|star|side)\b", verb)[0].strip()
+            ignored += (head,) if head and _words(head) not in out else ()
+    for p in ignored:
+        put(p, "ignore", True)
     return out
+
+
+_LEXICON = _lexicon()
+# count phrases the grammar says for more than one count ("repeatedly": 3 to 5 times): placed, no number stated
+VAGUE_COUNTS = tuple(dict.fromkeys(p for n, ps in G.COUNT_WORDS.items() for p in ps
+                                   if any(p in other for m, other in G.COUNT_WORDS.items() if m != n)))
+_LONGEST = max(len(k) for k in _LEXICON)
 
 
 # ------------------------------------------------------------------------------------------------ intent
@@ -213,30 +332,36 @@ class Intent:
                 "unplaced": list(self.unplaced)}
 
 
+@dataclass(frozen=True)
+class _Span:
+    """A run of the prompt's words: a lexicon phrase (kind, value) or one word the lexicon lacks (kind "word")."""
+
+    kind: str
+    value: object
+    words: tuple[str, ...]
+
+    @property
+    def word(self) -> str:
+        return self.words[0]
+
+
 def _read(word: str, tokens: "TokenizedPrompt | None") -> list[str]:
-    """The lexicon words a typed word stands for: none for a word the model left out (``tokens``), the word the
-    model read it as by meaning or spelling ("skips" -> "hops"), a gait verb read as its manner as a walk with that
-    manner ("staggers" -> walk drunkenly), and a word the lexicon lacks read by meaning against the lexicon."""
+    """The lexicon words a typed word stands for: none for a word the model left out (``tokens``), a gait verb read
+    as its manner as a walk with that manner ("staggers" -> walk drunkenly), the word the model read it as by meaning
+    or spelling ("skips" -> "hops"), and a word the lexicon lacks read by meaning against the lexicon, or as the word
+    a typo is a slip of ("jumsp" -> "jumps")."""
     if tokens is not None and word in tokens.left_out:
         return []
     base = lemma(word)
-    if base in _KNOWN:
+    if word in _VOCABULARY or base in _KNOWN:  # a gait verb the lexicon knows: see _spans
         return [base]
     if wordforms.is_manner_verb(word):
         manner = wordforms.meaning_word(word, _KNOWN)
-        return ["walk", manner] if manner and manner != "walk" else ["walk"]
+        return [_IMPLIED_WALK, manner] if manner and manner != "walk" else [_IMPLIED_WALK]
     if tokens is not None and tokens.read_by.get(word) in ("meaning", "spelling"):
         return [lemma(tokens.read_as[word])]
-    hit = wordforms.meaning_word(word, _KNOWN)
+    hit = wordforms.meaning_word(word, _KNOWN) or wordforms.typo_reading(word, _SPELLED)
     return [lemma(hit) if hit else base]
-
-
-def _tokens(text: str, tokens: "TokenizedPrompt | None" = None) -> list[str]:
-    text = text.lower().replace("\u2019", "'")
-    text = re.sub(r"\b([1-9])\b", lambda m: f" {NUMBER_WORDS[m.group(1)]} ", text)
-    text = re.sub(r"[,;.!?]", " , ", text)
-    return [t for w in re.findall(r"[a-z]+(?:'[a-z]+)?|,", text)
-            for t in ([w] if w == "," else _read(w, tokens) if "'" not in w else _read_clitic(w, tokens))]
 
 
 def _read_clitic(word: str, tokens: "TokenizedPrompt | None") -> list[str]:
@@ -251,55 +376,88 @@ def _read_clitic(word: str, tokens: "TokenizedPrompt | None") -> list[str]:
     return [word]
 
 
-def _match(tokens: list[str], used: list[bool], start: int, table) -> tuple[int, object] | None:
-    """The longest phrase of ``table`` (tuple of words -> value) starting at ``start`` on unused tokens."""
-    best = None
-    for phrase, value in table.items():
-        n = len(phrase)
-        if tuple(tokens[start:start + n]) == phrase and not any(used[start:start + n]):
-            if best is None or n > best[0]:
-                best = (n, value)
-    return best
+def _tokens(text: str, tokens: "TokenizedPrompt | None" = None) -> list[str]:
+    text = text.lower().replace("\u2019", "'")
+    text = re.sub(r"\b([1-9])\b", lambda m: f" {NUMBER_WORDS[m.group(1)]} ", text)
+    text = re.sub(r"[,;.!?]", " , ", text)
+    return [t for w in re.findall(r"[a-z]+(?:'[a-z]+)?|,", text)
+            for t in ([w] if w == "," else _read(w, tokens) if "'" not in w else _read_clitic(w, tokens))]
 
 
-def _table(mapping: dict[str, object]) -> dict[tuple[str, ...], object]:
-    return {tuple(lemma(w) for w in k.split()): v for k, v in mapping.items()}
+def _spans(words: list[str]) -> list[_Span]:
+    """The words as lexicon phrases, longest first from the left ("at a relaxed pace" is a speed, not a walk)."""
+    out: list[_Span] = []
+    i = 0
+    while i < len(words):
+        w = words[i]
+        if w == ",":
+            out.append(_Span("comma", None, (",",)))
+            i += 1
+            continue
+        if w == _IMPLIED_WALK:
+            out.append(_Span("action", "implied", (w,)))
+            i += 1
+            continue
+        hit = None
+        for n in range(min(_LONGEST, len(words) - i), 0, -1):
+            key = tuple(words[i:i + n])
+            if key in _LEXICON:
+                hit = (n, _LEXICON[key])
+                break
+        if hit is not None and hit[0] == 1 and hit[1][0] == "action" and w in _NOUN_AFTER_DETERMINER and \
+                i > 0 and words[i - 1] in _DETERMINERS:
+            hit = None
+        if hit is None:
+            hit = (1, ("word", w))
+        n, (kind, value) = hit
+        if kind in ("style", "word") and _LEXICON.get((w,), ("",))[0] != "action" and wordforms.is_manner_verb(w):
+            out.append(_Span("action", "implied", ()))  # "staggers forward": a walk, unless an action is named
+        out.append(_Span(kind, value, tuple(words[i:i + n])))
+        i += n
+    return out
 
 
-_ACTIONS = {tuple(lemma(w) for w in p.split()): a for a, ps in ACTION_PHRASES.items() for p in ps}
-_COUNTS = _table(COUNT_PHRASES)
-_SPEEDS = _table(SPEED_PHRASES)
-_DIRECTIONS = _table(DIRECTION_PHRASES)
-_INTENSITIES = _table({p: True for p in INTENSITY_PHRASES})
-_STYLES = _style_phrases()
-_MARKS = _table({m: True for m in SEQUENCE_MARKS})
+def _has_action(clause: list[_Span]) -> bool:
+    return any(s.kind == "action" for s in clause)
 
 
-def _split_sequence(tokens: list[str]) -> list[tuple[list[str], bool]]:
+def _is_direction_turn(items: list[_Span], i: int, clause: list[_Span]) -> bool:
+    """"walks forward and turns left": in the corpus lexicon a walk's direction, not a second action."""
+    return items[i].kind == "word" and items[i].word == "and" and i + 2 < len(items) and \
+        items[i + 1].kind == "action" and items[i + 1].words == ("turn",) and \
+        items[i + 2].kind == "direction" and items[i + 2].value in ("left", "right") and \
+        any(s.kind == "action" and s.value in ("walk", "run", "jog") for s in clause)
+
+
+def _split_sequence(items: list[_Span]) -> list[tuple[list[_Span], bool]]:
     """Clauses in time order, each with whether it holds an action. "A before B" keeps the order;
     "A after B" reverses it ("after B, A" is already in time order)."""
-    clauses: list[list[str]] = [[]]
+    clauses: list[list[_Span]] = [[]]
     earlier: set[int] = set()  # clauses that happen before the clause ahead of them
     i = 0
-    while i < len(tokens):
-        if tokens[i] == "after" and tuple(tokens[i:i + 2]) != ("after", "that"):
+    while i < len(items):
+        s = items[i]
+        if s.kind == "word" and s.word == "after":
             if _has_action(clauses[-1]):  # "A after B"
                 clauses.append([])
                 earlier.add(len(clauses) - 1)
             i += 1
             continue
-        m = _match(tokens, [False] * len(tokens), i, _MARKS)
-        if m is not None:
+        if s.kind == "mark":
             if clauses[-1]:
                 clauses.append([])
-            i += m[0]
+            i += 1
             continue
-        if tokens[i] in (",", "and") and _has_action(clauses[-1]) and _has_action(tokens[i + 1:i + 4]) \
-                and not _is_direction_turn(tokens, i):
+        if _is_direction_turn(items, i, clauses[-1]):
+            clauses[-1].append(_Span("direction", items[i + 2].value, ("and", "turn", *items[i + 2].words)))
+            i += 3
+            continue
+        if (s.kind == "comma" or (s.kind == "word" and s.word == "and")) and _has_action(clauses[-1]) and \
+                _has_action(items[i + 1:i + 4]) and not (i + 1 < len(items) and items[i + 1].kind == "overlay"):
             clauses.append([])
             i += 1
             continue
-        clauses[-1].append(tokens[i])
+        clauses[-1].append(s)
         i += 1
     order = list(range(len(clauses)))
     for k in sorted(earlier):
@@ -307,111 +465,78 @@ def _split_sequence(tokens: list[str]) -> list[tuple[list[str], bool]]:
     return [(clauses[k], _has_action(clauses[k])) for k in order if clauses[k]]
 
 
-def _has_action(clause: list[str]) -> bool:
-    return any(_match(clause, [False] * len(clause), k, _ACTIONS) is not None for k in range(len(clause)))
+_MOVING = ("walk", "run", "jog", "walk_backward", "side_step", "turn", "jump_forward")
 
 
-def _is_direction_turn(tokens: list[str], i: int) -> bool:
-    """"walks forward and turns left": in the corpus lexicon a walk's direction, not a second action."""
-    return tokens[i] == "and" and tuple(tokens[i + 1:i + 3]) in (("turn", "left"), ("turn", "right")) and \
-        any(_ACTIONS.get((t,)) in ("walk", "run", "jog") for t in tokens[:i])
-
-
-def _parse_clause(tokens: list[str], used: list[bool], style: list[str], *,
+def _parse_clause(items: list[_Span], used: list[bool], style: list[str], *,
                   action: str | None = None) -> IntentSegment | None:
-    """The segment a clause asks for, marking the tokens it places in ``used`` and any style in ``style``.
+    """The segment a clause asks for, marking the spans it places in ``used`` and any style in ``style``.
     ``action`` given: the clause names none of its own, its modifiers are read for that action."""
-    # the action: first action phrase (longest match), with the corpus's disambiguations
-    for k in range(len(tokens) if action is None else 0):
-        m = _match(tokens, used, k, _ACTIONS)
-        if m is not None:
-            n, action = m
-            for j in range(k, k + n):
-                used[j] = True
-            break
+    if action is None:
+        named = [k for k, s in enumerate(items) if s.kind == "action" and s.value != "implied"]
+        implied = [k for k, s in enumerate(items) if s.kind == "action" and s.value == "implied"]
+        for k in implied:  # a gait verb's walk: only where the clause names no action ("staggers forward")
+            used[k] = True
+        if named:
+            action = items[named[0]].value
+            used[named[0]] = True
+        elif implied:
+            action = "walk"
     if action is None:
         return None
-    rest = [t for t, u in zip(tokens, used) if not u]
-    if action == "walk" and any(t in ("backward", "backwards", "back") for t in rest):
+    kinds = {s.kind: s.value for s, u in zip(items, used) if not u}
+    words = {w for s, u in zip(items, used) if not u and s.kind == "word" for w in s.words}
+    if action == "walk" and kinds.get("direction") == "backward" or action == "walk" and "back" in words:
         action = "walk_backward"
-    if action == "walk" and "sideways" in rest:
+    if action == "walk" and "sideways" in words:
         action = "side_step"
-    if action == "jump" and any(t in ("forward", "forwards", "ahead") for t in rest):
+    if action == "jump" and kinds.get("direction") == "forward" or action == "jump" and \
+            words & {"forward", "forwards", "ahead"}:
         action = "jump_forward"
-    if action == "jump" and ("one" in rest and any(t in ("leg", "foot") for t in rest)):
-        action = "hop"
-    if action == "jump" and any(tokens[j:j + 4] in (["on", "the", "left", "leg"], ["on", "the", "right", "leg"],
-                                                    ["on", "the", "left", "foot"], ["on", "the", "right", "foot"])
-                                for j in range(len(tokens))):
-        action = "hop"
     side = None
-    found: dict = {}  # modifier -> value
-    moving = ("walk", "run", "jog", "walk_backward", "side_step", "turn", "jump_forward")
-    modifiers = (  # (name, phrase table, whether a match at token k with this value belongs to this action)
-        ("direction", _DIRECTIONS, lambda k, v: action in moving or v in ("forward", "backward")),
-        ("count", _COUNTS, lambda k, v: not (tokens[k] in ("one", "two", "three", "four", "five") and
-                                             k + 1 < len(tokens) and tokens[k + 1] in LIMBS)),  # "two hands"
-        ("speed", _SPEEDS, lambda k, v: True),
-        ("style", _STYLES, lambda k, v: True),
-        ("intensity", _INTENSITIES, lambda k, v: True),
-    )
-    k = 0
-    while k < len(tokens):
+    if action in ("jump", "hop") and "hop" in kinds:
+        action, side = "hop", kinds["hop"]
+    found: dict = {}
+    for k, s in enumerate(items):
         if used[k]:
-            k += 1
             continue
-        t = tokens[k]
-        # "the left hand", "with both arms", "on the right leg": a side
-        if t in ("left", "right") and k + 1 < len(tokens) and tokens[k + 1] in LIMBS:
-            side = t
-            used[k] = used[k + 1] = True
-            k += 2
+        prev = items[k - 1].words[-1] if k > 0 and items[k - 1].words else ""
+        nxt = items[k + 1] if k + 1 < len(items) else None
+        if s.kind == "side":
+            side = s.value
+        elif s.kind == "hop":
+            side = side or s.value
+        elif s.kind == "direction":
+            if s.value in ("left", "right") and action in ("kick", "punch", "wave", "raise_arms", "hop") and \
+                    prev in ("the", "with", "his", "her", "their"):
+                side = s.value
+            elif action in _MOVING or s.value in ("forward", "backward"):
+                found["direction"] = s.value
+            else:
+                continue
+        elif s.kind == "count":
+            if nxt is not None and nxt.kind == "word" and nxt.word in LIMBS and len(s.words) == 1:
+                continue  # "two hands"
+            found["count"] = s.value
+        elif s.kind == "speed":
+            found["speed"] = s.value
+        elif s.kind == "style":
+            style.append(s.value)
+        elif s.kind in ("intensity", "ignore"):
+            pass
+        elif s.kind == "word" and s.word in ("back", "backward", "backwards", "sideways") and \
+                action in ("walk_backward", "side_step"):
+            pass
+        else:
             continue
-        if t == "both" and k + 1 < len(tokens) and tokens[k + 1] in LIMBS:
-            side = "both"
-            used[k] = used[k + 1] = True
-            k += 2
-            continue
-        if t in ("left", "right") and action in ("kick", "punch", "wave", "raise_arms", "hop") and \
-                tokens[max(0, k - 1)] in ("the", "with", "his", "her", "their"):
-            side = t
-            used[k] = True
-            k += 1
-            continue
-        placed = False
-        for name, table, accept in modifiers:
-            m = _match(tokens, used, k, table)
-            if m is not None and accept(k, m[1]):
-                n, found[name] = m
-                if name == "style":
-                    style.append(m[1])
-                for j in range(k, k + n):
-                    used[j] = True
-                k += n
-                placed = True
-                break
-        if placed:
-            continue
-        k += 1
+        used[k] = True
     count, direction, speed = found.get("count"), found.get("direction"), found.get("speed")
     if action == "walk_backward":
         direction = "backward"
-        for j, t in enumerate(tokens):
-            if t in ("backward", "backwards", "back") and not used[j]:
-                used[j] = True
-    if action == "side_step":
-        for j, t in enumerate(tokens):
-            if t == "sideways":
-                used[j] = True
-        if direction not in ("left", "right"):
-            direction = None
+    if action == "side_step" and direction not in ("left", "right"):
+        direction = None
     if action == "turn" and direction in ("forward", "backward"):
         direction = None
-    if action == "hop" and side is None:
-        for j, t in enumerate(tokens):
-            if t in ("left", "right") and not used[j]:
-                side = t
-                used[j] = True
     if action in ("walk", "run", "jog") and direction == "backward":
         action, direction = ("walk_backward", "backward") if action == "walk" else (action, direction)
     if action not in COUNTED_ACTIONS:
@@ -421,46 +546,47 @@ def _parse_clause(tokens: list[str], used: list[bool], style: list[str], *,
     return IntentSegment(action=action, count=count, side=side, direction=direction, speed=speed)
 
 
-def _unplaced(tokens: list[str], used: list[bool]) -> list[str]:
-    return [t for t, u in zip(tokens, used) if not u and t != "," and t not in FILLER]
+def _unplaced(items: list[_Span], used: list[bool]) -> list[str]:
+    return [w for s, u in zip(items, used) if not u and s.kind != "comma"
+            for w in s.words if w not in FILLER and w != _IMPLIED_WALK]
 
 
 def parse_intent(text: str, tokens: "TokenizedPrompt | None" = None) -> Intent:
     """The intended program of a prompt (see the module docstring). ``tokens``: the prompt as a model read it
     (``Tokenizer.encode``): the words it left out are ignored, and those it read by meaning or as a typo's word are
     read the same way, so the intent is that of what the model is asked. Without it, words the lexicon lacks are
-    read by meaning (engine.wordforms) where the meaning table knows them."""
-    tokens = _tokens(text, tokens)
+    read by meaning (engine.wordforms) where the meaning table knows them, or as the word a typo is a slip of."""
+    items = _spans(_tokens(text, tokens))
     segments: list[IntentSegment] = []
     styles: list[str] = []
     unplaced: list[str] = []
-    for clause, has_action in _split_sequence(tokens):
-        # "walks while waving": the gerund after "while" is an overlay on the clause's action
-        if "while" in clause and has_action and _has_action(clause[clause.index("while") + 1:]):
-            w = clause.index("while")
-            main_tokens, over_tokens = clause[:w], clause[w + 1:]
+    for clause, has_action in _split_sequence(items):
+        # "walks while waving": the phrase after "while" is an overlay on the clause's action
+        w = next((k for k, s in enumerate(clause) if s.kind == "overlay"), None)
+        if w is not None and has_action and _has_action(clause[w + 1:]):
+            main_items, over_items = clause[:w], clause[w + 1:]
         else:
-            main_tokens, over_tokens = clause, []
-        used = [t == "," for t in main_tokens]
+            main_items, over_items = clause, []
+        used = [s.kind in ("comma", "overlay") for s in main_items]
         if not has_action:
             # a clause with no action: its modifiers belong to the previous segment ("..., slowly")
             if segments:
                 prev = segments[-1]
-                extra = _parse_clause(main_tokens, used, styles, action=prev.action)
+                extra = _parse_clause(main_items, used, styles, action=prev.action)
                 segments[-1] = replace(prev, direction=prev.direction or extra.direction,
-                                       speed=prev.speed or extra.speed)
-            unplaced += _unplaced(main_tokens, used)
+                                       speed=prev.speed or extra.speed, count=prev.count or extra.count)
+            unplaced += _unplaced(main_items, used)
             continue
-        seg = _parse_clause(main_tokens, used, styles)
-        unplaced += _unplaced(main_tokens, used)
-        if over_tokens:
-            over_used = [t == "," for t in over_tokens]
-            over = _parse_clause(over_tokens, over_used, styles)
-            unplaced += _unplaced(over_tokens, over_used)
+        seg = _parse_clause(main_items, used, styles)
+        unplaced += _unplaced(main_items, used)
+        if over_items:
+            over_used = [s.kind in ("comma", "overlay") for s in over_items]
+            over = _parse_clause(over_items, over_used, styles)
+            unplaced += _unplaced(over_items, over_used)
             if over is not None and seg is None:  # "goes in a curve while punching": only the gesture is known
                 seg = over
             elif over is not None:
-                if seg.action in ("walk", "stand", "side_step", "turn", "run", "jog") and \
+                if seg.action in ("walk", "stand", "side_step", "turn", "run", "jog", "walk_backward") and \
                         over.action in ("wave", "clap", "raise_arms", "punch"):
                     seg = replace(seg, overlay=over)
                 else:

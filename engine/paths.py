@@ -9,6 +9,9 @@ ASSETS = Path(os.environ.get("MOATTN_ASSETS", PROJECT_ROOT / "assets"))
 MODEL_DIR = ASSETS / "model"
 EVALUATOR_DIR = ASSETS / "evaluator"
 CONTROL_DIR = ASSETS / "control"  # one fine-tuned model folder per control: root, left_wrist, right_wrist
+# the base model the shipped control models were fine-tuned on (vocabulary and feature statistics): control runs on
+# it when MODEL_DIR has moved on to another vocabulary (issue #32); a controls folder's own copy is its PRIOR sub-folder
+CONTROL_PRIOR_DIR = CONTROL_DIR / "prior"
 DUET_DIR = ASSETS / "duet"  # the ComMDM block (and new word rows) trained on MODEL_DIR
 # the shared reference motions (real BVH and HumanML3D files, read in place, never copied into the project):
 # the inversion benchmark inverts every motion file there, the tests read them (tests/conftest.py)

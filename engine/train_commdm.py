@@ -85,7 +85,7 @@ def _batch(model: DuetModel, items: list[PairItem], rng: np.random.Generator, co
     """Duet states (2P, T + 1, D), their condition, and which pairs are trained for completion (P,)."""
     x0, frame_mask = stack_pairs(items)
     p = len(items)
-    tokens = [model.tokenizer.encode(it.captions[int(rng.integers(len(it.captions)))]) for it in items]
+    tokens = [model.tokenizer.encode(it.captions[int(rng.integers(len(it.captions)))], strict=True) for it in items]
     tokens = tokens + tokens  # both persons read the pair's caption
     ids, mask = model.tokenizer.batch(tokens)
     prefix = rng.random(p) < config.prefix_prob

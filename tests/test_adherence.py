@@ -78,9 +78,9 @@ def test_bench_ground_truth_only_shape():
 
     assert len(read_prompts()) >= 60
     result = bench_adherence(None, AdherenceBenchConfig(seeds=1, validation_motions=30),
-                             prompts=["a person jumps twice", "a person staggers", "someone kicks with the left leg"])
+                             prompts=["a person jumps twice", "a person flurbs", "someone kicks with the left leg"])
     assert result["model"] is None and result["ground_truth"]["action_n"] >= 1
-    assert [u["prompt"] for u in result["unparsed"]] == ["a person staggers"]
+    assert [u["prompt"] for u in result["unparsed"]] == ["a person flurbs"]  # no word of it says a motion
     assert len(result["per_prompt"]) == 2
     assert "detector validation" in format_table(result)
 

@@ -412,8 +412,11 @@ def test_generate_box_shows_the_parsed_intent(tiny_model_dir):
         s.prompt = "a woman waves the left hand twice, then walks forward"
         line = st.controls.intent.object
         assert "asked for: wave (left side, ×2) → walk (forward)" in line and "intent-full" in line
-        s.prompt = "a person staggers"  # a verb the lexicon does not have: said, not hidden
-        assert "not understood: staggers" in st.controls.intent.object
+        s.prompt = "a person staggers"  # a gait verb the lexicon lacks: read as a walk with its manner
+        assert "asked for: walk; style: drunk" in st.controls.intent.object
+        assert "intent-full" in st.controls.intent.object
+        s.prompt = "a person walks mysteriously"  # a word it cannot read: said, not hidden
+        assert "not understood: mysteriously" in st.controls.intent.object
         assert "intent-partial" in st.controls.intent.object
         s.prompt = ""
         assert st.controls.intent.object == ""
@@ -422,28 +425,30 @@ def test_generate_box_shows_the_parsed_intent(tiny_model_dir):
 
 
 def test_no_intent_line_when_the_model_knows_words_beyond_the_action_lexicon():
-    """A model trained on a real dataset knows 'pirouettes'; the action lexicon does not: no amber line then.
-    With a word the model does not know either, the line says so."""
+    """A model trained on a real dataset knows 'cartwheels'; the action lexicon does not (not even by meaning): no
+    amber line then. With a word the model does not know either, the line says so."""
     from app.components.words import intent_line
 
-    assert intent_line("someone pirouettes twice") == ""
-    assert "not understood: pirouettes" in intent_line("someone pirouettes twice", unknown=["pirouettes"])
-    assert "asked for: walk" in intent_line("someone walks and pirouettes")
+    assert intent_line("someone cartwheels twice") == ""
+    assert "not understood: cartwheels" in intent_line("someone cartwheels twice", unknown=["cartwheels"])
+    assert "asked for: walk" in intent_line("someone walks and cartwheels")
+    assert "asked for: turn" in intent_line("someone pirouettes twice")  # read by meaning (a spin)
 
 
 def test_the_generate_box_reads_inflections_and_rewrites_by_meaning(tiny_model_dir):
-    """'jump' is read as 'jumps' (said under the chips); 'tired' is offered as 'wearily' after the verb."""
+    """'jumped' is read as 'jumps' (said under the chips); 'tired' is offered as 'wearily' after the verb.
+    ('jump' itself is a corpus word since the grammar says "does a jump".)"""
     st = Studio(model_dir=tiny_model_dir, initial=None)
     try:
         s = st.state
-        s.prompt = "a tired person jump"
-        assert s.unknown_words == ["tired"] and s.read_as == {"jump": "jumps"}
-        assert "read as: jump → jumps" in st.controls.words.object
+        s.prompt = "a tired person jumped"
+        assert s.unknown_words == ["tired"] and s.read_as == {"jumped": "jumps"}
+        assert "read as: jumped → jumps" in st.controls.words.object
         assert s.suggestions["tired"][0] == "~wearily"
         labels = [b.label for b in st.controls.suggestion_row.objects]
         assert "tired → … wearily" in labels
         s.replace_word("tired", "~wearily")
-        assert s.prompt == "a person jump wearily" and s.unknown_words == []
+        assert s.prompt == "a person jumped wearily" and s.unknown_words == []
         assert not st.controls.generate.disabled
     finally:
         st.close()

@@ -162,3 +162,44 @@ def test_blending_with_a_fine_tuned_root_model(tiny_model_dir, tmp_path):
     k.wrist_points = [(0.2, 1.0), (0.4, 1.4)]
     assert not tab.generate() and "no fine-tuned model for the left wrist" in s.notices[-1][1]
     studio.close()
+
+
+def test_control_runs_on_the_control_models_own_base(tiny_model_dir, tmp_path):
+    """The studio's base has another vocabulary (a newer base): the tab runs control, blending and inpainting alike,
+    on the base shipped beside the control models (``prior/``), says so in one visible line, and reads the prompt
+    with that base's words; with a compatible base nothing changes."""
+    from engine.methods.control import prior_folder
+    from tests.test_priormdm import controls_with_prior, grown_base
+
+    new = grown_base(tiny_model_dir, tmp_path / "new")
+    folder = controls_with_prior(tiny_model_dir, tmp_path / "control", ("root",))
+    studio = _studio(new, controls_dir=folder)
+    try:
+        s, tab = studio.state, studio.control
+        k = tab.settings
+        assert k.available == ["root"] and k.problem == ""
+        assert k.run_base.on_prior and k.run_base.loaded.folder == prior_folder(folder)
+        assert tab.base_note.visible and "control runs on the step-" in tab.base_note.object
+        assert "re-fine-tune" in k.base_note and "\n" not in k.base_note
+        k.prompt = "a person zorbs"  # a word of the studio's base only: unknown to the base control runs on
+        assert k.unknown_words == ["zorbs"]
+        k.prompt = "a person walks"
+        for method in ("blending", "inpainting"):
+            tab.method.value = method
+            assert tab.generate() and s.wait(300), s.notices[-1:]
+            assert not [n for n in s.notices if n[0] == "error"], s.notices
+            assert k.result.method == method and k.result.base_note == k.base_note
+            assert "control runs on the step-" in tab.readout.object
+    finally:
+        studio.close()
+    # the compatible base: the studio's own, no note
+    studio = _studio(tiny_model_dir, controls_dir=folder)
+    try:
+        k, tab = studio.control.settings, studio.control
+        assert k.available == ["root"] and k.base_note == "" and not tab.base_note.visible
+        assert k.run_base.loaded is studio.state.model and not k.run_base.on_prior
+        tab.method.value = "blending"
+        assert tab.generate() and studio.state.wait(300), studio.state.notices[-1:]
+        assert k.result.base_note == "" and "control runs on" not in tab.readout.object
+    finally:
+        studio.close()

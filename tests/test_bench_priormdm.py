@@ -109,6 +109,7 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     assert "fine_tuned" not in control["tasks"]["right_wrist"]
     assert control["tasks"]["root"]["fine_tuned"]["error_m"] < 0.01
     assert control["truth_redraw_fid"] > 0
+    assert control["base"]["control_prior"] is False and control["base"]["note"] == ""  # compatible: as before
     check_drawn(control)
     json.dumps({"compose": compose, "control": control})
 
@@ -188,3 +189,28 @@ def test_drawn_cases_prompts_and_targets():
     shifted = joints.copy()
     shifted[..., 2] += 0.3
     assert abs(drawn_errors(shifted, case).mean() - 0.3) < 1e-4
+
+
+def test_control_bench_runs_on_the_control_models_own_base(tiny_model, tiny_evaluator, monkeypatch):  # noqa: F811
+    """A loaded base with another vocabulary: the bench runs both methods on the prior the control models belong
+    to (``folder/prior``), and says so."""
+    from dataclasses import replace
+
+    from engine.evaluation.bench_control import format_table as control_table
+    from engine.methods import control
+    from engine.text import Tokenizer
+
+    new = replace(tiny_model, tokenizer=Tokenizer([*tiny_model.tokenizer.words[1:], "zorbs"]))
+    asked = []
+    monkeypatch.setattr(control, "load_prior", lambda folder, **k: asked.append(folder) or tiny_model)
+    used = []
+    real = control.controlled
+    monkeypatch.setattr("engine.evaluation.bench_control.controlled",
+                        lambda loaded, *a, **k: used.append(loaded) or real(loaded, *a, **k))
+    result = bench_control(new, tiny_evaluator, ControlBenchConfig(motions=2, steps=1, drawn_paths=0),
+                           models={"root": tiny_model}, folder="somewhere", log=lambda line: None)
+    assert asked == ["somewhere"] and used and all(m is tiny_model for m in used)
+    assert result["base"]["control_prior"] and "re-fine-tune" in result["base"]["note"]
+    assert set(result["tasks"]["root"]) == {"inpainting", "fine_tuned"} and result["models"] == ["root"]
+    table = control_table(result)
+    assert "the control models' own base, not the loaded one" in table and "note: control runs on the" in table

@@ -27,7 +27,8 @@ def test_a_sequence_sums_its_parts_within_the_model_range():
 
 
 def test_no_recognised_action_gets_the_default_and_explicit_lengths_win():
-    assert auto_seconds("a person staggers") == DEFAULT_SECONDS
+    assert auto_seconds("a person flurbs") == DEFAULT_SECONDS
+    assert auto_seconds("a person staggers") == auto_seconds("a person walks")  # a gait verb: a walk's length
     assert resolve_seconds(3.0, "a person jumps twice") == 3.0
     assert resolve_seconds(None, "a person jumps twice") == resolve_seconds(AUTO, "a person jumps twice")
     with pytest.raises(ValueError, match="or 'auto'"):

@@ -54,8 +54,15 @@ def test_bad_requests_are_explained(loaded):
     with pytest.raises(ValueError, match="number"):
         frames_for(float("nan"))
     assert frames_for(6.0) == 120
-    with pytest.raises(PromptError, match="jumpz"):
-        generate(loaded, Request(prompts=["a person jumpz"], frames=[10]), SampleConfig(steps=2))
+    # a typo is read as the one word it is a slip of, and said so; a prompt with nothing readable that says a
+    # motion is still refused, naming the word
+    typo = generate(loaded, Request(prompts=["a person jumpz"], frames=[10]), SampleConfig(steps=2))
+    assert typo.tokens[0].words == ("a", "person", "jumpz") and typo.tokens[0].read_as == {"jumpz": "jumps"}
+    assert typo.tokens[0].notes() == ["read 'jumpz' as 'jumps'"]
+    with pytest.raises(PromptError, match="flurbs"):
+        generate(loaded, Request(prompts=["a person flurbs"], frames=[10]), SampleConfig(steps=2))
+    with pytest.raises(PromptError, match="jumpz"):  # strict (training captions) refuses any unknown word
+        loaded.tokenizer.encode("a person jumpz", strict=True)
     with pytest.raises(ValueError, match="steps"):
         SampleConfig(steps=0)
     with pytest.raises(ValueError, match="sampler"):

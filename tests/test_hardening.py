@@ -375,8 +375,11 @@ def test_words_with_accents_and_emoji():
     assert split_words("नमस्ते") == ["नमस्ते"]
     tokenizer = Tokenizer(["a", "person", "walks", "naïve"])
     assert tokenizer.encode("a naïve person 😀 walks").words == ("a", "naïve", "person", "walks")
-    with pytest.raises(ValueError) as info:
-        tokenizer.encode("a person walks to the café")
+    cafe = tokenizer.encode("a person walks to the café")  # an accented word the model lacks: left out, whole
+    assert cafe.words == ("a", "person", "walks") and "café" in cafe.left_out
+    assert any("café" in n for n in cafe.notes()) and not any("'caf'" in n or n.endswith(" caf") for n in cafe.notes())
+    with pytest.raises(ValueError) as info:  # strict: refused, the word named whole
+        tokenizer.encode("a person walks to the café", strict=True)
     assert "'café'" in str(info.value) and "'caf'" not in str(info.value)
     with pytest.raises(ValueError, match="not plain words"):
         Tokenizer(["a1"])

@@ -6,7 +6,7 @@ import pytest
 
 from tests.conftest import real_file
 from engine.io import import_bvh, load_bvh, load_motion, save_bvh, save_motion
-from engine.io.bvh import BVHError, parse_bvh
+from engine.io.bvh import BVHError, parse_bvh, read_bvh
 from engine.io.bvh_export import EXPORT_JOINTS, format_bvh
 from engine.io.joint_names import normalize_name
 from engine.io.retarget import canonical_placement, detect_unit, resample, up_axis_rotation
@@ -140,6 +140,42 @@ def test_pymo_file_is_in_inches_and_walks_a_loop(pymo):
     facing = _facing_degrees(joints)
     assert facing.max() - facing.min() > 180  # it turns around and walks back
     assert np.linalg.norm(joints[-1, 0, [0, 2]]) < 1.0
+
+
+def test_pymo_root_path_is_the_files_own_root_channels_in_metres(pymo):
+    """Issue #32: PyMO's inversion round trip (274 cm) is an outlier; the import is not the cause. The root path is
+    the file's own Hips position channels, inches -> metres, every 6th frame (120 -> 20 fps), only turned about Y
+    and shifted by the canonical placement; the walk is a brisk one at a normal cadence, with feet on the floor."""
+    path = real_file("pymo_walk.bvh")
+    data = read_bvh(path)
+    assert data.names[0] == "Hips" and data.channels[0][:3] == ("Xposition", "Yposition", "Zposition")
+    assert abs(data.fps - 120.0) < 0.01
+    raw = data.motion[::6, :3] * 0.0254  # the file's root channels in metres at 20 fps
+    imported = import_bvh(path, retarget=False)
+    assert imported.up_axis == "+Y" and imported.mapping["pelvis"] == "Hips"
+    root = imported.joints[:, 0].astype(np.float64)
+    assert len(root) == len(raw) == 178
+
+    def floor_distances(p: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(p[:, None, [0, 2]] - p[None, :, [0, 2]], axis=-1)
+
+    assert np.allclose(floor_distances(root), floor_distances(raw), atol=1e-4)  # same path up to a turn about Y
+    assert np.allclose(root[:, 1] - root[0, 1], raw[:, 1] - raw[0, 1], atol=1e-4)  # same height changes
+    # the retargeted motion (what the model sees) keeps that path: our legs are about as long as the file's
+    for joints in (root, pymo.joints[:, 0].astype(np.float64)):
+        speed = np.linalg.norm(np.diff(joints[:, [0, 2]], axis=0), axis=1).sum() / pymo.duration
+        assert 1.5 < speed < 1.9  # 15 m in 8.9 s: a brisk walk, 1.7 m/s
+    # ~2 steps a second (a walk at 120 fps, not a walk at 60 fps played twice as fast): stance onsets of each ankle
+    joints = pymo.joints.astype(np.float64)
+    for side in ("left", "right"):
+        ankle = joints[:, JOINT_INDEX[f"{side}_ankle"], :]
+        still = np.linalg.norm(np.diff(ankle[:, [0, 2]], axis=0), axis=1) * pymo.fps < 0.5
+        strides = np.count_nonzero(still[1:] & ~still[:-1]) / pymo.duration
+        assert 0.8 < strides < 1.4
+    # feet on the floor, pelvis at a standing adult's hip height, head joint at ~1.45 m
+    assert abs(np.median(joints[:, FEET, 1].min(axis=1))) < 0.03
+    assert 0.75 < np.median(joints[:, 0, 1]) < 0.95
+    assert 1.35 < np.median(joints[:, JOINT_INDEX["head"], 1]) < 1.6
 
 
 def test_raw_import_keeps_the_files_bodies():

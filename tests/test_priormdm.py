@@ -209,3 +209,99 @@ def test_cli_compose_and_control(tiny_model_dir, tmp_path, capsys):
     path.write_text("[[0, 0], [NaN, 1]]")
     assert main(["control", "--prompt", "a person walks", "--root", str(path), "--inpaint", "--model",
                  str(tiny_model_dir), "--out", str(tmp_path / "c.npy")]) == 2
+
+
+# ----------------------------------------------------------------------------- control on its own prior (issue #32)
+def grown_base(src: Path, dst: Path, words=("zorbs", "quintles", "flarp")) -> Path:
+    """A copy of the model folder ``src`` whose vocabulary has ``words`` appended (the embedding grown to fit): a
+    'new base' with the old words' ids kept, which control models fine-tuned on ``src`` cannot blend with."""
+    import shutil
+
+    shutil.copytree(src, dst, ignore=shutil.ignore_patterns("train_state.pt", "log.jsonl"))
+    config = json.loads((dst / "config.json").read_text())
+    config["vocabulary"] = [*config["vocabulary"], *words]
+    need = len(config["vocabulary"]) + 1  # the padding id first
+    if need > config["model"]["vocab_size"]:
+        state = torch.load(dst / "weights.pt", weights_only=True)
+        for k, v in state.items():
+            if k.endswith("embed.weight") and v.shape[0] == config["model"]["vocab_size"]:
+                state[k] = torch.cat([v, torch.zeros(need - v.shape[0], *v.shape[1:], dtype=v.dtype)])
+        torch.save(state, dst / "weights.pt")
+        config["model"]["vocab_size"] = need
+    (dst / "config.json").write_text(json.dumps(config))
+    (dst / "vocabulary.txt").write_text("\n".join(config["vocabulary"]) + "\n")
+    return dst
+
+
+def controls_with_prior(base: Path, folder: Path, names=("root",), *, prior: bool = True) -> Path:
+    """A controls folder: a 'control model' per name (a copy of ``base`` marked fine-tuned for it) and, when
+    ``prior``, the base they came from in ``folder/prior``."""
+    import shutil
+
+    from engine.methods.control import prior_folder
+
+    for name in names:
+        shutil.copytree(base, folder / name, ignore=shutil.ignore_patterns("train_state.pt", "log.jsonl"))
+        config = json.loads((folder / name / "config.json").read_text())
+        config.setdefault("train", {})["control"] = name
+        (folder / name / "config.json").write_text(json.dumps(config))
+    if prior:
+        shutil.copytree(base, prior_folder(folder), ignore=shutil.ignore_patterns("train_state.pt", "log.jsonl"))
+    return folder
+
+
+def test_control_runs_on_the_control_models_own_base_when_the_loaded_one_moved_on(tiny_model_dir, tmp_path):
+    from engine.checkpoint import load_model
+    from engine.methods.control import control_base, load_controls, prior_folder
+    from engine.paths import CONTROL_DIR, CONTROL_PRIOR_DIR
+
+    assert CONTROL_PRIOR_DIR == prior_folder(CONTROL_DIR) and CONTROL_PRIOR_DIR.parent == CONTROL_DIR
+    old = load_model(tiny_model_dir)
+    new = load_model(grown_base(tiny_model_dir, tmp_path / "new"))
+    assert new.tokenizer.words[: len(old.tokenizer.words)] == old.tokenizer.words
+    folder = controls_with_prior(tiny_model_dir, tmp_path / "control", ("root", "left_wrist"))
+    models = load_controls(folder)
+    # a compatible base: nothing changes (and the prior is not even read)
+    same = control_base(old, models, folder=folder, prior=lambda: pytest.fail("the prior was loaded"))
+    assert same.loaded is old and set(same.models) == {"root", "left_wrist"} and same.note == "" and not same.on_prior
+    # a base with another vocabulary: the prior shipped beside the control models, said in one line
+    run = control_base(new, models, folder=folder)
+    assert run.on_prior and run.loaded.folder == prior_folder(folder) and set(run.models) == {"root", "left_wrist"}
+    assert run.loaded.tokenizer.words == old.tokenizer.words and run.odd == ()
+    assert "\n" not in run.note and f"step-{old.config['step']} base" in run.note and "re-fine-tune" in run.note
+    assert "moattn train control --control" in run.note
+    # no prior shipped: the loaded base, with the control models that cannot blend with it named
+    bare = controls_with_prior(tiny_model_dir, tmp_path / "bare", ("root",), prior=False)
+    none = control_base(new, load_controls(bare), folder=bare)
+    assert none.loaded is new and none.models == {} and none.odd == ("root",) and none.note == ""
+
+
+def test_cli_control_on_the_control_models_own_base(tiny_model_dir, tmp_path, capsys):
+    from engine.methods.control import prior_folder
+
+    new = grown_base(tiny_model_dir, tmp_path / "new")
+    folder = controls_with_prior(tiny_model_dir, tmp_path / "control", ("root",))
+    path = tmp_path / "root.json"
+    path.write_text(json.dumps({"points": [[0, 0], [0, 2], [1, 3]]}))
+    common = ["control", "--root", str(path), "--seconds", "3", "--steps", "2", "--controls", str(folder),
+              "--out", str(tmp_path / "c.npy")]
+    for extra in ([], ["--inpaint"]):  # blending and inpainting alike run on the prior
+        assert main([*common, "--prompt", "a person zorbs and walks", "--model", str(new), *extra]) == 0
+        captured = capsys.readouterr()
+        report = json.loads(captured.out)
+        assert report["base"] == str(prior_folder(folder)) and "re-fine-tune" in report["base_note"]
+        assert report["method"] == ("inpainting" if extra else "blending")
+        note = [line for line in captured.err.splitlines() if line.startswith("note: control runs on the step-")]
+        assert len(note) == 1 and "moattn train control --control" in note[0]
+        assert any("zorbs" in n for n in report.get("notes", [])), report  # the prior's words: 'zorbs' left out
+        assert report["root_error"]["mean_m"] < 0.05
+    # the compatible base: as before, no note
+    assert main([*common, "--prompt", "a person walks", "--model", str(tiny_model_dir)]) == 0
+    captured = capsys.readouterr()
+    report = json.loads(captured.out)
+    assert report["base"] == str(tiny_model_dir) and "base_note" not in report and "note:" not in captured.err
+    # no prior beside the control models: refused with the reason
+    bare = controls_with_prior(tiny_model_dir, tmp_path / "bare", ("root",), prior=False)
+    assert main([*common[:-4], "--controls", str(bare), "--out", str(tmp_path / "c.npy"), "--prompt",
+                 "a person walks", "--model", str(new)]) == 2
+    assert "fine-tuned from another base model" in capsys.readouterr().err

@@ -313,7 +313,10 @@ def follow_generated(prompt: str, joints: np.ndarray, tokenized=None,
     """(the report, or why the motion could not be read; the prompt's notes) of a generated motion: what
     ``moattn generate`` prints and the studio's Generate box shows."""
     notes = prompt_notes(tokenized)
+    # the intent of what the model was asked: words it left out are not asked for, typos and words read by
+    # meaning are read as it read them
+    intent = parse_intent(prompt, tokenized) if hasattr(tokenized, "left_out") else prompt
     try:
-        return followed(prompt, joints, fps), notes
+        return followed(intent, joints, fps), notes
     except ValueError as exc:  # a motion too short or broken to read: say so, the motion itself stands
         return f"could not be read ({exc})", notes

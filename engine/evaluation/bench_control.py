@@ -44,7 +44,7 @@ from engine.evaluation.evaluator import LoadedEvaluator
 from engine.evaluation.metrics import fid, foot_skate
 from engine.generate import FPS, SampleConfig
 from engine.intent import parse_intent
-from engine.methods.control import Control, control_dims, controlled, load_controls
+from engine.methods.control import Control, control_base, control_dims, controlled, load_controls, shown_folder
 from engine.methods.drawn_paths import DrawnPath, drawn_letters, drawn_root_paths
 from engine.methods.paths import to_world
 from engine.representation import features_to_joints, joints_to_features
@@ -143,7 +143,11 @@ def control_error(joints: np.ndarray, truth: np.ndarray, name: str) -> np.ndarra
 
 
 def bench_control(loaded: LoadedModel, evaluator: LoadedEvaluator, config: ControlBenchConfig = ControlBenchConfig(),
-                  *, models: dict[str, LoadedModel] | None = None, log=print) -> dict:
+                  *, models: dict[str, LoadedModel] | None = None, folder=None, log=print) -> dict:
+    """The benchmark on the base the control models belong to (as ``moattn control`` and the studio run them):
+    ``loaded`` when they blend with it, else the prior shipped beside them (``folder/prior``, default
+    assets/control/prior); both methods run on that base. ``models``: the control models (default: those in
+    ``folder``, default assets/control)."""
     from engine.paths import CONTROL_DIR
     from engine.synth import Corpus
 
@@ -151,7 +155,13 @@ def bench_control(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Contr
         raise ValueError(f"the control benchmark needs at least 2 held-out motions (an FID of one motion is undefined), "
                          f"got {config.motions}")
     t0 = time.time()
-    models = load_controls(CONTROL_DIR, runtime=loaded.runtime) if models is None else models
+    folder = CONTROL_DIR if folder is None else folder
+    models = load_controls(folder, runtime=loaded.runtime) if models is None else models
+    run = control_base(loaded, models, folder=folder)
+    loaded, models = run.loaded, run.models
+    base = {"folder": shown_folder(loaded.folder), "step": loaded.config.get("step"), "control_prior": run.on_prior,
+            "note": run.note, "unblendable": list(run.odd)}
+    log(f"  base: {base['folder']} (step {base['step']})" + (f"; {run.note}" if run.note else ""))
     corpus = Corpus(split="test", seed=config.seed)
 
     def held_out(start: int) -> list:
@@ -169,7 +179,7 @@ def bench_control(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Contr
     log(f"  truth (other motions): FID {floor:.3f} (the floor)")
     sample = SampleConfig(steps=config.steps, guidance=config.guidance, seed=config.seed)
     intents = [parse_intent(s.captions[0]) for s in items]
-    result = {"motions": len(items), "steps": config.steps, "models": sorted(models), "tasks": {},
+    result = {"motions": len(items), "steps": config.steps, "models": sorted(models), "base": base, "tasks": {},
               "truth_redraw_fid": floor,
               "truth_adherence": score(check_motion(s.joints, i) for s, i in zip(items, intents)),
               "truth_skate": float(np.mean([foot_skate(s.joints) for s in items]))}
@@ -292,4 +302,11 @@ def format_table(result: dict) -> str:
     lines.append(f"FID floor (other held-out motions vs the same ones): {result['truth_redraw_fid']:.3f}")
     lines.append(f"{result['motions']} held-out motions, {result['steps']} steps, control models: "
                  f"{', '.join(result['models']) or 'none'}, {result['seconds']:.0f} s")
+    base = result.get("base")
+    if base is not None:
+        lines.append(f"base (inpainting and blending): {base['folder']}, step {base['step']}"
+                     + (" — the control models' own base, not the loaded one" if base["control_prior"] else "")
+                     + (f"; not blendable with it: {', '.join(base['unblendable'])}" if base["unblendable"] else ""))
+        if base["note"]:
+            lines.append(f"note: {base['note']}")
     return "\n".join(lines)

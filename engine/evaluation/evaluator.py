@@ -96,7 +96,7 @@ class LoadedEvaluator:
     def readable(self, caption: str) -> bool:
         """Whether the evaluator's tokenizer can read ``caption`` (known words, not empty, not too long)."""
         try:
-            self.tokenizer.encode(caption)
+            self.tokenizer.encode(caption, strict=True)  # a caption is scored as written: no word read by meaning
         except PromptError:
             return False
         return True
@@ -123,7 +123,7 @@ class LoadedEvaluator:
         device = self.device
         out = []
         for i in range(0, len(captions), batch):
-            ids, mask = self.tokenizer.batch(captions[i : i + batch])
+            ids, mask = self.tokenizer.batch(captions[i : i + batch], strict=True)
             out.append(self.model.embed_text(ids.to(device), mask.to(device)).float().cpu().numpy())
         return np.concatenate(out)
 

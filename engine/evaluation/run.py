@@ -56,7 +56,7 @@ def _unreadable(caption: str, tokenizers: Mapping[str, Tokenizer]) -> str | None
     reasons = []
     for owner, tokenizer in tokenizers.items():
         try:
-            tokenizer.encode(caption)
+            tokenizer.encode(caption, strict=True)  # corpus captions: every word known, none left out
         except PromptError as exc:
             unknown = exc.unknown or tokenizer.unknown_words(caption)
             reasons.append(f"the {owner} does not know {', '.join(repr(w) for w in unknown)}" if unknown

@@ -15,6 +15,7 @@ import torch
 from engine.checkpoint import LoadedModel, load_model
 from engine.diffusion import CLEAN, CosineSchedule, StepState
 from engine.generate import Generation, Request, SampleConfig, denoiser_for, frames_for, generate
+from engine.paths import CONTROL_PRIOR_DIR, PROJECT_ROOT
 from engine.representation import SLICES, ric_dims
 from engine.runtime import CPU, Runtime
 from engine.skeleton import JOINT_INDEX
@@ -201,3 +202,72 @@ def same_base(base: LoadedModel, model: LoadedModel) -> bool:
                 and np.allclose(base.normalizer.std, model.normalizer.std, atol=1e-5))
     except (AttributeError, ValueError):
         return False
+
+
+# ----------------------------------------------------------------------------- the base control runs on
+RETRAIN = "moattn train control --control NAME --init-from assets/model --out assets/control/NAME"
+
+
+def prior_folder(controls_folder) -> Path:
+    """Where a controls folder ships its own copy of the base model its control models were fine-tuned on."""
+    return Path(controls_folder) / CONTROL_PRIOR_DIR.name
+
+
+def load_prior(controls_folder, *, runtime: Runtime = CPU) -> LoadedModel | None:
+    """The base model shipped beside the control models in ``controls_folder`` (``prior/``), or None."""
+    folder = prior_folder(controls_folder)
+    return load_model(folder, runtime=runtime) if (folder / "config.json").exists() else None
+
+
+@dataclass
+class ControlBase:
+    """The base model control runs on (inpainting and blending alike) and the control models that blend with it."""
+
+    loaded: LoadedModel
+    models: dict[str, LoadedModel]
+    note: str = ""  # one line when ``loaded`` is the control models' own prior, not the given base; "" otherwise
+    odd: tuple[str, ...] = ()  # control models found that blend with neither (other vocabulary or statistics)
+
+    @property
+    def on_prior(self) -> bool:
+        return bool(self.note)
+
+
+def shown_folder(folder) -> str:
+    """A model folder as messages name it: relative to the project when inside it."""
+    path = Path(folder).resolve()
+    try:
+        return str(path.relative_to(PROJECT_ROOT))
+    except ValueError:
+        return str(path)
+
+
+def prior_note(prior: LoadedModel, folder) -> str:
+    """The visible line saying control runs on the control models' own base, and how to end that."""
+    return (f"control runs on the step-{prior.config.get('step', '?')} base its control models belong to "
+            f"({shown_folder(folder)}), not the loaded one; re-fine-tune them on the new base with `{RETRAIN}`")
+
+
+def control_base(base: LoadedModel, models: dict[str, LoadedModel], *, folder,
+                 prior: LoadedModel | None | Callable[[], LoadedModel | None] = None) -> ControlBase:
+    """Which base model control runs on, given the loaded ``base`` and the control ``models`` found in ``folder``.
+
+    ``base`` itself when every control model blends with it (same vocabulary and feature statistics: nothing
+    changes). Otherwise the base shipped beside them (``folder/prior``, issue #32: the base model moved on to a
+    grown vocabulary before the control models were re-fine-tuned) when more of them blend with that one; then
+    inpainting runs on it too, and ``note`` says so. ``prior``: that model already loaded, or a callable loading it
+    (default: :func:`load_prior` on ``base``'s runtime), read only when ``base`` does not fit.
+    """
+    fits = {n: m for n, m in models.items() if same_base(base, m)}
+    if len(fits) == len(models):
+        return ControlBase(base, dict(models))
+    if prior is None:
+        prior = load_prior(folder, runtime=base.runtime)
+    elif callable(prior):
+        prior = prior()
+    if prior is not None:
+        own = {n: m for n, m in models.items() if same_base(prior, m)}
+        if len(own) > len(fits):
+            return ControlBase(prior, own, note=prior_note(prior, prior_folder(folder)),
+                               odd=tuple(n for n in models if n not in own))
+    return ControlBase(base, fits, odd=tuple(n for n in models if n not in fits))

@@ -18,7 +18,7 @@ import numpy as np
 from app.generation import Cancelled, checked_frames, sampling_slot
 from app.session.items import MotionItem
 from app.session.jobs import JobDescription, Worker
-from app.tabs.control.models import control_models
+from app.tabs.control.models import control_setup
 from app.tabs.control.paths import LABELS, ROOT_COLOR, WRIST_COLOR
 from app.tabs.control.settings import ControlSettings
 
@@ -32,11 +32,13 @@ class ControlPlan:
     frame: dict | None  # the root path's world frame (None: no root control)
     wrist_target: np.ndarray | None  # (T, 3) body-frame values of the controlled wrist
     models: dict | None  # None: plain inpainting
+    base: object  # the LoadedModel that runs it: the session's, or the control models' own base (issue #32)
     weights: list[float]
     sample: object
     seconds: float
     method: str
     description: str
+    base_note: str = ""  # one line when ``base`` is the control models' own base, not the session's
 
 
 @dataclass
@@ -50,6 +52,7 @@ class ControlSummary:
     seconds_taken: float
     guides: list[tuple[str, np.ndarray]] = field(default_factory=list)  # colour, (N, 3) world points
     joints: np.ndarray | None = None  # (T, 22, 3) in the path's world
+    base_note: str = ""  # one line when it ran on the control models' own base, not the session's
 
 
 def prepare(state, settings: ControlSettings) -> ControlPlan:
@@ -58,9 +61,12 @@ def prepare(state, settings: ControlSettings) -> ControlPlan:
     from engine.methods.control import Control
     from engine.methods.paths import RootPath, WristPath, root_controls
 
-    loaded = state.model
     if not settings.prompt.strip():
         raise ValueError("type what the person does (e.g. 'a person walks')")
+    # the base control runs on, inpainting and blending alike: the session's, or (when the control models were
+    # fine-tuned on another vocabulary) the base shipped beside them; it reads the prompt
+    run, problem = control_setup(settings.controls_dir, base=state.model)
+    loaded = run.loaded
     loaded.tokenizer.encode(settings.prompt)
     frames = checked_frames(loaded, settings.seconds)
     seconds = frames / 20
@@ -85,7 +91,7 @@ def prepare(state, settings: ControlSettings) -> ControlPlan:
         controls.append(Control(settings.wrist, wrist_target))
     models = None
     if settings.method == "blending":
-        found, problem = control_models(settings.controls_dir, base=loaded)
+        found = run.models
         missing = [n for n in names if n not in found]
         if missing:
             raise ValueError(f"no fine-tuned model for the {', '.join(LABELS[n] for n in missing)}: "
@@ -96,7 +102,8 @@ def prepare(state, settings: ControlSettings) -> ControlPlan:
     what = " + ".join(LABELS[n] for n in names)
     return ControlPlan(prompt=settings.prompt.strip(), controls=controls, frame=frame, wrist_target=wrist_target,
                       models=models, weights=[shares[n] for n in names], sample=sample, seconds=seconds,
-                      method=settings.method, description=f"{what} by {settings.method}")
+                      method=settings.method, description=f"{what} by {settings.method}", base=loaded,
+                      base_note=run.note)
 
 
 def run_job(loaded, job: ControlPlan, *, on_step: Callable[[int, int], None], cancel: threading.Event,
@@ -113,13 +120,14 @@ def run_job(loaded, job: ControlPlan, *, on_step: Callable[[int, int], None], ca
 
     t0 = time.perf_counter()
     with sampling_slot(cancel, on_wait):
-        gen = controlled(loaded, job.prompt, job.controls, seconds=job.seconds, models=job.models,
-                         weights=job.weights, sample=job.sample, on_step=step)
+        gen = controlled(job.base if job.base is not None else loaded, job.prompt, job.controls, seconds=job.seconds,
+                         models=job.models, weights=job.weights, sample=job.sample, on_step=step)
     joints = np.asarray(gen.joints[0], dtype=np.float32)
     if not np.isfinite(joints).all():
         raise ValueError("the model produced non-finite joints")
     summary = measure(job, joints, features=np.asarray(gen.features[0]))
     summary.seconds_taken = time.perf_counter() - t0
+    summary.base_note = job.base_note
     summary.joints = joints if job.frame is None else _world(joints, job.frame)
     return summary
 

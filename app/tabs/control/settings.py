@@ -8,7 +8,7 @@ import numpy as np
 import param
 
 from app.generation import prompt_analysis
-from app.tabs.control.models import control_models
+from app.tabs.control.models import control_models, control_setup
 from app.tabs.control.paths import DEFAULT_ROOT, LABELS, WRIST_DEPTH, WRISTS, thin
 from engine.paths import CONTROL_DIR
 from engine.units import MAX_SECONDS, MIN_SECONDS
@@ -38,6 +38,8 @@ class ControlSettings(param.Parameterized):
     controls_dir = param.Parameter(default=CONTROL_DIR, doc="folder of the fine-tuned control models")
     available = param.List(default=[], doc="controls with a fine-tuned model in controls_dir")
     problem = param.String(default="", doc="why blending is not offered ('' when it is)")
+    base_note = param.String(default="", doc="one line when control runs on the control models' own base model "
+                                             "(not the loaded one); '' otherwise")
     unknown_words = param.List(default=[], doc="words of the prompt the model does not know")
     result = param.Parameter(default=None, doc="ControlSummary of the last controlled generation")
 
@@ -46,8 +48,8 @@ class ControlSettings(param.Parameterized):
         super().__init__(**params)
         self.tokenizer = tokenizer or (lambda: None)
         self._base = base or (lambda: None)  # the loaded base model (None: none loaded)
+        self.run_base = None  # ControlBase: the base control runs on and its control models (None: no model loaded)
         self.param.watch(self._analyse, "prompt")
-        self._analyse()
         self.discover()
 
     @classmethod
@@ -55,14 +57,23 @@ class ControlSettings(param.Parameterized):
         extra = {} if controls_dir is None else {"controls_dir": controls_dir}
         return cls(tokenizer=session.tokenizer, base=lambda: session.model if session.has_model else None, **extra)
 
+    def prompt_tokenizer(self):
+        """The tokenizer of the model control runs on (the control models' own base when it is not the loaded one)."""
+        if self.run_base is not None and self.run_base.on_prior:
+            return self.run_base.loaded.tokenizer
+        return self.tokenizer()
+
     def _analyse(self, *_) -> None:
-        self.unknown_words = prompt_analysis(self.tokenizer(), self.prompt)[1]
+        self.unknown_words = prompt_analysis(self.prompt_tokenizer(), self.prompt)[1]
 
     def discover(self) -> None:
-        """Which methods this server offers: blending only where fine-tuned models exist."""
-        models, problem = control_models(self.controls_dir, base=self._base())
-        self.param.update(available=sorted(models), problem=problem,
+        """Which methods this server offers (blending only where fine-tuned models exist) and on which base model."""
+        run, problem = control_setup(self.controls_dir, base=self._base())
+        self.run_base = run
+        models = control_models(self.controls_dir)[0] if run is None else run.models  # no base: all found
+        self.param.update(available=sorted(models), problem=problem, base_note="" if run is None else run.note,
                           method=self.method if models else "inpainting")
+        self._analyse()
 
     @property
     def active(self) -> list[str]:

@@ -36,6 +36,8 @@ class ControlTab(pn.viewable.Viewer):
         self.prompt = text_from_param(k.param.prompt, css_classes=["control-prompt"], sizing_mode="stretch_width")
         self.seconds = FloatBox.from_param(k.param.seconds, width=90, css_classes=["control-seconds"])
         self.flag = pn.pane.HTML("", margin=(0, 10), stylesheets=[UNKNOWN_CSS], css_classes=["control-flag"])
+        # one line when control runs on the control models' own base model, not the loaded one (issue #32)
+        self.base_note = pn.pane.HTML("", margin=(0, 10), stylesheets=[_CSS], css_classes=["control-base-note"])
         self.use_root = pn.widgets.Checkbox.from_param(k.param.use_root, css_classes=["control-use-root"])
         self.top = TopDownCanvas(settings=k)
         self.root_info = pn.pane.HTML("", css_classes=["control-root-info"], margin=(0, 10), stylesheets=[_CSS])
@@ -69,6 +71,8 @@ class ControlTab(pn.viewable.Viewer):
         k.param.watch(self._on_root_info, ["root_points", "seconds", "use_root"])
         k.param.watch(self._on_active, ["use_root", "wrist", "method", "weights", "available"])
         k.param.watch(self._on_result, "result")
+        k.param.watch(self._on_base_note, "base_note")
+        self._on_base_note()
         self._on_unknown()
         self._on_root_info()
         self._on_active()
@@ -84,10 +88,15 @@ class ControlTab(pn.viewable.Viewer):
     # ------------------------------------------------------------------ settings -> widgets
     def _on_unknown(self, *_):
         k = self.settings
-        tokenizer = k.tokenizer()
+        tokenizer = k.prompt_tokenizer()
         suggestions = {w: tokenizer.suggest(w) for w in k.unknown_words} if tokenizer is not None else {}
         self.flag.object = flag_unknown(k.unknown_words, suggestions)
         self.flag.visible = bool(k.unknown_words)
+
+    def _on_base_note(self, *_):
+        note = self.settings.base_note
+        self.base_note.object = f'<span class="warn">{html.escape(note)}</span>' if note else ""
+        self.base_note.visible = bool(note)
 
     def _on_root_info(self, *_):
         k = self.settings
@@ -147,6 +156,7 @@ class ControlTab(pn.viewable.Viewer):
         self.readout.object = (
             f'<div class="control-box"><b>{html.escape(r.name)}</b><br>{html.escape(r.method)} · '
             f'{r.seconds_taken:.1f} s<table class="control-error">{rows}</table>'
+            + (f'<div class="warn">{html.escape(r.base_note)}</div>' if r.base_note else "") +
             f'<div class="note">In the viewer: {guides} (the "root path" checkbox hides them).</div></div>')
 
     def __panel__(self):
@@ -155,7 +165,7 @@ class ControlTab(pn.viewable.Viewer):
         wrist = pn.Column(self.wrist, self.wrist_box, sizing_mode="stretch_width")
         return pn.Column(
             pn.pane.Markdown(HELP, styles={"font-size": "12px", "color": "#444"}, margin=(0, 10)),
-            pn.Row(self.prompt, self.seconds, sizing_mode="stretch_width"), self.flag,
+            self.base_note, pn.Row(self.prompt, self.seconds, sizing_mode="stretch_width"), self.flag,
             "#### Root path (top-down)", root, "#### Wrist path (front view)", wrist,
             "#### Method", self.method, self.method_note, *self.weights.values(), self.shares,
             self.bar, self.readout, css_classes=["control-tab"], sizing_mode="stretch_width")
@@ -165,6 +175,7 @@ _CSS = """
 .ok { color: #11672b; font-size: 12px; }
 .bad { color: #a00; font-size: 12px; }
 .note { color: #555; font-size: 12px; }
+.warn { color: #8a5a00; font-size: 12px; }
 .control-box { font-size: 13px; }
 .control-error { border-collapse: collapse; margin: 4px 0; }
 .control-error td { padding: 1px 12px 1px 0; }
