@@ -20,7 +20,7 @@ from engine.checkpoint import LoadedModel
 from engine.generate import Request, SampleConfig, finish, frames_for, sample_states
 from engine.duration import resolve_seconds
 from engine.representation import features_to_joints
-from engine.text import TokenizedPrompt, split_words
+from engine.text import PromptError, TokenizedPrompt, split_words
 from engine.units import DEFAULT_GUIDANCE
 
 
@@ -107,13 +107,57 @@ def sampling_slot(cancel: threading.Event | None = None,
         SAMPLING_SLOT.release()
 
 
-def prompt_analysis(tokenizer, text: str) -> tuple[list[str], list[str], dict[str, list[str]]]:
-    """(words, unknown words, unknown word -> close vocabulary words) of a prompt; nothing is unknown without a
-    tokenizer (no model loaded)."""
-    words = split_words(text)
-    unknown = [] if tokenizer is None else list(dict.fromkeys(w for w in words if tokenizer.read_as(w) is None))
-    suggestions = {} if tokenizer is None else {w: tokenizer.suggest(w) for w in unknown}
-    return words, unknown, suggestions
+@dataclass(frozen=True)
+class PromptReading:
+    """A prompt as the engine will read it (``Tokenizer.encode``: one rule, in the engine), for a prompt box to show
+    before running: the typed words, the engine's reading (``tokens``) and its notes ("read 'guy' as 'man'",
+    "left out: over"), or why the engine refuses the prompt (``error``, one line: empty, too long, nothing that
+    says a motion). Without a tokenizer (no model loaded) nothing is read, noted or refused."""
+
+    words: tuple[str, ...] = ()
+    tokens: TokenizedPrompt | None = None
+    error: str = ""
+    refused: tuple[str, ...] = ()  # the words the refusal names (the engine's PromptError.unknown)
+
+    @property
+    def blocked(self) -> bool:
+        """The engine would refuse this prompt: a run button waits."""
+        return bool(self.error)
+
+    @property
+    def left_out(self) -> tuple[str, ...]:
+        """Typed words the model gets no token for (or, refused, the words the refusal names)."""
+        return self.tokens.left_out if self.tokens is not None else self.refused
+
+    @property
+    def read_as(self) -> dict[str, str]:
+        """Typed word -> the vocabulary word it is read as (by form, meaning or spelling)."""
+        return dict(self.tokens.read_as) if self.tokens is not None else {}
+
+    @property
+    def read_by(self) -> dict[str, str]:
+        return dict(self.tokens.read_by) if self.tokens is not None else {}
+
+    @property
+    def suggestions(self) -> dict[str, tuple[str, ...]]:
+        """Replacements the engine offers for left-out words (meanings, or close spellings of a true typo)."""
+        return dict(self.tokens.suggestions) if self.tokens is not None else {}
+
+    @property
+    def notes(self) -> list[str]:
+        """The engine's notes (``TokenizedPrompt.notes``): what it will do with words it does not know."""
+        return self.tokens.notes() if self.tokens is not None else []
+
+
+def prompt_analysis(tokenizer, text: str) -> PromptReading:
+    """How the engine will read ``text`` (:class:`PromptReading`), from ``tokenizer.encode`` alone."""
+    words = tuple(split_words(text))
+    if tokenizer is None:
+        return PromptReading(words=words)
+    try:
+        return PromptReading(words=words, tokens=tokenizer.encode(text))
+    except PromptError as exc:
+        return PromptReading(words=words, error=str(exc), refused=tuple(exc.unknown))
 
 
 def checked_frames(loaded: LoadedModel, seconds) -> int:

@@ -82,26 +82,40 @@ def test_recording_plan_and_memory_budget():
 
 
 # ---------------------------------------------------------------------------------------------- prompt
-def test_unknown_words_are_flagged_with_suggestions(tiny_model_dir):
+def test_the_prompt_box_shows_what_the_engine_will_do_and_never_blocks_over_a_word(tiny_model_dir):
+    """Issue #32 item 5: before generating, the box shows the engine's own notes (Tokenizer.encode: typo read as,
+    read by meaning, left out) and Generate stays enabled; only a prompt the engine refuses disables it."""
+    from app.generation import prompt_analysis
+
     st = Studio(model_dir=tiny_model_dir, initial=None)
     try:
-        s = st.state
-        s.prompt = "a persn jumsp twice"
-        assert s.unknown_words == ["persn", "jumsp"]
-        assert "person" in s.suggestions["persn"] and "jumps" in s.suggestions["jumsp"]
-        assert st.controls.generate.disabled
-        assert "word-unknown" in st.controls.words.object
-        labels = [b.label for b in st.controls.suggestion_row.objects]
-        assert "persn → person" in labels
-        # clicking a suggestion rewrites the prompt
-        button = next(b for b in st.controls.suggestion_row.objects if b.label == "persn → person")
-        button.clicks += 1
-        s.replace_word("jumsp", "jumps")
-        assert s.prompt == "a person jumps twice" and s.unknown_words == []
-        assert not st.controls.generate.disabled
-        # typing goes through value_input
-        st.controls.prompt.value_input = "a person jmps"
-        assert s.unknown_words == ["jmps"]
+        s, c = st.state, st.controls
+        tokenizer = s.tokenizer()
+        s.prompt = "a persn jumsp twice"  # typos: read as the one known word they are a slip of
+        assert s.reading.notes == tokenizer.encode(s.prompt).notes() == ["read 'persn' as 'person'",
+                                                                         "read 'jumsp' as 'jumps'"]
+        assert not c.generate.disabled and not s.reading.blocked
+        assert "read &#x27;persn&#x27; as &#x27;person&#x27;" in c.words.object and "word-read" in c.words.object
+        assert c.suggestion_row.objects == []  # nothing left out: nothing to pick
+        # a word left out: noted, Generate still enabled; suggestions only where the engine offers them
+        c.prompt.value_input = "a person jumps flibbers"
+        assert s.reading.left_out == ("flibbers",) and s.reading.notes == ["left out: flibbers"]
+        assert "left out: flibbers" in c.words.object and "word-left-out" in c.words.object
+        assert not c.generate.disabled
+        assert [b.label for b in c.suggestion_row.objects] == [
+            f"flibbers → {x}" for x in tokenizer.encode(s.prompt).suggestions["flibbers"][:3]]
+        # the engine refuses (nothing says a motion): its one-line message, Generate disabled
+        c.prompt.value_input = "a person flurbs"
+        assert s.reading.blocked and c.generate.disabled
+        assert "prompt-refused" in c.words.object and "nothing else in the prompt says what to do" in c.words.object
+        c.prompt.value_input = ""
+        assert s.reading.blocked and c.generate.disabled  # the engine refuses an empty prompt too
+        c.prompt.value_input = "a person jumps twice"
+        assert not c.generate.disabled and s.reading.notes == [] and "prompt-note" not in c.words.object
+        # one rule: the app's reading is the engine's
+        r = prompt_analysis(tokenizer, "a tired guy walks over")
+        assert r.tokens == tokenizer.encode("a tired guy walks over") and not r.blocked
+        assert prompt_analysis(None, "a flurb").notes == [] and not prompt_analysis(None, "").blocked
     finally:
         st.close()
 
@@ -435,20 +449,23 @@ def test_no_intent_line_when_the_model_knows_words_beyond_the_action_lexicon():
     assert "asked for: turn" in intent_line("someone pirouettes twice")  # read by meaning (a spin)
 
 
-def test_the_generate_box_reads_inflections_and_rewrites_by_meaning(tiny_model_dir):
-    """'jumped' is read as 'jumps' (said under the chips); 'tired' is offered as 'wearily' after the verb.
-    ('jump' itself is a corpus word since the grammar says "does a jump".)"""
+def test_the_generate_box_reads_inflections_and_words_by_meaning(tiny_model_dir):
+    """'jumped' is read as 'jumps' (another form: no note); 'tired' is read by meaning as the engine reads it, said
+    under the chips before generating ('jump' itself is a corpus word since the grammar says "does a jump")."""
     st = Studio(model_dir=tiny_model_dir, initial=None)
     try:
         s = st.state
         s.prompt = "a tired person jumped"
-        assert s.unknown_words == ["tired"] and s.read_as == {"jumped": "jumps"}
-        assert "read as: jumped → jumps" in st.controls.words.object
-        assert s.suggestions["tired"][0] == "~wearily"
-        labels = [b.label for b in st.controls.suggestion_row.objects]
-        assert "tired → … wearily" in labels
+        tokens = s.tokenizer().encode(s.prompt)
+        assert s.reading.read_as == {"tired": "wearily", "jumped": "jumps"} == tokens.read_as
+        assert s.reading.read_by == {"tired": "meaning", "jumped": "form"}
+        assert s.reading.notes == ["read 'tired' as 'wearily'"]  # another form of a known word is not noted
+        assert 'title="read as jumps"' in st.controls.words.object
+        assert "read &#x27;tired&#x27; as &#x27;wearily&#x27;" in st.controls.words.object
+        assert not st.controls.generate.disabled and st.controls.suggestion_row.objects == []
+        # a suggestion (when the engine offers one for a left-out word) still rewrites the prompt
         s.replace_word("tired", "~wearily")
-        assert s.prompt == "a person jumped wearily" and s.unknown_words == []
+        assert s.prompt == "a person jumped wearily" and s.reading.notes == []
         assert not st.controls.generate.disabled
     finally:
         st.close()

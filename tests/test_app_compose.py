@@ -55,13 +55,20 @@ def test_timeline_add_remove_move_and_edit(studio):
     assert tab.rows[0].remove.disabled
 
 
-def test_unknown_words_are_flagged_and_refused(studio):
+def test_unknown_words_are_noted_and_only_a_refused_prompt_blocks(studio):
     s, tab = studio.state, studio.compose
+    # a word the model does not know is left out with the engine's note; Generate stays enabled (issue #32 item 5)
+    tab.rows[1].prompt.value_input = "a person jumps flibbers"
+    assert "left out: flibbers" in tab.rows[1].flag.object and tab.rows[1].flag.visible
+    assert not tab.rows[0].flag.visible and not tab.bar.run.disabled
+    # a prompt the engine refuses (nothing else says a motion): its message, Generate disabled and refused
     tab.rows[1].prompt.value_input = "a person flibbers"
-    assert "flibbers" in tab.rows[1].flag.object and tab.rows[1].flag.visible
-    assert not tab.rows[0].flag.visible
+    assert "flibbers" in tab.rows[1].flag.object and "prompt-refused" in tab.rows[1].flag.object
+    assert tab.bar.run.disabled
     assert not tab.generate()
     assert s.notices[-1][0] == "error" and "flibbers" in s.notices[-1][1] and not s.running
+    tab.rows[1].prompt.value_input = "a person jumps"
+    assert not tab.rows[1].flag.visible and not tab.bar.run.disabled
 
 
 @pytest.mark.parametrize("rows, message", [

@@ -104,10 +104,16 @@ def test_bad_root_paths(studio, points, message):
 def test_bad_inputs(studio):
     s, tab = studio.state, studio.control
     k = tab.settings
+    # a word the model does not know never blocks (issue #32 item 5): the engine's note, Run stays enabled
+    tab.prompt.value_input = "a person walks flibbers"
+    assert "left out: flibbers" in tab.flag.object and tab.flag.visible and not tab.bar.run.disabled
+    # only a prompt the engine refuses (nothing says a motion) disables Run, with the engine's one-line message
     tab.prompt.value_input = "a person zorbs"
-    assert "zorbs" in tab.flag.object and tab.flag.visible
+    assert "zorbs" in tab.flag.object and "prompt-refused" in tab.flag.object and tab.flag.visible
+    assert tab.bar.run.disabled
     assert not tab.generate() and "zorbs" in s.notices[-1][1]
     tab.prompt.value_input = "a person walks"
+    assert not tab.flag.visible and not tab.bar.run.disabled
     tab.use_root.value = False
     assert "no control is on" in tab.shares.object
     assert not tab.generate() and "turn on at least one control" in s.notices[-1][1]
@@ -182,7 +188,7 @@ def test_control_runs_on_the_control_models_own_base(tiny_model_dir, tmp_path):
         assert tab.base_note.visible and "control runs on the step-" in tab.base_note.object
         assert "re-fine-tune" in k.base_note and "\n" not in k.base_note
         k.prompt = "a person zorbs"  # a word of the studio's base only: unknown to the base control runs on
-        assert k.unknown_words == ["zorbs"]
+        assert k.reading.blocked and k.reading.left_out == ("zorbs",)
         k.prompt = "a person walks"
         for method in ("blending", "inpainting"):
             tab.method.value = method

@@ -95,7 +95,7 @@ def test_completion_of_an_example_keeps_and_greys_the_prefix(studio):
 def test_bad_input_gets_a_clear_message(studio, change, message):
     s, d = studio.state, studio.duet.settings
     d.param.update(**change)
-    assert not studio.duet.settings.mode == "text" or not d.unknown_words or "flibber" in message
+    assert not studio.duet.settings.mode == "text" or not d.reading.left_out or "flibber" in message
     assert not s.launch(DuetJob(session=s, settings=d))
     level, text = s.notices[-1]
     assert level == "error" and text.startswith("cannot make a duet:") and message in text, text

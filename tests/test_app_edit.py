@@ -174,8 +174,13 @@ def test_replace_needs_aligned_prompts_and_says_why(studio):
     assert not tab.run.disabled
     tab.kind.value = "replace"
     assert tab.run.disabled
-    tab.edited.value = "a person flurbs twice"
-    assert "unknown word" in tab.alignment.object
+    tab.edited.value = "a person flurbs twice"  # the engine refuses it (nothing says a motion): its message
+    assert "align-bad" in tab.alignment.object and "nothing else in the prompt says what to do" in tab.alignment.object
+    assert tab.run.disabled
+    tab.edited.value = "a person flibbers twice"  # read ... ok, but 'flibbers' in place of 'jumps' would be left out
+    ok, message = tab._alignment()
+    assert not ok and ("left out" in message or "cannot be read" in message), message
+    assert tab.run.disabled
     tab.edited.value = "a person kicks twice"
     assert not tab.run.disabled
     _run(studio, "replace")
@@ -190,6 +195,27 @@ def test_bad_settings_are_notifications(studio):
     assert run_edit(s) is False and "pick a word" in s.notices[-1][1]
     s.prompt = "a person walks"
     assert s.edit.word == "" and list(tab.words.options) == ["a", "person", "walks"]
+    s.prompt = "a person jumps twice"
+
+
+def test_a_left_out_word_is_shown_and_cannot_be_pointed_at(studio):
+    """The prompt runs with a word the model does not know (left out, issue #32 item 5), but an edit pointing at that
+    word is refused with the engine's message; the word buttons say which words were left out."""
+    s, tab = studio.state, studio.edit
+    tab.kind.value = "emphasise"
+    s.prompt = "a person jumps flibbers"
+    assert s.reading.left_out == ("flibbers",) and not s.reading.blocked
+    assert list(tab.words.options) == ["a", "person", "jumps", "flibbers (left out)"]
+    tab.words.value = 3
+    assert (s.edit.word, s.edit.occurrence) == ("flibbers", 0)
+    n_items = len(s.items)
+    assert run_edit(s) is False
+    level, text = s.notices[-1]
+    assert level == "error" and "'flibbers' was left out" in text and "cannot be pointed at" in text, text
+    assert not s.running and len(s.items) == n_items
+    tab.words.value = 2  # a word the model reads: accepted (checked, not run here)
+    from app.tabs.edit.job import prepare
+    assert prepare(s).options.word == "jumps"
     s.prompt = "a person jumps twice"
 
 
@@ -263,6 +289,24 @@ def test_word_choice_and_alignment_helpers():
     ok, message = alignment(None, "a person jumps", "a person walks fast")
     assert not ok and "3 words" in message and "4" in message
     assert not alignment(None, "a person jumps", "a person jumps")[0]
+
+
+def test_replace_alignment_reads_both_prompts_as_the_engine_does(tiny_model_dir):
+    from engine.checkpoint import load_model
+
+    tok = load_model(tiny_model_dir).tokenizer
+    # words left out of both prompts alike keep the alignment; the engine's notes are said
+    ok, message = alignment(tok, "a person jumps flibbers", "a person kicks flibbers")
+    assert ok and "'jumps' → 'kicks'" in message and "left out: flibbers" in message, message
+    # a swapped-in word the engine leaves out cannot replace anything
+    ok, message = alignment(tok, "a person jumps and walks", "a person flibbers and walks")
+    assert not ok and "'flibbers' is left out of the edited prompt" in message, message
+    # a word read by meaning or as a typo can be swapped in
+    ok, message = alignment(tok, "a person jumps twice", "a person kiks twice")
+    assert ok and "read 'kiks' as 'kicks'" in message, message
+    # a prompt the engine refuses: its message
+    ok, message = alignment(tok, "a person jumps", "a person flurbs")
+    assert not ok and "edited prompt cannot be read" in message and "nothing else" in message
 
 
 def test_layers_that_do_not_exist_are_refused(tiny_model_dir, tmp_path, capsys):

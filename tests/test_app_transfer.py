@@ -39,7 +39,7 @@ def _set_prompts(tab, leader: str, follower: str, *, seconds: tuple[float, float
 def test_transfer_from_two_prompts(studio):
     s, tab = studio.state, studio.transfer
     _set_prompts(tab, "a person walks forward", "a person jumps twice")
-    assert "word-unknown" not in tab.leader.words.object and "walks" in tab.leader.words.object
+    assert "word-left-out" not in tab.leader.words.object and "walks" in tab.leader.words.object
     seen = []
     s.param.watch(lambda e: seen.append(e.new), "progress")
     _run(studio)
@@ -213,7 +213,9 @@ def test_bad_input_is_refused_with_a_message(studio, change, message):
     assert level == "error" and text.startswith("cannot transfer") and message in text, text
     assert not s.running and len(s.items) == n_items
     if "flumps" in message:
-        assert "word-unknown" in tab.follower.words.object and tab.run.disabled  # flagged as typed
+        # the engine refuses it (nothing else says a motion): flagged as typed, with its message, Run disabled
+        assert "word-left-out" in tab.follower.words.object and "prompt-refused" in tab.follower.words.object
+        assert tab.run.disabled
     s.transfer.layers = None
     s.transfer.leader.param.update(kind="prompt", motion="")
     tab.follower.seconds.value = 2.5

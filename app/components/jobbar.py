@@ -22,7 +22,7 @@ class JobBar(pn.viewable.Viewer):
     busy_label = param.String(default="", doc="Run's label while this bar's job runs ('' = unchanged)")
 
     def __init__(self, *, on_run: Callable[[], object], blocked: Callable[[], bool] | None = None, **params):
-        """``blocked()``: True while the tab's input cannot run (e.g. unknown words); call :meth:`refresh`
+        """``blocked()``: True while the tab's input cannot run (e.g. a prompt the engine refuses); call :meth:`refresh`
         when what it reads changes."""
         super().__init__(**params)
         self._blocked = blocked
@@ -83,25 +83,9 @@ def table_rows(rows) -> str:
     return "".join(f'<tr><td>{html.escape(a)}</td><td class="value">{html.escape(b)}</td></tr>' for a, b in rows)
 
 
-def flag_unknown(words: list[str], suggestions: dict[str, list[str]] | None = None) -> str:
-    """HTML for a prompt's unknown words ('' when every word is known)."""
-    if not words:
-        return ""
-    parts = []
-    for w in words:
-        near = (suggestions or {}).get(w) or []
-        near = [f"… {n[1:]}" if n.startswith("~") else n for n in near]  # '~adverb': goes after the verb
-        parts.append(f"<b>{html.escape(w)}</b>" + (f" (try: {html.escape(', '.join(near))})" if near else ""))
-    return f'<span class="unknown-words">unknown word{"s" * (len(words) > 1)}: {"; ".join(parts)}</span>'
-
-
 # a row of word buttons wraps inside its tab instead of running off its right edge
 WRAP_BUTTONS_CSS = """
 .bk-btn-group { flex-wrap: wrap; row-gap: 4px; }
 .bk-btn-group > .bk-btn { flex: 0 0 auto; }
 """
 
-UNKNOWN_CSS = """
-.unknown-words { color: #a00; background: #ffecec; border: 1px solid #f3b3b3; padding: 1px 6px; border-radius: 4px;
-  font-size: 12px; }
-"""

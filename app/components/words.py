@@ -1,4 +1,5 @@
-"""A prompt's words as chips (unknown ones flagged) and what the prompt asks for: every prompt box shows these."""
+"""A prompt's words as chips (as the engine reads them, with its notes) and what the prompt asks for: every prompt box
+shows these."""
 from __future__ import annotations
 
 import html
@@ -6,25 +7,31 @@ import html
 from engine.intent import parse_intent
 
 
-def word_chips(words: list[str], unknown: list[str], read_as: dict[str, str] | None = None) -> str:
-    """A prompt's words as chips, unknown ones flagged (with ``WORD_CSS``); shared by every prompt box.
-    ``read_as``: typed words the model reads as another form of a known word ("jump" -> "jumps")."""
-    if not words:
+def word_chips(reading) -> str:
+    """A prompt's words as chips, as the engine reads them (``reading``: an ``app.generation.PromptReading``), with
+    its notes below ("read 'guy' as 'man'", "left out: over") or its one-line refusal; shared by every prompt box
+    (with ``WORD_CSS``)."""
+    if not reading.words:
         return '<span class="prompt-empty">type a prompt</span>'
-    bad, read_as = set(unknown), read_as or {}
+    left_out, read_as, read_by = set(reading.left_out), reading.read_as, reading.read_by
 
     def chip(w: str) -> str:
-        if w in bad:
-            return f'<span class="word-unknown" title="not in the vocabulary">{html.escape(w)}</span>'
+        if w in left_out:
+            return f'<span class="word-left-out" title="left out: the model does not know it">{html.escape(w)}</span>'
         if w in read_as:
-            return f'<span class="word-known" title="read as {html.escape(read_as[w])}">{html.escape(w)}</span>'
+            cls = "word-known" if read_by.get(w) == "form" else "word-read"
+            return f'<span class="{cls}" title="read as {html.escape(read_as[w])}">{html.escape(w)}</span>'
         return f'<span class="word-known">{html.escape(w)}</span>'
 
-    note = f'<div class="unknown-note">unknown: {", ".join(html.escape(w) for w in unknown)}</div>' if unknown else ""
-    if read_as:
-        forms = ", ".join(f"{html.escape(w)} → {html.escape(k)}" for w, k in read_as.items())
-        note += f'<div class="read-as-note">read as: {forms}</div>'
-    return f'<div class="prompt-chips">{" ".join(chip(w) for w in words)}</div>{note}'
+    return f'<div class="prompt-chips">{" ".join(chip(w) for w in reading.words)}</div>{prompt_notes(reading)}'
+
+
+def prompt_notes(reading) -> str:
+    """HTML of what the engine will do with a prompt's words it does not know (its notes, one line each), or its
+    one-line refusal; '' when there is nothing to say."""
+    if reading.error:
+        return f'<div class="prompt-refused">{html.escape(reading.error)}</div>'
+    return "".join(f'<div class="prompt-note">{html.escape(n)}</div>' for n in reading.notes)
 
 
 def intent_line(prompt: str, unknown=()) -> str:
@@ -44,8 +51,10 @@ def intent_line(prompt: str, unknown=()) -> str:
 WORD_CSS = """
 .intent-full, .intent-partial { font-size: 12px; color: #335; margin-top: 2px; }
 .intent-partial { color: #8a5a00; }
-.word-unknown { background: #ffd6d6; color: #a00; border-bottom: 2px wavy #d00; padding: 0 3px; border-radius: 3px; }
+.word-left-out { background: #f1f1f1; color: #777; text-decoration: line-through; padding: 0 3px; border-radius: 3px; }
+.word-read { background: #fff3d6; border-bottom: 1px dashed #b80; padding: 0 3px; border-radius: 3px; }
 .word-known { background: #e7f0ff; padding: 0 3px; border-radius: 3px; }
-.unknown-note { color: #a00; font-size: 12px; margin-top: 2px; }
-.read-as-note { color: #446; font-size: 12px; margin-top: 2px; }
+.prompt-note { color: #7a5200; font-size: 12px; margin-top: 2px; }
+.prompt-refused { color: #a00; background: #ffecec; border: 1px solid #f3b3b3; padding: 1px 6px; border-radius: 4px;
+  font-size: 12px; margin-top: 2px; }
 """

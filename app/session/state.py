@@ -19,7 +19,7 @@ import numpy as np
 import param
 
 from app.attention_record import AttentionRecord
-from app.generation import Cancelled, GenerationResult, GenerationSettings, prompt_analysis
+from app.generation import Cancelled, GenerationResult, GenerationSettings, PromptReading, prompt_analysis
 from app.session.counting import auto_count
 from app.session.generation import GenerateJob
 from app.session.items import MAX_ITEMS, MAX_ITEMS_WITH_ATTENTION, MotionItem  # the session core's motions
@@ -57,9 +57,8 @@ class StudioState(param.Parameterized):
 
     # ---- derived from the prompt
     prompt_words = param.List(default=[], doc="words of the prompt")
-    unknown_words = param.List(default=[], doc="words of the prompt the model does not know")
-    suggestions = param.Dict(default={}, doc="unknown word -> close vocabulary words")
-    read_as = param.Dict(default={}, doc="typed word -> the known form it is read as ('jump' -> 'jumps')")
+    reading = param.ClassSelector(class_=PromptReading, default=PromptReading(),
+                                  doc="the prompt as the engine will read it (its notes, or why it refuses it)")
 
     # ---- generation progress
     running = param.Boolean(default=False)
@@ -206,15 +205,13 @@ class StudioState(param.Parameterized):
 
     def _analyse_prompt(self, *_):
         tokenizer = self.tokenizer()
-        words, unknown, suggestions = prompt_analysis(tokenizer, self.prompt)
+        reading = prompt_analysis(tokenizer, self.prompt)
         with param.parameterized.batch_call_watchers(self):
-            self.read_as = {} if tokenizer is None else tokenizer.inflected(self.prompt)
-            self.prompt_words = words
-            self.unknown_words = unknown
-            self.suggestions = suggestions
+            self.prompt_words = list(reading.words)
+            self.reading = reading
 
     def replace_word(self, old: str, new: str) -> None:
-        """Swap an unknown word for a suggestion (whole words, case-insensitive); a '~adverb' suggestion moves to
+        """Swap a left-out word for a suggestion (whole words, case-insensitive); a '~adverb' suggestion moves to
         the end of the word's clause (engine.wordforms.rewrite)."""
         from engine.wordforms import rewrite
 

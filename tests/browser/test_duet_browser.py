@@ -33,7 +33,7 @@ def test_duet_tab_makes_and_plays_two_people(browser, server_url, screens):
         prompt.fill("two people smooch")
         prompt.press("Enter")
         try:
-            page.locator(".duet-flag .unknown-words", has_text="smooch").wait_for(timeout=30000)
+            page.locator(".duet-flag .prompt-refused", has_text="smooch").wait_for(timeout=30000)
         finally:
             (screens / "duet_unknown_word.png").write_bytes(page.screenshot(full_page=True))
         br_expect_disabled(page, ".duet-run button")

@@ -81,10 +81,14 @@ class ComposeSettings(param.Parameterized):
     def handshake_frames(self) -> int:
         return int(round(self.handshake * FPS))
 
-    def unknown_words(self) -> list[list[str]]:
-        """Per interval: the words the model does not know."""
+    def readings(self) -> list:
+        """Per interval: its prompt as the engine will read it (``app.generation.PromptReading``: notes or refusal)."""
         tokenizer = self.tokenizer()
-        return [prompt_analysis(tokenizer, row.prompt)[1] for row in self.intervals]
+        return [prompt_analysis(tokenizer, row.prompt) for row in self.intervals]
+
+    def refused(self) -> bool:
+        """The engine would refuse an interval's prompt: Generate waits."""
+        return any(r.blocked for r in self.readings())
 
     def expected_frames(self) -> int:
         """Length of the long motion: the intervals' frames minus one handshake per transition."""

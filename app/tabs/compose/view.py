@@ -14,7 +14,8 @@ from bokeh.events import Tap
 from bokeh.models import ColumnDataSource, LabelSet, Range1d, Span
 from bokeh.plotting import figure
 
-from app.components.jobbar import UNKNOWN_CSS, JobBar, flag_unknown, on_text
+from app.components.jobbar import JobBar, on_text
+from app.components.words import WORD_CSS, prompt_notes
 from app.session.state import StudioState
 from app.tabs.compose.job import FPS, INTERVAL_COLORS, TRANSITION_COLOR, ComposeJob, transition_at
 from engine.units import MAX_SECONDS
@@ -38,7 +39,7 @@ class IntervalRowView:
         self.up = pn.widgets.Button(label="↑", width=34, css_classes=["compose-up"])
         self.down = pn.widgets.Button(label="↓", width=34, css_classes=["compose-down"])
         self.remove = pn.widgets.Button(label="✕", width=34, css_classes=["compose-remove"])
-        self.flag = pn.pane.HTML("", margin=(0, 10), stylesheets=[UNKNOWN_CSS], css_classes=["compose-flag"])
+        self.flag = pn.pane.HTML("", margin=(0, 10), stylesheets=[WORD_CSS], css_classes=["compose-flag"])
         on_text(self.prompt, lambda text: tab.edit_row(self.index, prompt=text))
         self.seconds.param.watch(lambda e: tab.edit_row(self.index, seconds=e.new), "value")
         self.up.on_click(lambda _: tab.settings.move(self.index, -1))
@@ -69,7 +70,7 @@ class ComposeTab(pn.viewable.Viewer):
         c.param.watch(lambda e: setattr(self.second_take_text, "disabled", not e.new), "second_take")
         self.length = pn.pane.Markdown("", css_classes=["compose-length"], margin=(0, 10))
         self.bar = JobBar(state=self.state, jobs=["composition"], label="Generate long motion", prefix="compose",
-                          on_run=self.generate)
+                          on_run=self.generate, blocked=c.refused)
         self.result = pn.pane.HTML("", css_classes=["compose-result"], margin=(0, 10), stylesheets=[_CSS])
         self.jumps = pn.Row(css_classes=["compose-jumps"], sizing_mode="stretch_width")
         self._build_strip()
@@ -118,13 +119,10 @@ class ComposeTab(pn.viewable.Viewer):
                 view.remove.disabled = len(rows) == 1
         finally:
             self._syncing = False
-        tokenizer = self.settings.tokenizer()
-        suggestions = {}
-        for view, unknown in zip(self.rows, self.settings.unknown_words()):
-            if tokenizer is not None:
-                suggestions = {w: tokenizer.suggest(w) for w in unknown}
-            view.flag.object = flag_unknown(unknown, suggestions)
-            view.flag.visible = bool(unknown)
+        for view, reading in zip(self.rows, self.settings.readings()):
+            view.flag.object = prompt_notes(reading)  # what the engine will do with the words it does not know
+            view.flag.visible = bool(view.flag.object)
+        self.bar.refresh()
 
     def _on_length(self, *_):
         c = self.settings

@@ -7,7 +7,7 @@ from collections.abc import Callable
 import numpy as np
 import param
 
-from app.generation import prompt_analysis
+from app.generation import PromptReading, prompt_analysis
 from app.tabs.control.models import control_models, control_setup
 from app.tabs.control.paths import DEFAULT_ROOT, LABELS, WRIST_DEPTH, WRISTS, thin
 from engine.paths import CONTROL_DIR
@@ -40,7 +40,8 @@ class ControlSettings(param.Parameterized):
     problem = param.String(default="", doc="why blending is not offered ('' when it is)")
     base_note = param.String(default="", doc="one line when control runs on the control models' own base model "
                                              "(not the loaded one); '' otherwise")
-    unknown_words = param.List(default=[], doc="words of the prompt the model does not know")
+    reading = param.ClassSelector(class_=PromptReading, default=PromptReading(),
+                                  doc="the prompt as the engine control runs on will read it (notes, or a refusal)")
     result = param.Parameter(default=None, doc="ControlSummary of the last controlled generation")
 
     def __init__(self, *, tokenizer: Callable[[], object] | None = None, base: Callable[[], object] | None = None,
@@ -64,7 +65,7 @@ class ControlSettings(param.Parameterized):
         return self.tokenizer()
 
     def _analyse(self, *_) -> None:
-        self.unknown_words = prompt_analysis(self.prompt_tokenizer(), self.prompt)[1]
+        self.reading = prompt_analysis(self.prompt_tokenizer(), self.prompt)
 
     def discover(self) -> None:
         """Which methods this server offers (blending only where fine-tuned models exist) and on which base model."""

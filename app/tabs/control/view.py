@@ -12,7 +12,8 @@ import html
 import panel as pn
 import param
 
-from app.components.jobbar import UNKNOWN_CSS, JobBar, flag_unknown, table_rows, text_from_param
+from app.components.jobbar import JobBar, table_rows, text_from_param
+from app.components.words import WORD_CSS, prompt_notes
 from app.components.number_box import FloatBox
 from app.session.state import StudioState
 from app.tabs.control.canvas import FrontCanvas, TopDownCanvas
@@ -35,7 +36,7 @@ class ControlTab(pn.viewable.Viewer):
         self.settings = k = self.state.control
         self.prompt = text_from_param(k.param.prompt, css_classes=["control-prompt"], sizing_mode="stretch_width")
         self.seconds = FloatBox.from_param(k.param.seconds, width=90, css_classes=["control-seconds"])
-        self.flag = pn.pane.HTML("", margin=(0, 10), stylesheets=[UNKNOWN_CSS], css_classes=["control-flag"])
+        self.flag = pn.pane.HTML("", margin=(0, 10), stylesheets=[WORD_CSS], css_classes=["control-flag"])
         # one line when control runs on the control models' own base model, not the loaded one (issue #32)
         self.base_note = pn.pane.HTML("", margin=(0, 10), stylesheets=[_CSS], css_classes=["control-base-note"])
         self.use_root = pn.widgets.Checkbox.from_param(k.param.use_root, css_classes=["control-use-root"])
@@ -57,7 +58,8 @@ class ControlTab(pn.viewable.Viewer):
                                                   sizing_mode="stretch_width") for n in LABELS}
         self.shares = pn.pane.HTML("", css_classes=["control-shares"], margin=(0, 10), stylesheets=[_CSS])
         self.bar = JobBar(state=self.state, jobs=["controlled generation"], label="Generate with control",
-                          prefix="control", on_run=self.generate)
+                          prefix="control", on_run=self.generate,
+                          blocked=lambda: self.settings.reading.blocked)
         self.readout = pn.pane.HTML("", css_classes=["control-readout"], margin=(0, 10), stylesheets=[_CSS])
         self.wrist_box = pn.Column(self.front.view, pn.Row(self.clear_wrist, self.depth, sizing_mode="stretch_width"),
                                    sizing_mode="stretch_width")
@@ -67,13 +69,13 @@ class ControlTab(pn.viewable.Viewer):
         self.clear_wrist.on_click(lambda _: setattr(k, "wrist_points", []))
         for name, slider in self.weights.items():
             slider.param.watch(lambda e, name=name: self._set_weight(name, e.new), "value")
-        k.param.watch(self._on_unknown, "unknown_words")
+        k.param.watch(self._on_reading, "reading")
         k.param.watch(self._on_root_info, ["root_points", "seconds", "use_root"])
         k.param.watch(self._on_active, ["use_root", "wrist", "method", "weights", "available"])
         k.param.watch(self._on_result, "result")
         k.param.watch(self._on_base_note, "base_note")
         self._on_base_note()
-        self._on_unknown()
+        self._on_reading()
         self._on_root_info()
         self._on_active()
         self._on_result()
@@ -86,12 +88,11 @@ class ControlTab(pn.viewable.Viewer):
         self.settings.weights = {**self.settings.weights, name: float(value)}
 
     # ------------------------------------------------------------------ settings -> widgets
-    def _on_unknown(self, *_):
-        k = self.settings
-        tokenizer = k.prompt_tokenizer()
-        suggestions = {w: tokenizer.suggest(w) for w in k.unknown_words} if tokenizer is not None else {}
-        self.flag.object = flag_unknown(k.unknown_words, suggestions)
-        self.flag.visible = bool(k.unknown_words)
+    def _on_reading(self, *_):
+        """The engine's notes on the prompt (read by meaning, typo read as, left out) or its refusal."""
+        self.flag.object = prompt_notes(self.settings.reading)
+        self.flag.visible = bool(self.flag.object)
+        self.bar.refresh()
 
     def _on_base_note(self, *_):
         note = self.settings.base_note

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import param
 
-from app.generation import prompt_analysis
+from app.generation import PromptReading, prompt_analysis
 from app.session.duets import DuetPair
 from app.session.items import MAX_UPLOAD_BYTES, upload_limit_text
 from app.tabs.duet.models import EXAMPLE, duet_vocabulary, example_names
@@ -39,8 +39,8 @@ class DuetSettings(param.Parameterized):
                             doc="guide the hands to touch when the training examples do (text only)")
     duet_dir = param.Parameter(default=DUET_DIR, doc="folder of the trained ComMDM block")
     uploads = param.Dict(default={}, doc="name -> (2, T, 22, 3) duets uploaded in this session")
-    unknown_words = param.List(default=[])
-    suggestions = param.Dict(default={})
+    reading = param.ClassSelector(class_=PromptReading, default=PromptReading(),
+                                  doc="the prompt as the engine will read it (its notes, or why it refuses it)")
     result = param.Parameter(default=None, doc="DuetSummary of the last duet")
 
     @classmethod
@@ -84,8 +84,12 @@ class DuetSettings(param.Parameterized):
         return self._vocab
 
     def _analyse(self, *_) -> None:
-        _, unknown, suggestions = prompt_analysis(self.tokenizer(), self.prompt)
-        self.param.update(unknown_words=unknown, suggestions=suggestions)
+        self.reading = prompt_analysis(self.tokenizer(), self.prompt)
+
+    @property
+    def blocked(self) -> bool:
+        """From a prompt, the engine refuses it (completing a prefix, the prompt is optional)."""
+        return self.mode == "text" and self.reading.blocked
 
     def prefix_options(self, items: dict) -> list[str]:
         """Examples, then uploaded duets, then duets of the session (their person-a motions)."""

@@ -12,7 +12,8 @@ import html
 import panel as pn
 import param
 
-from app.components.jobbar import UNKNOWN_CSS, JobBar, flag_unknown, table_rows, text_from_param
+from app.components.jobbar import JobBar, table_rows, text_from_param
+from app.components.words import WORD_CSS, prompt_notes
 from app.components.number_box import FloatBox
 from app.session.state import StudioState
 from app.tabs.duet.job import DuetJob, describe
@@ -35,7 +36,7 @@ class DuetTab(pn.viewable.Viewer):
                                                            css_classes=["duet-mode"])
         self.prompt = text_from_param(d.param.prompt, css_classes=["duet-prompt"], sizing_mode="stretch_width")
         self.seconds = FloatBox.from_param(d.param.seconds, width=90, css_classes=["duet-seconds"])
-        self.flag = pn.pane.HTML("", margin=(0, 10), stylesheets=[UNKNOWN_CSS], css_classes=["duet-flag"])
+        self.flag = pn.pane.HTML("", margin=(0, 10), stylesheets=[WORD_CSS], css_classes=["duet-flag"])
         self.prefix = pn.widgets.Select.from_param(d.param.prefix, css_classes=["duet-prefix"],
                                                    sizing_mode="stretch_width")
         self.prefix_seconds = FloatBox.from_param(d.param.prefix_seconds, width=90, css_classes=["duet-prefix-seconds"])
@@ -50,11 +51,11 @@ class DuetTab(pn.viewable.Viewer):
         self.model_note = pn.pane.HTML("", margin=(0, 10), css_classes=["duet-model-note"], stylesheets=[_CSS])
         self.bar = JobBar(state=self.state, jobs=["duet"], label="Make the duet", prefix="duet",
                           on_run=lambda: self.state.launch(DuetJob(session=self.state, settings=self.settings)),
-                          blocked=lambda: bool(self.settings.unknown_words) and self.settings.mode == "text")
+                          blocked=lambda: self.settings.blocked)
         self.readout = pn.pane.HTML("", css_classes=["duet-readout"], stylesheets=[_CSS], sizing_mode="stretch_width")
 
         self.upload.param.watch(self._on_upload, "value")
-        d.param.watch(self._on_words, ["unknown_words", "mode"])
+        d.param.watch(self._on_words, ["reading", "mode"])
         d.param.watch(self._on_mode, "mode")
         d.param.watch(self._on_result, "result")
         self._on_words()
@@ -65,7 +66,8 @@ class DuetTab(pn.viewable.Viewer):
     # ------------------------------------------------------------------ mirrors of the settings
     def _on_words(self, *_):
         d = self.settings
-        self.flag.object = flag_unknown(d.unknown_words, d.suggestions)
+        # prefix mode with an empty prompt: an unconditional completion, nothing refused
+        self.flag.object = "" if d.mode == "prefix" and not d.reading.words else prompt_notes(d.reading)
         self.bar.refresh()
 
     def _on_mode(self, *_):

@@ -33,15 +33,22 @@ def word_choice(words: list[str] | tuple[str, ...], position: int) -> tuple[str,
 
 
 def alignment(tokenizer, reference: str, edited: str) -> tuple[bool, str]:
-    """Word-by-word alignment for in-place replacement: (ok, a message for the user)."""
-    from engine.text import split_words
+    """Word-by-word alignment for in-place replacement: (ok, a message for the user). Both prompts are read as the
+    engine reads them (``Tokenizer.encode``): a prompt it refuses is refused with its message, and a swapped word it
+    leaves out cannot be swapped (words it reads by meaning or as a typo can; words left out of both prompts alike
+    keep the alignment)."""
+    from engine.text import PromptError, split_words
 
     ref, new = split_words(reference), split_words(edited)
     if not new:
         return False, "type the edited prompt: the same words as the prompt with the action swapped"
-    unknown = [w for w in dict.fromkeys(new) if tokenizer is not None and tokenizer.read_as(w) is None]
-    if unknown:
-        return False, f"unknown word(s) in the edited prompt: {', '.join(unknown)}"
+    tokens = {}
+    if tokenizer is not None:
+        for role, text in (("prompt", reference), ("edited prompt", edited)):
+            try:
+                tokens[role] = tokenizer.encode(text)
+            except PromptError as exc:
+                return False, f"the {role} cannot be read: {exc}"
     if len(ref) != len(new):
         return False, (f"not aligned: the prompt has {len(ref)} words and the edited prompt {len(new)}; replacement "
                        f"swaps words in place, word by word (e.g. '{' '.join(ref)}' → "
@@ -49,8 +56,22 @@ def alignment(tokenizer, reference: str, edited: str) -> tuple[bool, str]:
     changed = [(a, b) for a, b in zip(ref, new) if a != b]
     if not changed:
         return False, "the edited prompt is the same as the prompt: change a word (e.g. the verb)"
+    if tokens:
+        gone_ref, gone_new = set(tokens["prompt"].left_out), set(tokens["edited prompt"].left_out)
+        for a, b in changed:
+            if b in gone_new:
+                return False, (f"'{b}' is left out of the edited prompt (the model does not know it), so it cannot "
+                               f"replace '{a}': pick a word the model reads")
+            if a in gone_ref:
+                return False, (f"'{a}' is left out of the prompt (the model does not know it), so it cannot be "
+                               f"replaced")
+        if len(tokens["prompt"].words) != len(tokens["edited prompt"].words):  # the engine's own rule
+            return False, (f"not aligned: the model reads {len(tokens['prompt'].words)} words of the prompt and "
+                           f"{len(tokens['edited prompt'].words)} of the edited prompt (words left out: "
+                           f"{', '.join(dict.fromkeys([*gone_ref, *gone_new])) or 'none'})")
     pairs = ", ".join(f"'{a}' → '{b}'" for a, b in changed)
-    return True, f"aligned word by word ({len(ref)} words): {pairs}"
+    notes = list(dict.fromkeys(n for t in tokens.values() for n in t.notes()))
+    return True, f"aligned word by word ({len(ref)} words): {pairs}" + (f" ({'; '.join(notes)})" if notes else "")
 
 
 def swap_example(words: list[str]) -> list[str]:
@@ -118,6 +139,8 @@ def prepare(state) -> EditPlan:
         words = state.prompt_words
         if words.count(word) <= cfg.occurrence:
             raise ValueError(f"the word '{word}' is not in the prompt any more: pick a word again")
+        # a word the engine leaves out has no token to point at: its PromptError says so, naming the word
+        loaded.tokenizer.encode(prompt).word_index(word, cfg.occurrence)
     source = style = None
     if kind in ("example", "style"):
         source = resolve_source(state, cfg.source)

@@ -85,7 +85,7 @@ class EditTab(pn.viewable.Viewer):
         e.param.watch(self._on_mode, "mode")
         e.param.watch(self._on_alignment, "edited")
         e.param.watch(self._on_last_edit, "last_edit")
-        s.param.watch(self._on_prompt, "prompt_words")
+        s.param.watch(self._on_prompt, ["prompt_words", "reading"])
         s.param.watch(self._on_prompt_text, "prompt")
         s.param.watch(self._on_seconds, "seconds")
         s.param.watch(self._on_items, "items")
@@ -146,9 +146,11 @@ class EditTab(pn.viewable.Viewer):
     def _on_prompt(self, *_):
         s, e = self.state, self.state.edit
         words = list(s.prompt_words)
+        left_out = set(s.reading.left_out)  # no token: picking one is refused with the engine's message
         options = {}
         for i, w in enumerate(words):
-            options[w if words.count(w) == 1 else f"{w} ({words[:i].count(w) + 1})"] = i
+            label = w if words.count(w) == 1 else f"{w} ({words[:i].count(w) + 1})"
+            options[f"{label} (left out)" if w in left_out else label] = i
         picked = None
         if e.word and words.count(e.word) > e.occurrence:
             picked = [i for i, w in enumerate(words) if w == e.word][e.occurrence]

@@ -1,4 +1,5 @@
-"""Sidebar: prompt (unknown words flagged as you type, with suggestions), settings, Generate, progress, Cancel."""
+"""Sidebar: prompt (read as the engine will read it, its notes and suggestions shown as you type), settings, Generate,
+progress, Cancel."""
 from __future__ import annotations
 
 import html
@@ -57,7 +58,7 @@ class GenerateControls(pn.viewable.Viewer):
                                            styles={"font-size": "12px", "color": "#555"})
         self.vocab = pn.pane.Markdown("", styles={"font-size": "12px"})
 
-        s.param.watch(self._on_analysis, ["prompt_words", "unknown_words", "suggestions"])
+        s.param.watch(self._on_analysis, ["prompt_words", "reading"])
         s.param.watch(self._on_prompt, "prompt")
         s.param.watch(self._on_progress, ["running", "progress", "progress_total", "status"])
         s.param.watch(self._on_memory, ["steps", "record_steps", "seconds", "prompt_words"])
@@ -78,14 +79,15 @@ class GenerateControls(pn.viewable.Viewer):
 
     def _on_analysis(self, *_):
         s = self.state
-        unknown = set(s.unknown_words)
-        # the button state goes first so that it is never behind the highlighted words
-        self.generate.disabled = bool(unknown) or s.running
-        self.words.object = word_chips(s.prompt_words, s.unknown_words, s.read_as)
-        self.intent.object = intent_line(s.prompt, unknown)
+        reading = s.reading
+        # the button state goes first so that it is never behind the shown notes: only a prompt the engine refuses
+        # (empty, too long, nothing that says a motion) waits; unknown words are read by meaning or left out
+        self.generate.disabled = reading.blocked or s.running
+        self.words.object = word_chips(reading)
+        self.intent.object = intent_line(s.prompt, reading.left_out)
         buttons = []
-        for word in s.unknown_words:
-            for suggestion in s.suggestions.get(word, [])[:3]:
+        for word in reading.left_out:
+            for suggestion in reading.suggestions.get(word, ())[:3]:
                 shown = f"… {suggestion[1:]}" if suggestion.startswith("~") else suggestion
                 b = pn.widgets.Button(label=f"{word} → {shown}", color="light", height=30,
                                       css_classes=["suggestion"], margin=(2, 4))
@@ -99,7 +101,7 @@ class GenerateControls(pn.viewable.Viewer):
             self.progress.max = max(1, s.progress_total)
             # the bar shows running work only: empty when idle (the status line says what finished)
             self.progress.value = min(s.progress, self.progress.max) if s.running else 0
-            self.generate.disabled = s.running or bool(s.unknown_words)
+            self.generate.disabled = s.running or s.reading.blocked
             self.generate.label = "Generating…" if s.running else "Generate"
             self.cancel.disabled = not s.running
             self.status.object = html.escape(s.status)

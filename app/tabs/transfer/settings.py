@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 import param
 
-from app.generation import prompt_analysis
+from app.generation import PromptReading, prompt_analysis
 from app.tabs.transfer.colors import paint_clusters
 from engine.methods.momo import TransferConfig
 
@@ -26,8 +26,8 @@ class SourceSettings(param.Parameterized):
     motion = param.String(default="", doc="name of a session motion (kind 'motion')")
     seconds = param.Number(default=4.0, step=0.5, label="Seconds",
                            doc="duration of a generated stream")
-    words = param.List(default=[], doc="words of the prompt")
-    unknown_words = param.List(default=[], doc="words of the prompt the model does not know")
+    reading = param.ClassSelector(class_=PromptReading, default=PromptReading(),
+                                  doc="the prompt as the engine will read it (its notes, or why it refuses it)")
 
     def __init__(self, *, tokenizer: Callable[[], object] | None = None, **params):
         super().__init__(**params)
@@ -36,8 +36,12 @@ class SourceSettings(param.Parameterized):
         self.analyse()
 
     def analyse(self, *_) -> None:
-        words, unknown, _ = prompt_analysis(self.tokenizer(), self.prompt)
-        self.param.update(words=words, unknown_words=unknown)
+        self.reading = prompt_analysis(self.tokenizer(), self.prompt)
+
+    @property
+    def blocked(self) -> bool:
+        """A prompt source whose prompt the engine refuses (an inverted motion's description is optional)."""
+        return self.kind == "prompt" and self.reading.blocked
 
 
 class TransferSettings(param.Parameterized):

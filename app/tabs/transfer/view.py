@@ -25,7 +25,7 @@ HELP = {"leader": "**Leader**: what and when (outline, timing).", "follower": "*
 
 
 class SourcePicker(pn.viewable.Viewer):
-    """One source: a prompt (unknown words flagged) with its seconds, or an imported motion (+ an optional
+    """One source: a prompt (read as the engine reads it, with its notes) with its seconds, or an imported motion (+ an optional
     description) that is DDIM-inverted when the transfer runs."""
 
     state = param.ClassSelector(class_=StudioState)
@@ -48,7 +48,7 @@ class SourcePicker(pn.viewable.Viewer):
         self.motion.param.watch(lambda e: setattr(src, "motion", "" if e.new == NO_MOTION else e.new), "value")
         self.upload.param.watch(self._on_upload, "value")
         src.param.watch(self._on_kind, ["kind", "motion"])
-        src.param.watch(self._on_words, ["words", "unknown_words"])
+        src.param.watch(self._on_words, ["reading", "kind"])
         self.state.param.watch(self._on_items, "items")
         self.state.transfer.param.watch(self._on_info, "result")
         self._on_items()
@@ -87,7 +87,7 @@ class SourcePicker(pn.viewable.Viewer):
 
     def _on_words(self, *_):
         src = self.source
-        self.words.object = word_chips(src.words, src.unknown_words) if src.words or src.kind == "prompt" else ""
+        self.words.object = word_chips(src.reading) if src.reading.words or src.kind == "prompt" else ""
 
     def _on_info(self, *_):
         src, view = self.source, self.state.transfer.result
@@ -128,7 +128,7 @@ class TransferTab(pn.viewable.Viewer):
                                                            css_classes=["transfer-root"])
         self.feet = pn.widgets.Checkbox.from_param(t.param.feet, css_classes=["transfer-feet"])
         self.bar = JobBar(state=s, jobs=["transfer"], label="Run transfer", busy_label="Running…", prefix="transfer",
-                          on_run=lambda: self.state.launch(TransferJob(session=self.state)), blocked=self._unknown_words)
+                          on_run=lambda: self.state.launch(TransferJob(session=self.state)), blocked=self._refused)
         self.run, self.cancel, self.progress, self.status = self.bar.run, self.bar.cancel, self.bar.progress, self.bar.status
         self.result = pn.pane.HTML("", css_classes=["transfer-result"], margin=(0, 10))
         self.show = pn.widgets.Button(label="Show leader / follower / out", css_classes=["transfer-show"],
@@ -144,7 +144,7 @@ class TransferTab(pn.viewable.Viewer):
         self.analysed.param.watch(lambda e: self._set("analysed", int(e.new)), "value")
         self.show.on_click(lambda _: show_roles(self.state))
         for src in (t.leader, t.follower):
-            src.param.watch(self.bar.refresh, ["unknown_words", "kind"])
+            src.param.watch(self.bar.refresh, ["reading", "kind"])
         t.param.watch(self._on_result, "result")
         self._on_result()
 
@@ -160,9 +160,10 @@ class TransferTab(pn.viewable.Viewer):
         except ValueError as exc:
             self.state.error(f"{name}: {exc}")
 
-    def _unknown_words(self) -> bool:
+    def _refused(self) -> bool:
+        """Run waits while the engine would refuse a source's prompt (words it does not know never block)."""
         t = self.state.transfer
-        return any(src.kind == "prompt" and src.unknown_words for src in (t.leader, t.follower))
+        return any(src.blocked for src in (t.leader, t.follower))
 
     def _on_result(self, *_):
         view = self.state.transfer.result
