@@ -154,7 +154,8 @@ def bench_sampling(loaded, evaluator, config: SamplingBenchConfig = SamplingBenc
             "record_seconds": {"recording": t_rec, "plain": t_plain}, "adherence": adherence, "fid": fids,
             "settings": {"motion_seconds": config.seconds, "guidance": config.guidance, "repeats": config.repeats,
                          "prompts": len(intents), "seeds": config.seeds, "fid_samples": config.fid_samples,
-                         "rows": list(rows_measured), "threads": torch.get_num_threads()},
+                         "rows": list(rows_measured), "sampling_steps": sampling_steps(config, len(intents)),
+                         "threads": torch.get_num_threads()},
             "bench_seconds": time.perf_counter() - t_start}
 
 
