@@ -14,6 +14,9 @@
              then the model and the ground truth on prompts people type (engine/evaluation/bench_adherence.py)
 --sampling   seconds for a 6-s motion at 10/20/50 DDIM steps (and DDPM 1000 with --ddpm or --full: slow), with
              adherence and FID per setting, and the attention-recording overhead (engine/evaluation/bench_sampling.py)
+--levers     a lever screen: one row per model folder (given as FILES) on the dev prompt set: dev action,
+             count and side adherence with the seeds' spread, foot skate vs the truth, one real file's inversion
+             round trip, the run's logged samples/s (engine/evaluation/bench_levers.py)
 --train      training steps/s, samples/s, GFLOP/s and share of the matmul peak for the shipped model's shape
              and one twice as wide (fp32 and bf16 on the CPU; --device / --precision), and whether the corpus
              generator keeps up with 0/1/2/several DataLoader workers (engine/evaluation/bench_train.py)
@@ -49,6 +52,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                       help="prompt adherence (action, count, side, direction, order) of the model and the ground truth")
     mode.add_argument("--sampling", action="store_true",
                       help="sampling speed per step count with adherence and FID, and attention-recording overhead")
+    mode.add_argument("--levers", action="store_true",
+                      help="lever screen: one row per model folder given as FILES, scored on the dev prompt set")
+    p.add_argument("--guidance", type=float, default=None,
+                   help="--adherence / --levers: classifier-free guidance scale (default: the sampling default)")
+    p.add_argument("--real", type=Path, default=None,
+                   help="--levers: the real motion file whose inversion round trip each row reports")
     p.add_argument("--lengths", choices=("auto", "truth"), default=None,
                    help="--adherence: the model's lengths, auto (predicted from the prompt, what a user gets; default) "
                         "or truth (each seed's ground-truth length)")
@@ -107,8 +116,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     given_steps(args)  # a bad --steps fails before any model loads
-    if args.seeds is not None and not (args.duet or args.adherence or args.sampling):
-        raise ValueError("--seeds goes with --duet, --adherence or --sampling")
+    if args.guidance is not None and not (args.adherence or args.levers):
+        raise ValueError("--guidance goes with --adherence or --levers")
+    if args.real is not None and not args.levers:
+        raise ValueError("--real goes with --levers")
+    if args.seeds is not None and not (args.duet or args.adherence or args.sampling or args.levers):
+        raise ValueError("--seeds goes with --duet, --adherence, --sampling or --levers")
     if args.sampling and args.steps is not None:
         raise ValueError("--sampling measures its own step counts (10, 20, 50; DDPM 1000 with --ddpm): drop --steps")
     if (args.ddpm or args.full) and not args.sampling:
@@ -121,8 +134,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--drawn must be 0 or more")
     if args.lengths is not None and not args.adherence:
         raise ValueError("--lengths goes with --adherence")
-    if args.prompts is not None and not (args.adherence or args.sampling):
-        raise ValueError("--prompts goes with --adherence or --sampling")
+    if args.prompts is not None and not (args.adherence or args.sampling or args.levers):
+        raise ValueError("--prompts goes with --adherence, --sampling or --levers")
     if (args.calibrate or args.write) and not args.edits:
         raise ValueError("--calibrate and --write go with --edits")
     if args.no_real_data and not args.inversion:
@@ -153,6 +166,8 @@ def run(args: argparse.Namespace) -> int:
         return run_duet(args)
     if args.adherence:
         return run_adherence(args)
+    if args.levers:
+        return run_levers(args)
     if args.sampling:
         return run_sampling(args)
     if not (args.app or args.edits or args.inversion or args.transfer):
@@ -261,9 +276,21 @@ def run_priormdm(args: argparse.Namespace) -> int:
 def run_adherence(args: argparse.Namespace) -> int:
     from engine.evaluation.bench_adherence import AdherenceBenchConfig, bench_adherence, format_table, read_prompts
 
-    config = preset(AdherenceBenchConfig, args, seeds=args.seeds, lengths=args.lengths)  # fails before the model loads
+    config = preset(AdherenceBenchConfig, args, seeds=args.seeds, lengths=args.lengths,
+                    guidance=args.guidance)  # fails before the model loads
     prompts = read_prompts(args.prompts) if args.prompts is not None else None
     result = bench_adherence(_model(args), config, prompts=prompts, log=_log)
+    print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
+    return 0
+
+
+def run_levers(args: argparse.Namespace) -> int:
+    from engine.evaluation.bench_levers import DEV_PROMPTS, LeverBenchConfig, bench_levers, format_table
+
+    if not args.files:
+        raise ValueError("--levers needs the model folders to score, e.g. moattn bench --levers runs/a runs/b")
+    config = preset(LeverBenchConfig, args, seeds=args.seeds, guidance=args.guidance)
+    result = bench_levers(args.files, config, prompts_file=args.prompts or DEV_PROMPTS, real_file=args.real, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0
 

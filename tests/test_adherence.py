@@ -86,10 +86,10 @@ def test_bench_ground_truth_only_shape():
 
 
 @pytest.mark.parametrize("argv,message", [
-    (["--transfer", "--prompts", "p.txt"], "--prompts goes with --adherence or --sampling"),
+    (["--transfer", "--prompts", "p.txt"], "--prompts goes with --adherence, --sampling or --levers"),
     (["--transfer", "--drawn", "2"], "--drawn goes with --control"),
     (["--control", "--drawn", "-1"], "--drawn must be 0 or more"),
-    (["--edits", "--seeds", "2"], "--seeds goes with --duet, --adherence or --sampling"),
+    (["--edits", "--seeds", "2"], "--seeds goes with --duet, --adherence, --sampling or --levers"),
     (["--adherence", "--seeds", "0"], "--seeds must be at least 1"),
     (["--sampling", "--steps", "20"], "--sampling measures its own step counts"),
 ])
@@ -134,3 +134,27 @@ def test_the_model_row_uses_the_lengths_a_user_gets(monkeypatch, tiny_model_dir)
     assert result["settings"]["lengths"] == "truth" and seen[-1] != seen[-2]
     with pytest.raises(ValueError, match="lengths must be"):
         AdherenceBenchConfig(lengths="long")
+
+
+def test_lever_screen_rows_score_each_model_on_the_dev_prompts(tiny_model_dir, tmp_path, capsys):
+    """`moattn bench --levers`: one row per model folder with dev adherence, the seeds' spread, foot skate against
+    the truth and one real file's inversion; flags that belong elsewhere are refused."""
+    import json
+
+    from engine.cli import main
+    from tests.conftest import real_file
+
+    prompts = tmp_path / "dev.txt"
+    prompts.write_text("a person jumps twice\nsomeone waves with the left hand\n")
+    argv = ["bench", "--levers", str(tiny_model_dir), "--prompts", str(prompts), "--seeds", "2", "--steps", "5",
+            "--guidance", "1.5", "--real", str(real_file("cmu_131_01_walk.bvh")), "--quick", "--json"]
+    assert main(argv) == 0
+    result = json.loads(capsys.readouterr().out)
+    (row,) = result["rows"]
+    assert result["prompts"] == 2 and result["seeds"] == 2 and row["guidance"] == 1.5
+    assert 0.0 <= row["action"] <= 1.0 and row["action_seed_std"] is not None
+    assert row["foot_skate"] is not None and row["inversion_cm"] > 0 and row["refused"] == 0
+    assert main(["bench", "--levers", "--model", "/nonexistent"]) == 2
+    assert "needs the model folders" in capsys.readouterr().err
+    assert main(["bench", "--inversion", "--guidance", "2", "--model", "/nonexistent"]) == 2
+    assert "--guidance goes with --adherence or --levers" in capsys.readouterr().err

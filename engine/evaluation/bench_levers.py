@@ -26,6 +26,8 @@ class LeverBenchConfig:
     seeds: int = 4
     validation_motions: int = 500
     inversion_steps: int = 50
+    guidance: float | None = None  # None: the sampling default
+    steps: int | None = None  # sampling steps; None: the sampling default
 
     @classmethod
     def quick(cls) -> "LeverBenchConfig":
@@ -67,10 +69,11 @@ def score_row(folder: Path, config: LeverBenchConfig, *, prompts: Sequence[str],
 
     t0 = time.perf_counter()
     loaded = load_model(folder)
+    settings = {k: v for k, v in {"guidance": config.guidance, "steps": config.steps}.items() if v is not None}
     adherence = bench_adherence(loaded, AdherenceBenchConfig(seeds=config.seeds,
-                                                             validation_motions=config.validation_motions),
+                                                             validation_motions=config.validation_motions, **settings),
                                 prompts=prompts, log=log)
-    row = {"model": str(folder), **logged_rate(folder)}
+    row = {"model": str(folder), **logged_rate(folder), "guidance": adherence["settings"]["guidance"]}
     model = adherence["model"]
     for attr in ("action", "count", "side"):
         row[attr] = model[attr]
@@ -105,7 +108,9 @@ def _f(v, fmt: str) -> str:
 
 
 def format_table(result: dict) -> str:
-    lines = [f"lever screen: {result['prompts']} dev prompts x {result['seeds']} seeds"
+    guidance = sorted({r["guidance"] for r in result["rows"]})
+    lines = [f"lever screen: {result['prompts']} dev prompts x {result['seeds']} seeds, guidance "
+             f"{', '.join(f'{g:g}' for g in guidance)}"
              + (f"; inversion of {result['real_file']}" if result["real_file"] else ""),
              f"{'model':<28}{'step':>7}{'action':>8}{'±seed':>7}{'count':>7}{'side':>6}{'skate':>7}{'vs GT':>7}"
              f"{'inv cm':>8}{'noise':>7}{'smp/s':>8}{'refused':>8}"]
