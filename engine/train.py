@@ -46,7 +46,10 @@ class TrainConfig:
     text_dropout: float = 0.1
     velocity_weight: float = 0.5
     # per-timestep loss weights: "uniform" (every timestep's x0 error alike) or "min_snr" (Hang et al. 2023,
-    # min-SNR-gamma: x0 error weighted by min(SNR_t, snr_gamma), normalised to mean 1 over the timesteps)
+    # min-SNR-gamma: x0 error weighted by min(SNR_t, snr_gamma), normalised to mean 1 over the timesteps). Beware:
+    # with this x0-predicting model and the cosine schedule, min_snr leaves timesteps t >= 500 under 7 % of the
+    # weight; a 5.5-minute screen row looked fine, but a long run lost the actions those high-noise steps decide
+    # (assets/model/TRAINING.md, issue #32)
     loss_weighting: str = "uniform"
     snr_gamma: float = 5.0
     # corpus only: extra captions per motion that leave side, count, speed and style out, as people type them

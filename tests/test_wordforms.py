@@ -5,14 +5,14 @@ from __future__ import annotations
 import pytest
 
 from engine.checkpoint import read_config
-from engine.paths import MODEL_DIR
+from engine.paths import CONTROL_PRIOR_DIR
 from engine.text import PromptError, Tokenizer
 from engine.wordforms import edit_distance, is_english, read_as, rewrite, suggestions, typo_reading
 
 
 @pytest.fixture(scope="module")
 def shipped() -> Tokenizer:
-    return Tokenizer(read_config(MODEL_DIR)["vocabulary"])
+    return Tokenizer(read_config(CONTROL_PRIOR_DIR)["vocabulary"])
 
 
 @pytest.mark.parametrize("typed, known", [
