@@ -138,11 +138,22 @@ def free_port() -> int:
 
 @contextlib.contextmanager
 def studio_server(model_dir: str | os.PathLike, *, port: int | None = None, log_path: Path | None = None,
-                  timeout: float = 90.0, duet_dir: str | os.PathLike | None = None) -> Iterator[str]:
-    """Run ``moattn serve --model model_dir`` on a free port; yields its URL, stops it afterwards."""
+                  timeout: float = 90.0, duet_dir: str | os.PathLike | None = None,
+                  workspace: str | os.PathLike | None = None, extra_args: tuple[str, ...] = ()) -> Iterator[str]:
+    """Run ``moattn serve --model model_dir`` on a free port; yields its URL, stops it afterwards.
+
+    ``workspace``: the motion library's folder; None: a temporary one, removed afterwards (a test or a bench never
+    writes into the user's own library)."""
+    import tempfile
+
     port = port or free_port()
+    scratch = None
+    if workspace is None:
+        scratch = tempfile.TemporaryDirectory(prefix="moattn-workspace-")
+        workspace = scratch.name
     cmd = [sys.executable, "-m", "engine.cli", "serve", "--port", str(port), "--address", "localhost",
-           "--model", str(model_dir)] + ([] if duet_dir is None else ["--duet-model", str(duet_dir)])
+           "--model", str(model_dir), "--workspace", str(workspace), *extra_args] + (
+               [] if duet_dir is None else ["--duet-model", str(duet_dir)])
     log = open(log_path, "w") if log_path else subprocess.DEVNULL
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env,
@@ -172,6 +183,8 @@ def studio_server(model_dir: str | os.PathLike, *, port: int | None = None, log_
             proc.wait(5)
         if log_path:
             log.close()
+        if scratch is not None:
+            scratch.cleanup()
 
 
 #: Compositing modes: "swiftshader" (GPU emulated by SwiftShader, as a GPU-less CI runs Chromium) and
@@ -199,7 +212,7 @@ def open_studio(browser, url: str, *, timeout_ms: float = 60000, opening_motion:
     page.on("pageerror", lambda e: page.console_messages.append(f"pageerror: {e}"))
     page.requests_seen = []  # every URL the page asked for (the studio must not need the network)
     page.on("request", lambda r: page.requests_seen.append(r.url))
-    page.goto(url)
+    page.goto(url, timeout=timeout_ms)
     page.wait_for_function("window.moattnPlayer !== undefined", timeout=timeout_ms)
     page.evaluate(PAGE_HELPERS)
     if opening_motion:

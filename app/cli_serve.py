@@ -28,6 +28,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help=f"folder of fine-tuned control models (Control tab); default {CONTROL_DIR}")
     p.add_argument("--duet-model", type=Path, default=DUET_DIR,
                    help=f"the ComMDM block trained on --model (Duet tab); default {DUET_DIR}")
+    from engine.library.cli_support import add_library_arguments
+
+    add_library_arguments(p)  # --workspace, --library-mb, --no-library
     add_runtime_arguments(p)
     p.set_defaults(run=run)
 
@@ -57,6 +60,9 @@ def run(args: argparse.Namespace) -> int:
     use_runtime(runtime)
     print(f"Motion Attention Studio: http://{args.address}:{args.port}/ (model: {args.model}, on {runtime.describe()})",
           flush=True)
+    from app.main import LibrarySettings
+
+    library = None if args.no_library else LibrarySettings(workspace=args.workspace, limit_mb=args.library_mb)
     serve(port=args.port, show=args.show, address=args.address, initial=args.motion, model_dir=args.model,
-          controls_dir=args.controls, duet_dir=args.duet_model, token=token)
+          controls_dir=args.controls, duet_dir=args.duet_model, token=token, library=library)
     return 0

@@ -2,11 +2,13 @@
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 
 import panel as pn
 
+from app.components.checkbox_labels import labels_toggle_boxes
 from app.components.lazy_tabs import LazyTabs
 from app.hosts import allowed_hosts, host_guard
 from app.session.items import MAX_UPLOAD_BYTES
@@ -33,6 +35,20 @@ EXAMPLE = ASSETS / "examples" / "walk.npy"
 log = logging.getLogger("moattn.app")
 
 
+@dataclass(frozen=True)
+class LibrarySettings:
+    """Where a server's sessions keep their motions: each session opens the library in ``workspace`` (None: the
+    default workspace, engine.library.workspace) bounded at ``limit_mb`` (None: as stored or the default)."""
+
+    workspace: Path | None = None
+    limit_mb: float | None = None
+
+    def open(self):
+        from engine.library import MotionLibrary
+
+        return MotionLibrary(workspace=self.workspace, limit_mb=self.limit_mb)
+
+
 #: the tabs on the right, in order: (title, the view's class); the first is built with the page, each other one
 #: the first time it is selected
 TAB_VIEWS = (("Attention", AttentionExplorer), ("Edit", EditTab), ("Transfer", TransferTab), ("Compose", ComposeTab),
@@ -53,8 +69,11 @@ class Studio:
     the first time they are shown (or read: ``studio.edit`` builds the Edit tab)."""
 
     def __init__(self, *, model_dir: Path | None = MODEL_DIR, initial: Path | None = None, doc=None,
-                 controls_dir: Path | None = None, duet_dir: Path | None = None):
-        self.state = StudioState(model_dir=model_dir, tabs=tab_settings(controls_dir=controls_dir, duet_dir=duet_dir))
+                 controls_dir: Path | None = None, duet_dir: Path | None = None, library=None):
+        """``library``: the motion library this session keeps its motions in and starts with (an
+        ``engine.library.MotionLibrary``; None: the session's motions last as long as it does)."""
+        self.state = StudioState(model_dir=model_dir, tabs=tab_settings(controls_dir=controls_dir, duet_dir=duet_dir),
+                                 library=library)
         if doc is not None:
             self.state.attach_document(doc)
         self.controls = GenerateControls(state=self.state)
@@ -127,10 +146,11 @@ class Studio:
 
 
 def create_app(*, model_dir: Path | None = MODEL_DIR, initial: Path | None = None, controls_dir: Path | None = None,
-               duet_dir: Path | None = None) -> pn.template.BaseTemplate:
-    """A fresh page for one browser session."""
+               duet_dir: Path | None = None, library: LibrarySettings | None = None) -> pn.template.BaseTemplate:
+    """A fresh page for one browser session (``library``: where its motions are kept; None: nowhere)."""
     doc = pn.state.curdoc
-    studio = Studio(model_dir=model_dir, initial=initial, doc=doc, controls_dir=controls_dir, duet_dir=duet_dir)
+    studio = Studio(model_dir=model_dir, initial=initial, doc=doc, controls_dir=controls_dir, duet_dir=duet_dir,
+                    library=None if library is None else library.open())
     notifications = pn.state.notifications
 
     def notify(event):
@@ -154,6 +174,7 @@ def create_app(*, model_dir: Path | None = MODEL_DIR, initial: Path | None = Non
         pn.state.onload(lambda level=level, text=text: studio.state._notify(level, text))
     if doc is not None:
         allow_hold_then_draw(doc)
+        labels_toggle_boxes(doc)
         if doc.session_context is not None:
             doc.on_session_destroyed(lambda _ctx: studio.close())
     page = studio.template()
@@ -167,7 +188,7 @@ MAX_MESSAGE_BYTES = MAX_UPLOAD_BYTES * 4 // 3 + 4 * 2**20
 
 def serve(*, port: int = 5006, show: bool = False, address: str = "localhost", initial: Path | None = None,
           model_dir: Path | None = MODEL_DIR, controls_dir: Path | None = None, duet_dir: Path | None = None,
-          token: str | None = None) -> None:
+          token: str | None = None, library: LibrarySettings | None = LibrarySettings()) -> None:
     """Start the Panel server (blocks). The model is loaded once, before the first page.
 
     Each page opens ``initial`` (default: the shipped example walk) so a new user sees a motion.
@@ -193,7 +214,14 @@ def serve(*, port: int = 5006, show: bool = False, address: str = "localhost", i
         import secrets
 
         auth = dict(basic_auth=token, cookie_secret=secrets.token_hex(32))
-    pn.serve(lambda: create_app(model_dir=model_dir, initial=initial, controls_dir=controls_dir, duet_dir=duet_dir),
+    if library is not None:  # opened once here: a bad workspace stops the server before any page
+        opened = library.open()
+        print(f"motion library: {opened.root} ({opened.count()} motions, {opened.total_bytes() / 2**20:.1f} of "
+              f"{opened.limit_mb:g} MB)", flush=True)
+        for problem in opened.problems:
+            print(f"warning: {problem}", flush=True)
+    pn.serve(lambda: create_app(model_dir=model_dir, initial=initial, controls_dir=controls_dir, duet_dir=duet_dir,
+                                library=library),
              port=port, address=address, show=show,
              title="Motion Attention Studio", websocket_origin=origins, threaded=False,
              websocket_max_message_size=MAX_MESSAGE_BYTES, liveness=True,

@@ -32,10 +32,11 @@ SUBCOMMANDS: dict[str, str] = {
     "transfer": "engine.cli_transfer",
     "analyze-qk": "engine.cli_transfer",
     "compose": "engine.cli_compose",
-    "control": "engine.cli_compose",
+    "control": "engine.cli_control",
     "duet": "engine.cli_duet",
     "serve": "app.cli_serve",
     "bench": "engine.cli_bench",
+    "library": "engine.cli_library",
 }
 
 SEED_LIMIT = 2**32  # seeds are 0 <= seed < 2**32: derived seeds (seed * 7919 + step, seed * 1009 + slot, seed + 17)

@@ -86,7 +86,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     edits.add_argument("--calibrate", action="store_true",
                        help="--edits: measure per layer whether emphasis grows the action (calibration prompts, not "
                             "the benchmark's) instead of benchmarking")
-    edits.add_argument("--write", action="store_true", help="--calibrate: store the chosen layers in the model's config.json")
+    edits.add_argument("--write", action="store_true", help="--calibrate: store the chosen layers in the model's config.json; "
+                       "--control: record the drawn root + wrist figures beside the control models (bench.json: the "
+                       "studio's Control tab opens on blending only when they have it ahead of inpainting)")
     edits.add_argument("--samples", type=int, default=None,
                        help="--inversion: corpus test motions (default 16, quick 6); --transfer: in-distribution pairs; "
                             "--duet: held-out duets per interaction (default 3, quick 1)")
@@ -136,11 +138,15 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--lengths goes with --adherence")
     if args.prompts is not None and not (args.adherence or args.sampling or args.levers):
         raise ValueError("--prompts goes with --adherence, --sampling or --levers")
-    if (args.calibrate or args.write) and not args.edits:
-        raise ValueError("--calibrate and --write go with --edits")
+    if args.calibrate and not args.edits:
+        raise ValueError("--calibrate and --write go with --edits (--write also with --control)")
+    if args.write and not (args.edits or args.control):
+        raise ValueError("--write goes with --edits --calibrate or with --control")
+    if args.write and args.control and args.drawn == 0:
+        raise ValueError("--write records the drawn-path figures: --drawn must be above 0")
     if args.no_real_data and not args.inversion:
         raise ValueError("--no-real-data goes with --inversion")
-    if args.write and not args.calibrate:
+    if args.write and args.edits and not args.calibrate:
         raise ValueError("--write stores a calibration: add --calibrate")
     if (args.sessions is not None or args.minutes is not None) and not args.soak:
         raise ValueError("--sessions and --minutes go with --soak")
@@ -269,6 +275,13 @@ def run_priormdm(args: argparse.Namespace) -> int:
         config = preset(ControlBenchConfig, args, motions=args.samples, drawn_paths=args.drawn)
         result["control"] = bench_control(loaded, evaluator, config, log=_log)
         tables.append(format_table(result["control"]))
+        if args.write:
+            from engine.methods.control_options import bench_verdict, write_bench_record
+            from engine.paths import CONTROL_DIR
+
+            written = write_bench_record(result["control"], folder=CONTROL_DIR)
+            result["control_record"] = str(written)
+            tables.append(f"recorded in {written}: {bench_verdict(CONTROL_DIR).message}")
     print(json.dumps(result, indent=2, default=float) if args.json else "\n\n".join(tables))
     return 0
 

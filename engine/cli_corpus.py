@@ -47,7 +47,10 @@ def run(args: argparse.Namespace) -> int:
     if args.gallery:
         from engine.synth.gallery import render_gallery
 
-        path = render_gallery(args.gallery, renderer=args.renderer)
+        draw = None
+        if args.renderer == "pyvista":
+            from viz.sheet import pyvista_gallery as draw
+        path = render_gallery(args.gallery, draw=draw)
         print(f"gallery written to {path}")
         did = True
     if args.check:

@@ -3,10 +3,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
+from engine.analysis.counting import COUNTING_METHODS, CountingConfig
 from engine.methods.edit_kinds import KINDS, REGISTRY, kinds_reading
+from engine.methods.edit_options import option_spec
+from engine.methods.spans import parse_spans, spans_text
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 from engine.methods.motionclr import weight_range_text
@@ -28,17 +32,29 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--word", help=f"the word the edit acts on ({_reads('word')})")
     p.add_argument("--weight", type=float, default=0.3, help=f"emphasis weight ({weight_range_text()})")
     p.add_argument("--mode", choices=("add", "mul"), default="add")
-    p.add_argument("--from-frame", type=int, default=None, help="first frame the edit touches")
-    p.add_argument("--to-frame", type=int, default=None, help="frame after the last one the edit touches")
-    p.add_argument("--edited", help=f"the edited prompt, aligned word by word ({_reads('edited')})")
+    p.add_argument("--frames", type=_spans_argument, default=None, metavar="START:END[,START:END...]",
+                   help="the frame span(s) [start, end) the edit touches, e.g. 10:20; ground takes several, e.g. "
+                        "10:30,50:70,90:110,130:150 (four jumps at chosen times)")
+    p.add_argument("--from-frame", type=int, default=None, help="first frame the edit touches (one span; or --frames)")
+    p.add_argument("--to-frame", type=int, default=None,
+                   help="frame after the last one the edit touches (default: the motion's end)")
+    p.add_argument("--edited", help=f"the edited prompt; its words are aligned to the prompt's as prompt-to-prompt "
+                                    f"aligns them, and the alignment is printed ({_reads('edited')})")
     p.add_argument("--fraction", type=float, default=0.5,
                    help=f"the part of the motion moved to the end ({_reads('fraction')})")
     p.add_argument("--style", help=f"the style source, a prompt or .bvh/.npy ({_reads('style')})")
     p.add_argument("--count", type=int, default=4, help=f"how many outputs ({_reads('count')})")
+    chunk = option_spec("chunk_frames")
+    p.add_argument(chunk.flag, type=int, default=chunk.default, metavar="FRAMES",
+                   help=f"{chunk.help} ({chunk.bounds[0]} to {chunk.bounds[1]}; default {chunk.default}; "
+                        f"{_reads('chunk_frames')})")
+    p.add_argument("--count-method", choices=tuple(COUNTING_METHODS), default=CountingConfig.method,
+                   help="count: how the self-attention map becomes a count: "
+                        + "; ".join(f"{name}: {text}" for name, text in COUNTING_METHODS.items()))
     p.add_argument("--step-window", type=float, nargs=2, default=None, metavar=("START", "END"),
                    help="fractions of the sampling steps the edit acts in (default: the method's)")
     p.add_argument("--layers", type=int, nargs="+", default=None, metavar="LAYER",
-                   help="layers the edit acts in (default: all; emphasize and ground: the layers calibrated for the model, "
+                   help="layers the edit acts in (default: all; emphasize: the layers calibrated for the model, "
                         "see moattn bench --edits --calibrate)")
     p.add_argument("--seconds", type=float, default=4.0)
     p.add_argument("--seed", type=seed_argument, default=0)
@@ -49,6 +65,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--render", type=Path, default=None, help="before/after render (.gif, .mp4 or .png)")
     add_runtime_arguments(p)
     p.set_defaults(run=run)
+
+
+def _spans_argument(text: str):
+    try:
+        return parse_spans(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _source(text: str | None, what: str):
@@ -66,9 +89,13 @@ def options_from_args(args: argparse.Namespace):
     """The command line's options as the shared ``EditOptions`` (the Edit tab builds the same object)."""
     from engine.methods.edit_options import EditOptions
 
-    span = None
+    span = args.frames
     if args.from_frame is not None or args.to_frame is not None:
-        span = (args.from_frame or 0, args.to_frame if args.to_frame is not None else 10_000)
+        if span is not None:
+            raise ValueError("give the frames as --frames or as --from-frame/--to-frame, not both")
+        from engine.generate import frames_for
+
+        span = (args.from_frame or 0, args.to_frame if args.to_frame is not None else frames_for(args.seconds))
     source = args.prompt
     if args.kind in ("example", "style", "count"):
         source = _source(args.prompt, "a prompt or a motion file" if args.kind == "count"
@@ -76,6 +103,7 @@ def options_from_args(args: argparse.Namespace):
     return EditOptions(kind=args.kind, prompt=source, word=args.word, weight=args.weight, mode=args.mode, frames=span,
                        edited=args.edited, fraction=args.fraction,
                        style=_source(args.style, "--style") if args.kind == "style" else None, count=args.count,
+                       chunk_frames=args.chunk_frames,
                        step_window=tuple(args.step_window) if args.step_window is not None else None,
                        layers=tuple(args.layers) if args.layers else None, seed=args.seed)
 
@@ -97,25 +125,35 @@ def run(args: argparse.Namespace) -> int:
     report: dict = {"kind": args.kind}
     if args.kind == "count":
         source = options.prompt
+        run = edits.CountingRun(counting=CountingConfig(method=args.count_method))
         if isinstance(source, str):
-            count, gen = edits.count_generated(loaded, source, frames=frames, sample=sample)
+            count, gen = edits.count_generated(loaded, source, frames=frames, sample=sample, run=run)
             joints = gen.joints[0]
         else:
-            count = edits.count_motion(loaded, source)
+            count = edits.count_motion(loaded, source, run=run)
             joints = source
-        report.update(attention_count=count.attention.count, attention_rounded=count.attention.rounded,
-                      baseline_count=count.baseline, peaks=len(count.attention.peaks))
+        report.update(method=args.count_method, attention_count=count.attention.count,
+                      attention_rounded=count.attention.rounded, baseline_count=count.baseline,
+                      peaks=len(count.attention.peaks))
         save_motion(joints, args.out)
-        print(json.dumps(report, indent=2))
+        print(json.dumps(report, indent=2, ensure_ascii=False))
         return 0
 
+    if args.kind == "replace" and options.prompt and options.edited:
+        alignment = edits.replace_alignment(loaded, options.prompt or "", options.edited or "")
+        report["alignment"] = alignment.describe()  # shown before the run: the user sees what maps onto what
+        print(alignment.describe(), file=sys.stderr, flush=True)
     out = run_edit(loaded, options, frames=frames, sample=sample)
     save_motion(out.after, args.out)
     report["out"] = str(args.out)
+    if args.kind == "ground":
+        report["spans"] = spans_text(out.extra.get("spans", ()))
+    if args.kind == "example":
+        report.update(chunk_frames=options.chunk_frames, outputs=options.count)
     if args.render is not None:
         from viz.render import render_file
 
         render_file({f"before ({out.before_role})": out.before, f"after ({out.after_role})": out.after}, args.render)
         report["render"] = str(args.render)
-    print(json.dumps(report, indent=2))
+    print(json.dumps(report, indent=2, ensure_ascii=False))
     return 0

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, CLIError, check_outputs, seed_argument
 from engine.duration import AUTO, resolve_seconds, seconds_argument
+from engine.library.cli_support import add_library_arguments, keep, model_info
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 from engine.units import DEFAULT_GUIDANCE, MAX_SECONDS, MIN_SECONDS
@@ -18,7 +19,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        description="Generate motions from a text prompt and write them (the extension of each --out "
                        "decides: .npy joints, .bvh, .png/.gif/.mp4 renders; --vecs writes 263-dim features to .npy).")
     p.add_argument("prompt", help='e.g. "a person jumps twice"')
-    p.add_argument("--out", type=Path, action="append", required=True, help="output file; repeat for several")
+    p.add_argument("--out", type=Path, action="append", default=None,
+                   help="output file; repeat for several (none: the motion is only kept in the library)")
     p.add_argument("--seconds", type=seconds_argument, default=AUTO,
                    help=f"length in seconds ({MIN_SECONDS:g} to {MAX_SECONDS:g}), or auto: predicted from the prompt (default: auto)")
     p.add_argument("--seed", type=seed_argument, default=0)
@@ -27,6 +29,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--sampler", choices=("ddim", "ddpm"), default="ddim")
     p.add_argument("--model", type=Path, default=MODEL_DIR)
     p.add_argument("--vecs", action="store_true", help="write .npy outputs as 263-dim features instead of joints")
+    add_library_arguments(p)
     add_runtime_arguments(p)
     p.set_defaults(run=run)
 
@@ -36,6 +39,9 @@ def run(args: argparse.Namespace) -> int:
     from engine.generate import Request, SampleConfig, frames_for, generate
     from engine.io import save_motion
 
+    args.out = args.out or []
+    if not args.out and args.no_library:
+        raise CLIError("nothing would be kept: give --out FILE, or drop --no-library to keep the motion in the library")
     check_outputs(args.out, MOTION_SUFFIXES + RENDER_SUFFIXES)  # every --out, before the model loads
     if args.vecs and any(out.suffix.lower() == ".bvh" for out in args.out):
         raise CLIError("--vecs writes 263-dim features to .npy; a .bvh --out holds joints: drop --vecs or the .bvh")
@@ -59,6 +65,11 @@ def run(args: argparse.Namespace) -> int:
         else:
             save_motion(joints, out, to="vecs" if args.vecs else "joints")
         print(f"wrote {out}")
+    keep(args, joints, kind="generate", title=f"{args.prompt} · seed {args.seed}",
+         features=gen.features[0, :frames],
+         recipe={"prompt": args.prompt, "seed": args.seed, "steps": args.steps, "guidance": args.guidance,
+                 "seconds": None if args.seconds == AUTO else seconds, "model": model_info(args.model),
+                 "operation": {"sampler": args.sampler, "seconds_used": seconds, "made_by": "moattn generate"}})
     # what was and was not followed: the prompt's intent beside what the detectors see in the motion
     from engine.analysis.followed import follow_generated
 

@@ -19,6 +19,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     convert.add_argument("--to", choices=("joints", "vecs"), default="joints",
                          help="what an .npy output holds (default: joints)")
     add_window_args(convert, what="the part of the input to write")
+    from engine.library.cli_support import add_library_arguments
+
+    add_library_arguments(convert)  # the motion read is kept in the library as an import
     convert.set_defaults(run=run_convert)
 
     render = sub.add_parser(
@@ -61,7 +64,21 @@ def run_convert(args: argparse.Namespace) -> int:
     joints = load_window(args.input, args)
     save_motion(joints, args.output, to=args.to)
     print(f"wrote {args.output} ({len(joints)} frames at {FPS} fps)")
+    keep_import(args, joints, args.input)
     return 0
+
+
+def keep_import(args: argparse.Namespace, joints, path: Path, *, title: str | None = None, library=None):
+    """Keep a motion read from ``path`` in the library (kind "import"; the same file and window again: the same
+    entry, re-made) unless ``--no-library``."""
+    from engine.library.cli_support import keep
+
+    path = Path(path)
+    window = {"start": getattr(args, "start", None), "seconds": getattr(args, "seconds", None)}
+    return keep(args, joints, kind="import", title=title or f"imported: {path.name}", reuse=True, library=library,
+                recipe={"source": {"file": str(path.expanduser().resolve()), "name": path.name,
+                                   **{k: v for k, v in window.items() if v is not None}},
+                        "operation": {"made_by": f"moattn {getattr(args, 'command', None) or 'convert'}"}})
 
 
 def run_render(args: argparse.Namespace) -> int:

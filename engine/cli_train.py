@@ -12,6 +12,7 @@ import json
 from dataclasses import fields
 from pathlib import Path
 
+from engine.methods.commdm import ComConfig
 from engine.model.denoiser import ModelConfig
 from engine.runtime import DEVICE_HELP, PRECISION_HELP, autocast_dtype, resolve_device
 
@@ -38,12 +39,13 @@ def _add_config_flags(p: argparse.ArgumentParser, config_type, *, skip: tuple[st
             continue
         value = getattr(default, f.name)
         flag = f"--{f.name.replace('_', '-')}"
+        said = f"{f.metadata['help']} " if "help" in f.metadata else ""  # the field's own help, where it has one
         if f.name in _RUNTIME_HELP:
             p.add_argument(flag, default=None, help=_RUNTIME_HELP[f.name])
         elif isinstance(value, bool):
-            p.add_argument(flag, action=argparse.BooleanOptionalAction, default=None, help=f"(default: {value})")
+            p.add_argument(flag, action=argparse.BooleanOptionalAction, default=None, help=f"{said}(default: {value})")
         else:
-            p.add_argument(flag, type=type(value), default=None, help=f"(default: {value})")
+            p.add_argument(flag, type=type(value), default=None, help=f"{said}(default: {value})")
 
 
 def _add_model_flags(p: argparse.ArgumentParser) -> None:
@@ -83,8 +85,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
     d = trainers.add_parser("duet", help="the ComMDM two-person block on a few corpus duets, the base (--prior) frozen")
     _add_config_flags(d, com_type)
-    d.add_argument("--commdm-after", type=int, default=0,
-                   help="the base layer the block follows (0 = the last, as in the paper)")
+    after = next(f for f in fields(ComConfig) if f.name == "after")  # declared once, on the block's config
+    d.add_argument("--commdm-after", type=int, default=after.default, help=f"{after.metadata['help']} (default: "
+                   f"{after.default})")
 
     for t in (b, c, d):
         t.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
@@ -132,7 +135,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_duet(args: argparse.Namespace) -> int:
-    from engine.methods.commdm import ComConfig
     from engine.train_commdm import ComTrainConfig, train_commdm
 
     config = ComTrainConfig(com=ComConfig(after=args.commdm_after), **_given(args, ComTrainConfig))

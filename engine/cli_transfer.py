@@ -8,7 +8,7 @@ from pathlib import Path
 from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, check_output_folder, check_outputs, seed_argument
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
-from engine.methods.transfer_config import ROOT_MODES, TransferConfig
+from engine.methods.transfer_config import ROOT_CHOICES, ROOT_MODES, option_info
 from engine.units import DEFAULT_GUIDANCE, DEFAULT_STEPS
 
 
@@ -27,13 +27,20 @@ def _common(p: argparse.ArgumentParser) -> None:
                         "without it a file is taken whole")
     p.add_argument("--layers", type=int, nargs=2, default=None, metavar=("FIRST", "LAST"),
                    help="mixed layers, inclusive 0-based range (default: every layer but the first)")
-    p.add_argument("--step-window", type=float, nargs=2, default=(TransferConfig.start, TransferConfig.end),
+    start, end = option_info("start"), option_info("end")
+    p.add_argument("--step-window", type=float, nargs=2, default=(start.default, end.default),
                    metavar=("START", "END"),
-                   help=f"fractions of the sampling steps that mix (default {TransferConfig.start} {TransferConfig.end})")
-    p.add_argument("--root", choices=ROOT_MODES, default=TransferConfig.root,
-                   help=f"what the output takes from the leader's root (default: {TransferConfig.root}, its whole path)")
-    p.add_argument("--keep-feet", action="store_true",
-                   help="also keep the leader's footwork (foot contacts, feet and ankle positions); not in the paper")
+                   help=f"fractions of the sampling steps that mix, each in [{start.bounds[0]:g}, {start.bounds[1]:g}] "
+                        f"(default {start.default} {end.default}; paper: steps 90 -> 10 of 100)")
+    root = option_info("root")
+    p.add_argument("--root", choices=ROOT_MODES, default=root.default,
+                   help=f"what the output takes from the leader's root (default: {root.default}, chosen by `moattn "
+                        "bench --transfer`): " + "; ".join(f"{m}: {h}" for m, (_, h) in ROOT_CHOICES.items()))
+    p.add_argument("--keep-feet", action="store_true", help=option_info("feet").help)
+    directions = option_info("directions")
+    p.add_argument("--directions", type=int, default=directions.default, metavar="N",
+                   help=f"{directions.help} ({directions.bounds[0]:g}-{directions.bounds[1]:g}, default "
+                        f"{directions.default})")
     p.add_argument("--seed", type=seed_argument, default=0)
     p.add_argument("--steps", type=int, default=DEFAULT_STEPS)
     p.add_argument("--guidance", type=float, default=DEFAULT_GUIDANCE)
@@ -103,7 +110,7 @@ def config_from_args(args: argparse.Namespace):
             raise ValueError(f"--layers {first} {last}: the last layer comes before the first")
         layers = tuple(range(first, last + 1))
     return TransferConfig(start=args.step_window[0], end=args.step_window[1], layers=layers, root=args.root,
-                          feet=args.keep_feet)
+                          feet=args.keep_feet, directions=args.directions)
 
 
 def _run(args: argparse.Namespace, *, record: bool):
@@ -115,11 +122,14 @@ def _run(args: argparse.Namespace, *, record: bool):
     loaded = load_model(args.model, runtime=runtime_from_args(args))
     leader, followers = sources(args, max_frames=loaded.model.config.max_frames)
     sample = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed)
-    result = transfer(loaded, leader, followers, config_from_args(args), sample=sample,
-                      record=qk_record() if record else None)
-    report = {"leader": leader.label, "followers": [f.label for f in followers],
+    config = config_from_args(args)
+    result = transfer(loaded, leader, followers, config, sample=sample, record=qk_record() if record else None)
+    report = {"leader": leader.label, "followers": [f.label for f in followers], "root": config.root,
+              "directions": config.directions,
               "leader_inversion_m": result.leader.inversion,
               "follower_inversion_m": [f.inversion for f in result.followers]}
+    if config.directions > 1:
+        report["direction_copies"] = [[c.source.label for c in group] for group in result.copies]
     return loaded, sample, result, report
 
 

@@ -12,7 +12,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from engine.generate import MAX_SECONDS, MIN_SECONDS
+from engine.units import MAX_SECONDS, MIN_SECONDS
 
 AUTO = "auto"
 DEFAULT_SECONDS = 4.0  # a prompt whose actions the intent parser does not know
@@ -22,8 +22,8 @@ DRAWS = 64  # realisations averaged per segment (the estimate moves by under 0.0
 @lru_cache(maxsize=512)
 def auto_seconds(prompt: str) -> float:
     """The predicted length of ``prompt``'s motion in seconds (0.1 s steps, within the model's 1-9.8 s)."""
-    from engine.evaluation.adherence import realise_segment
     from engine.intent import parse_intent
+    from engine.synth.intents import realise_segment
     from engine.synth.splits import natural_seconds
 
     intent = parse_intent(prompt)

@@ -38,6 +38,18 @@ FOOT_JOINTS = {"left": (7, 10), "right": (8, 11)}  # (ankle, toe) per side
 # left <-> right joint swap, for mirroring
 MIRROR: tuple[int, ...] = (0, 2, 1, 3, 5, 4, 6, 8, 7, 9, 11, 10, 12, 14, 13, 15, 17, 16, 19, 18, 21, 20)
 
+
+def mirror_joints(joints: np.ndarray) -> np.ndarray:
+    """Joints (..., 22, 3) mirrored left <-> right: reflected in the YZ plane (x -> -x) with each left joint and its
+    right partner swapped, so the result is again a body (its left hand where the right one was, reflected).
+    Reflect several people in one frame together and the scene stays consistent."""
+    joints = np.asarray(joints)
+    if joints.shape[-2:] != (NUM_JOINTS, 3):
+        raise ValueError(f"expected joints (..., {NUM_JOINTS}, 3), got {joints.shape}")
+    out = joints[..., list(MIRROR), :].copy()
+    out[..., 0] *= -1
+    return out
+
 # Bone lengths (metres) of HumanML3D's target skeleton, measured on frame 0 of the real sample
 # humanml3d_012314_joints.npy and averaged over left/right (tests re-measure them from the file).
 BONE_LENGTHS: dict[int, float] = {

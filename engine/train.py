@@ -25,6 +25,7 @@ from tqdm import tqdm
 
 from engine.checkpoint import export_weights, load_train_state, read_config, save_train_state, write_config
 from engine.data import Batch, CorpusSource, FolderSource, MotionSource, batch_loader
+from engine.diffusion.losses import masked_losses
 from engine.diffusion.schedule import CosineSchedule
 from engine.model.denoiser import Denoiser, ModelConfig
 from engine.representation import Normalizer
@@ -106,20 +107,6 @@ def make_source(config: TrainConfig, *, split: str = "train") -> MotionSource:
     return FolderSource(config.data, split=split)
 
 
-def masked_losses(x0_hat: torch.Tensor, x0: torch.Tensor, mask: torch.Tensor,
-                  weights: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
-    """Mean squared error over real frames, and of the frame-to-frame differences; ``weights`` (B,) weigh each
-    sample's frames (per-timestep loss weights)."""
-    m = mask[..., None].float()
-    if weights is not None:
-        m = m * weights.to(m.device, m.dtype)[:, None, None]
-    mse = ((x0_hat - x0) ** 2 * m).sum() / (m.sum() * x0.shape[-1]).clamp_min(1)
-    mv = m[:, 1:] * m[:, :-1]
-    dv = (x0_hat[:, 1:] - x0_hat[:, :-1]) - (x0[:, 1:] - x0[:, :-1])
-    vel = (dv**2 * mv).sum() / (mv.sum() * x0.shape[-1]).clamp_min(1)
-    return mse, vel
-
-
 def lr_at(step: int, config, *, floor: float = 0.1) -> float:
     """Linear warm-up over ``config.warmup`` steps, then cosine from ``config.lr`` down to ``floor`` × lr."""
     if step < config.warmup:
@@ -153,41 +140,93 @@ def _state_from_model_folder(folder: Path, batch_size: int) -> tuple[dict, dict]
 
 def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, source: MotionSource | None = None,
           init_from: str | Path | None = None, given: tuple[str, ...] = (), fresh_schedule: bool = False) -> dict:
-    """``given``: the config fields the caller set explicitly (the CLI's flags); a continued base run says which of
+    """Run one training job to ``config.steps`` (or until SIGTERM / ``max_minutes``), see :class:`TrainingRun`.
+
+    ``given``: the config fields the caller set explicitly (the CLI's flags); a continued base run says which of
     them it does not apply. ``fresh_schedule`` (with ``init_from``): a fine-tune of the base model with this call's
     hyper-parameters (learning rate, warm-up, levers), steps counted from 0; the architecture is the base's."""
-    if config.loss_weighting not in LOSS_WEIGHTINGS:
-        raise ValueError(f"--loss-weighting {config.loss_weighting!r}: expected one of {', '.join(LOSS_WEIGHTINGS)}")
-    if config.length_groups < 1 or config.max_minutes < 0:
-        raise ValueError("--length-groups must be at least 1 and --max-minutes 0 or more")
-    distributed = int(os.environ.get("WORLD_SIZE", "1")) > 1
-    runtime = _runtime(config, distributed=distributed)
-    if distributed:
-        dist.init_process_group("nccl" if runtime.device.type == "cuda" else "gloo")
-    rank = dist.get_rank() if distributed else 0
-    world = dist.get_world_size() if distributed else 1
-    if rank == 0:
-        print(f"training on {runtime.describe()}" + (f", {world} processes" if distributed else ""), flush=True)
-    if config.threads:
-        torch.set_num_threads(config.threads)
-    out = Path(config.out).resolve()
-    if rank == 0:
-        out.mkdir(parents=True, exist_ok=True)
-    if distributed:
-        dist.barrier()
+    run = TrainingRun(config, progress=progress, source=source)
+    try:
+        run.start(resume=resume, init_from=init_from, given=given, fresh_schedule=fresh_schedule)
+        run.build()
+        return run.loop()
+    finally:
+        run.close()
 
-    source = source or make_source(config)
-    words = tuple(source.words())
-    state = None
-    resumable = resume and (out / "train_state.pt").exists()
-    if resumable or init_from is not None:
+
+class _StartPoint(NamedTuple):
+    """Where a run starts: the (possibly continued) config, the saved weights/optimizer (None: from scratch), the
+    tokenizer the weights were trained with, and the feature statistics."""
+
+    config: TrainConfig
+    state: dict | None
+    tokenizer: Tokenizer
+    normalizer: Normalizer
+
+
+class TrainingRun:
+    """One training job as named steps: :meth:`start` (resume, continue or fine-tune a model folder, or scratch),
+    :meth:`build` (model, EMA, optimizer, batch stream), :meth:`loop` (steps, with :meth:`log`, :meth:`checkpoint`
+    and :meth:`snapshot` on their schedules), :meth:`close` (process group)."""
+
+    def __init__(self, config: TrainConfig, *, progress: bool = True, source: MotionSource | None = None):
+        if config.loss_weighting not in LOSS_WEIGHTINGS:
+            raise ValueError(f"--loss-weighting {config.loss_weighting!r}: expected one of {', '.join(LOSS_WEIGHTINGS)}")
+        if config.length_groups < 1 or config.max_minutes < 0:
+            raise ValueError("--length-groups must be at least 1 and --max-minutes 0 or more")
+        self.config = config
+        self.progress = progress
+        self.distributed = int(os.environ.get("WORLD_SIZE", "1")) > 1
+        self.runtime = _runtime(config, distributed=self.distributed)
+        if self.distributed:
+            dist.init_process_group("nccl" if self.runtime.device.type == "cuda" else "gloo")
+        self.rank = dist.get_rank() if self.distributed else 0
+        self.world = dist.get_world_size() if self.distributed else 1
+        self.main = self.rank == 0
+        if self.main:
+            print(f"training on {self.runtime.describe()}" + (f", {self.world} processes" if self.distributed else ""),
+                  flush=True)
+        if config.threads:
+            torch.set_num_threads(config.threads)
+        self.out = Path(config.out).resolve()
+        if self.main:
+            self.out.mkdir(parents=True, exist_ok=True)
+        self._barrier()
+        self.source = source or make_source(config)
+        self.step = self.index = 0
+
+    def _barrier(self) -> None:
+        if self.distributed:
+            dist.barrier()
+
+    # -- start: where the weights, hyper-parameters and vocabulary come from ---------------------------------------
+    def start(self, *, resume: bool, init_from: str | Path | None, given: tuple[str, ...],
+              fresh_schedule: bool) -> None:
+        config, out = self.config, self.out
+        words = tuple(self.source.words())
+        resumable = resume and (out / "train_state.pt").exists()
+        if resumable or init_from is not None:
+            point = self._continued(resumable=resumable, init_from=init_from, given=given,
+                                    fresh_schedule=fresh_schedule)
+        else:
+            if resume and self.main:
+                print(f"no checkpoint in {out}; starting from scratch")
+            point = self._scratch(words)
+        config = point.config
+        self.grown = point.tokenizer.extended(words)
+        if len(self.grown) > config.model.vocab_size:
+            config.model = ModelConfig.from_json({**config.model.to_json(), "vocab_size": len(self.grown) + 64})
+        self.config, self.point = config, point
+
+    def _continued(self, *, resumable: bool, init_from, given, fresh_schedule: bool) -> _StartPoint:
+        config, out = self.config, self.out
         if resumable:
             saved, state = read_config(out), load_train_state(out)
             stats_folder = out
         else:
             saved, state = _state_from_model_folder(Path(init_from), config.batch_size)
             stats_folder = Path(init_from)
-            if rank == 0:
+            if self.main:
                 print(f"starting from the model in {init_from} (step {state['step']}); optimizer state is new")
         if not resumable and (config.control or fresh_schedule):
             # a control fine-tune (PriorMDM Algorithm 1) or a fresh-schedule fine-tune: the base's architecture,
@@ -200,156 +239,191 @@ def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, s
         else:
             # the run's hyper-parameters come from the checkpoint; how to run it now comes from the call
             kept = kept_from_checkpoint({k: getattr(config, k) for k in given}, saved["train"])
-            for name, (want, value) in kept.items() if rank == 0 else ():
+            for name, (want, value) in kept.items() if self.main else ():
                 print(f"--{name.replace('_', '-')} {want} is not applied: a continued run keeps its saved {name} "
                       f"({value})", file=sys.stderr)
             how = {k: getattr(config, k) for k in _RUNTIME_FIELDS}
             # fields the checkpoint predates (new levers) take the call's value
             config = TrainConfig.from_json({**config.to_json(), **saved["train"], **how, "out": str(out)})
-        tokenizer = Tokenizer(saved["vocabulary"])
         normalizer = Normalizer.load(stats_folder)
-        if rank == 0 and stats_folder != out:
+        if self.main and stats_folder != out:
             normalizer.save(out)
-    else:
-        if resume and rank == 0:
-            print(f"no checkpoint in {out}; starting from scratch")
-        tokenizer = Tokenizer(sorted(words))
-        normalizer = _fit_stats(source, config) if rank == 0 else None
-        if rank == 0:
-            normalizer.save(out)
-        if distributed:
+        return _StartPoint(config, state, Tokenizer(saved["vocabulary"]), normalizer)
+
+    def _scratch(self, words: tuple[str, ...]) -> _StartPoint:
+        normalizer = _fit_stats(self.source, self.config) if self.main else None
+        if self.main:
+            normalizer.save(self.out)
+        if self.distributed:
             dist.barrier()
-            normalizer = Normalizer.load(out)
-    grown = tokenizer.extended(words)
-    model_config = config.model
-    if len(grown) > model_config.vocab_size:
-        model_config = ModelConfig.from_json({**model_config.to_json(), "vocab_size": len(grown) + 64})
-    config.model = model_config
+            normalizer = Normalizer.load(self.out)
+        return _StartPoint(self.config, None, Tokenizer(sorted(words)), normalizer)
 
-    torch.manual_seed(config.seed)
-    opt_state = None
-    start_step, next_index = 0, 0
-    if state is not None:
-        params = state["model"]
-        vocab_rows = params["text_encoder.embed.weight"].shape[0]
-        # build at the saved size, load, then grow the word table if the vocabulary grew
-        model = Denoiser(ModelConfig.from_json({**model_config.to_json(), "vocab_size": vocab_rows}))
-        model.load_state_dict(params)
-        if vocab_rows < model_config.vocab_size:
-            model.text_encoder.resize_vocabulary(model_config.vocab_size)
-            print(f"vocabulary grew to {len(grown)} words: embeddings extended, optimizer state reset")
+    # -- build: model, EMA, optimizer, batches ---------------------------------------------------------------------
+    def build(self) -> None:
+        config, state, runtime = self.config, self.point.state, self.runtime
+        model_config = config.model
+        torch.manual_seed(config.seed)
+        opt_state = None
+        if state is not None:
+            params = state["model"]
+            vocab_rows = params["text_encoder.embed.weight"].shape[0]
+            # build at the saved size, load, then grow the word table if the vocabulary grew
+            model = Denoiser(ModelConfig.from_json({**model_config.to_json(), "vocab_size": vocab_rows}))
+            model.load_state_dict(params)
+            if vocab_rows < model_config.vocab_size:
+                model.text_encoder.resize_vocabulary(model_config.vocab_size)
+                seeded = seed_new_words(model, old=self.point.tokenizer, grown=self.grown)
+                print(f"vocabulary grew to {len(self.grown)} words: embeddings extended ({seeded} new words start as "
+                      f"the word the old vocabulary read them as), optimizer state reset")
+            else:
+                opt_state = state["optimizer"]
+            self.step, self.index = int(state["step"]), int(state["next_index"])
         else:
-            opt_state = state["optimizer"]
-        start_step, next_index = int(state["step"]), int(state["next_index"])
-    else:
-        model = Denoiser(model_config)
-    tokenizer = grown
-    ema = copy.deepcopy(model).eval()
-    if state is not None and state["ema"]["text_encoder.embed.weight"].shape == ema.text_encoder.embed.weight.shape:
-        ema.load_state_dict({k: (v.float() if v.is_floating_point() else v) for k, v in state["ema"].items()})
-    for p in ema.parameters():
-        p.requires_grad_(False)
+            model = Denoiser(model_config)
+        self.tokenizer, self.normalizer = self.grown, self.point.normalizer
+        ema = copy.deepcopy(model).eval()
+        if state is not None and state["ema"]["text_encoder.embed.weight"].shape == ema.text_encoder.embed.weight.shape:
+            ema.load_state_dict({k: (v.float() if v.is_floating_point() else v) for k, v in state["ema"].items()})
+        for p in ema.parameters():
+            p.requires_grad_(False)
+        model.to(runtime.device)
+        ema.to(runtime.device)
+        model.autocast_dtype = runtime.dtype
+        if self.distributed:
+            ids = [runtime.device.index] if runtime.device.type == "cuda" else None
+            net = torch.nn.parallel.DistributedDataParallel(model, device_ids=ids)
+        else:
+            net = model
+        optimizer = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+        if opt_state is not None:
+            optimizer.load_state_dict(opt_state)
+        self.model, self.ema, self.optimizer = model, ema, optimizer
+        self.point = self.point._replace(state=None)  # the saved tensors are loaded: let them go
+        self.stream = batch_loader(
+            self.source, tokenizer=self.tokenizer, normalize=self.normalizer.normalize,
+            batch_size=config.batch_size, seed=config.seed * 1000 + self.rank + self.step,
+            start_index=self.index + self.rank, stride=self.world, workers=config.workers,
+            pin_memory=runtime.device.type == "cuda", max_frames=config.max_frames, text_dropout=config.text_dropout,
+            length_groups=config.length_groups,
+        )
+        gen = torch.Generator().manual_seed(config.seed * 7919 + self.rank * 104729 + self.step)
+        control_dims = None
+        if config.control:
+            from engine.methods.control import control_dims as _dims
 
-    model.to(runtime.device)
-    ema.to(runtime.device)
-    model.autocast_dtype = runtime.dtype
-    if distributed:
-        ids = [runtime.device.index] if runtime.device.type == "cuda" else None
-        net = torch.nn.parallel.DistributedDataParallel(model, device_ids=ids)
-    else:
-        net = model
-    optimizer = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
-    if opt_state is not None:
-        optimizer.load_state_dict(opt_state)
-    stream = batch_loader(
-        source, tokenizer=tokenizer, normalize=normalizer.normalize, batch_size=config.batch_size,
-        seed=config.seed * 1000 + rank + start_step, start_index=next_index + rank, stride=world,
-        workers=config.workers, pin_memory=runtime.device.type == "cuda",
-        max_frames=config.max_frames, text_dropout=config.text_dropout, length_groups=config.length_groups,
-    )
-    gen = torch.Generator().manual_seed(config.seed * 7919 + rank * 104729 + start_step)
+            control_dims = torch.as_tensor(_dims(config.control))
+        self.train_step = TrainStep(model=model, net=net, ema=ema, optimizer=optimizer, runtime=runtime,
+                                    generator=gen, velocity_weight=config.velocity_weight,
+                                    grad_clip=config.grad_clip, ema_decay=config.ema_decay,
+                                    control_dims=control_dims,
+                                    snr_gamma=config.snr_gamma if config.loss_weighting == "min_snr" else None)
 
-    def checkpoint(step: int, index: int) -> None:
-        if rank != 0:
+    # -- what the loop writes ----------------------------------------------------------------------------------------
+    def checkpoint(self) -> None:
+        """train_state.pt (weights, EMA, optimizer, step, item counter), config.json and the EMA's weights.pt."""
+        if not self.main:
             return
-        if not all(torch.isfinite(p).all() for p in model.parameters()):
-            print(f"step {step}: weights are not finite; checkpoint NOT written", flush=True)
+        if not all(torch.isfinite(p).all() for p in self.model.parameters()):
+            print(f"step {self.step}: weights are not finite; checkpoint NOT written", flush=True)
             return
-        write_config(out, model_config=model_config, vocabulary=tokenizer.words[1:],
-                     extra={"train": config.to_json(), "step": step})
-        save_train_state(out, {"model": on_cpu(model.state_dict()), "ema": on_cpu(ema.state_dict()),
-                               "optimizer": on_cpu(optimizer.state_dict()), "step": step, "next_index": index})
-        export_weights(out, on_cpu(ema.state_dict()))
+        write_config(self.out, model_config=self.config.model, vocabulary=self.tokenizer.words[1:],
+                     extra={"train": self.config.to_json(), "step": self.step})
+        save_train_state(self.out, {"model": on_cpu(self.model.state_dict()), "ema": on_cpu(self.ema.state_dict()),
+                                    "optimizer": on_cpu(self.optimizer.state_dict()), "step": self.step,
+                                    "next_index": self.index})
+        export_weights(self.out, on_cpu(self.ema.state_dict()))
 
-    control_dims = None
-    if config.control:
-        from engine.methods.control import control_dims as _dims
+    def snapshot(self) -> None:
+        """A loadable model folder of the EMA at this step: snapshots/step_NNNNNNN."""
+        snap = self.out / "snapshots" / f"step_{self.step:07d}"
+        snap.mkdir(parents=True, exist_ok=True)
+        write_config(snap, model_config=self.config.model, vocabulary=self.tokenizer.words[1:],
+                     extra={"train": self.config.to_json(), "step": self.step})
+        self.normalizer.save(snap)
+        export_weights(snap, on_cpu(self.ema.state_dict()))
 
-        control_dims = torch.as_tensor(_dims(config.control))
-    train_step = TrainStep(model=model, net=net, ema=ema, optimizer=optimizer, runtime=runtime, generator=gen,
-                           velocity_weight=config.velocity_weight, grad_clip=config.grad_clip,
-                           ema_decay=config.ema_decay, control_dims=control_dims,
-                           snr_gamma=config.snr_gamma if config.loss_weighting == "min_snr" else None)
-    stop = _Stop()
-    deadline = time.monotonic() + 60 * config.max_minutes if config.max_minutes else None
-    previous = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
-    log_path = out / "log.jsonl"
-    bar = tqdm(total=config.steps, initial=start_step, disable=not progress or rank != 0, desc="train", unit="step")
-    step, index, skipped = start_step, next_index, 0
-    window_loss, window_t0, last = [], time.perf_counter(), {}
-    try:
-        model.train()
-        while step < config.steps and not stop.requested:
-            if deadline is not None and time.monotonic() > deadline:
-                if rank == 0:
-                    print(f"--max-minutes {config.max_minutes:g} reached at step {step}", flush=True)
-                break
-            batch = next(stream)
-            index += config.batch_size * world
-            outcome = train_step(batch, step=step, lr=lr_at(step, config))
-            if not outcome.applied:
-                if outcome.overflow:
-                    continue  # an fp16 gradient overflowed: the scaler lowered its scale
-                skipped += 1  # never let one bad batch poison the weights
-                if rank == 0:
-                    print(f"step {step}: non-finite loss or gradient; update skipped ({skipped} so far)", flush=True)
-                if skipped > 50:
-                    raise RuntimeError("more than 50 non-finite updates: stopping (check the data and learning rate)")
-                continue
-            step += 1
-            window_loss.append((outcome.mse, outcome.vel))
-            bar.update(1)
-            if step % config.log_every == 0 or step == config.steps:
-                elapsed = time.perf_counter() - window_t0
-                last = {"step": step, "mse": float(np.mean([l[0] for l in window_loss])),
-                        "vel": float(np.mean([l[1] for l in window_loss])), "lr": lr_at(step, config),
-                        "s_per_step": elapsed / len(window_loss), "time": time.time()}
-                bar.set_postfix(mse=f"{last['mse']:.4f}", s_step=f"{last['s_per_step']:.2f}")
-                if rank == 0:
-                    with log_path.open("a") as fh:
-                        fh.write(json.dumps(last) + "\n")
-                window_loss, window_t0 = [], time.perf_counter()
-            if step % config.ckpt_every == 0:
-                checkpoint(step, index)
-            if rank == 0 and config.snapshot_every and step % config.snapshot_every == 0:
-                snap = out / "snapshots" / f"step_{step:07d}"
-                snap.mkdir(parents=True, exist_ok=True)
-                write_config(snap, model_config=model_config, vocabulary=tokenizer.words[1:],
-                             extra={"train": config.to_json(), "step": step})
-                normalizer.save(snap)
-                export_weights(snap, on_cpu(ema.state_dict()))
-    finally:
-        bar.close()
-        for s, handler in previous.items():
-            signal.signal(s, handler)
-        checkpoint(step, index)
-        if distributed:
+    def log(self, losses: list[tuple[float, float]], seconds: float) -> dict:
+        """One log.jsonl line for the steps since the last one."""
+        entry = {"step": self.step, "mse": float(np.mean([l[0] for l in losses])),
+                 "vel": float(np.mean([l[1] for l in losses])), "lr": lr_at(self.step, self.config),
+                 "s_per_step": seconds / len(losses), "time": time.time()}
+        if self.main:
+            with (self.out / "log.jsonl").open("a") as fh:
+                fh.write(json.dumps(entry) + "\n")
+        return entry
+
+    # -- the loop ------------------------------------------------------------------------------------------------------
+    def loop(self) -> dict:
+        config = self.config
+        stop = _Stop()
+        deadline = time.monotonic() + 60 * config.max_minutes if config.max_minutes else None
+        previous = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
+        bar = tqdm(total=config.steps, initial=self.step, disable=not self.progress or not self.main, desc="train",
+                   unit="step")
+        skipped = 0
+        window, window_t0, last = [], time.perf_counter(), {}
+        try:
+            self.model.train()
+            while self.step < config.steps and not stop.requested:
+                if deadline is not None and time.monotonic() > deadline:
+                    if self.main:
+                        print(f"--max-minutes {config.max_minutes:g} reached at step {self.step}", flush=True)
+                    break
+                batch = next(self.stream)
+                self.index += config.batch_size * self.world
+                outcome = self.train_step(batch, step=self.step, lr=lr_at(self.step, config))
+                if not outcome.applied:
+                    if outcome.overflow:
+                        continue  # an fp16 gradient overflowed: the scaler lowered its scale
+                    skipped += 1  # never let one bad batch poison the weights
+                    if self.main:
+                        print(f"step {self.step}: non-finite loss or gradient; update skipped ({skipped} so far)",
+                              flush=True)
+                    if skipped > 50:
+                        raise RuntimeError("more than 50 non-finite updates: stopping (check the data and learning "
+                                           "rate)")
+                    continue
+                self.step += 1
+                window.append((outcome.mse, outcome.vel))
+                bar.update(1)
+                if self.step % config.log_every == 0 or self.step == config.steps:
+                    last = self.log(window, time.perf_counter() - window_t0)
+                    bar.set_postfix(mse=f"{last['mse']:.4f}", s_step=f"{last['s_per_step']:.2f}")
+                    window, window_t0 = [], time.perf_counter()
+                if self.step % config.ckpt_every == 0:
+                    self.checkpoint()
+                if self.main and config.snapshot_every and self.step % config.snapshot_every == 0:
+                    self.snapshot()
+        finally:
+            bar.close()
+            for s, handler in previous.items():
+                signal.signal(s, handler)
+            self.checkpoint()
+        return {"step": self.step, "stopped": stop.requested, **last}
+
+    def close(self) -> None:
+        if self.distributed and dist.is_initialized():
             dist.barrier()
             dist.destroy_process_group()
-    return {"step": step, "stopped": stop.requested, **last}
 
 
 LOSS_WEIGHTINGS = ("uniform", "min_snr")
+
+
+def seed_new_words(model, *, old, grown) -> int:
+    """Start each word new to ``grown`` at the embedding of the word ``old`` reads it as (its form, meaning or
+    spelling: "skips" -> "hops"), so a fine-tune begins by reading new words exactly as the old model did rather
+    than from near-zero rows; words ``old`` leaves out keep their small random start. Returns how many were seeded."""
+    table = model.text_encoder.embed.weight  # (vocab_rows, width)
+    seeded = 0
+    with torch.no_grad():
+        for word in grown.words[len(old.words):]:
+            known, _how = old.reading(word)
+            if known is not None:
+                table[grown.words.index(word)] = table[old.words.index(known)]
+                seeded += 1
+    return seeded
 
 
 def min_snr_weights(schedule: CosineSchedule, gamma: float) -> torch.Tensor:

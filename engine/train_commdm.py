@@ -1,5 +1,7 @@
 """`moattn train --commdm`: train the ComMDM block on a few dozen two-person samples, the prior frozen.
 
+The block follows the base's last layer unless ``--commdm-after`` says otherwise (the paper's place). The few
+duets are cropped and, unless ``--no-mirror``, mirrored left <-> right (both as in the paper).
 Only the block and the embedding rows of words the prior never saw are trained (L_simple on
 both persons' clean motion and placement, plus a contact term on the hands; the two persons
 share the timestep and draw their own noise). A share of the pairs (``prefix_prob``) is trained
@@ -55,6 +57,8 @@ class ComTrainConfig:
     prefix_text_dropout: float = 0.8  # completion usually runs without text (as in the paper)
     shots: int = 6  # samples per interaction (8 interactions: 48 samples)
     crop_every: int = 10
+    mirror: bool = field(default=True, metadata={"help": "add each training duet mirrored left <-> right (both "
+                                                         "people together, as the paper augments its few duets)"})
     seed: int = 0
     log_every: int = 20
     ckpt_every: int = 200
@@ -74,7 +78,7 @@ class ComTrainConfig:
         return cls(com=com, **{k: v for k, v in data.items() if k in names})
 
 
-_BEFORE_NEW_TERMS = {"contact_weight": 0.0, "prefix_prob": 0.0}
+_BEFORE_NEW_TERMS = {"contact_weight": 0.0, "prefix_prob": 0.0, "mirror": False}
 _RUNTIME = ("steps", "log_every", "ckpt_every", "threads")
 
 
@@ -111,7 +115,7 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
         print(f"no checkpoint in {out}; starting from scratch")
     prior = load_model(config.prior)
     samples = few_shot("train", per_interaction=config.shots, seed=config.seed)
-    items = training_items(samples, prior.normalizer, crop_every=config.crop_every)
+    items = training_items(samples, prior.normalizer, crop_every=config.crop_every, mirror=config.mirror)
     words = [w for w in duet_words() if w not in prior.tokenizer]
     model = new_duet(prior, words, config=config.com, mean_place=mean_placement(items), seed=config.seed)
     net = model.denoiser
@@ -130,6 +134,7 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
     given = int(round(PREFIX_SECONDS * FPS))
     info = {**model.config, "kind": "commdm", "prefix_noise_free": config.prefix_prob > 0, "train": config.to_json(),
             "prior_step": prior.config.get("step"), "samples": len(samples), "items": len(items),
+            "mirrored": config.mirror,
             "interactions": sorted({s.interaction for s in samples}), "contacts": learn_plans(samples)}
 
     def checkpoint() -> None:
@@ -143,8 +148,10 @@ def train_commdm(config: ComTrainConfig, *, resume: bool = False, progress: bool
                                "optimizer": optimizer.state_dict(), "step": step})
         export_weights(out, keep(ema.state_dict()))
 
-    print(f"ComMDM: {len(samples)} two-person samples ({config.shots} per interaction), {len(items)} crops, "
-          f"{sum(p.numel() for p in params)} trained parameters, {len(words)} new words", flush=True)
+    print(f"ComMDM: {len(samples)} two-person samples ({config.shots} per interaction), {len(items)} crops"
+          f"{' (half of them mirrored)' if config.mirror else ''}, {sum(p.numel() for p in params)} trained "
+          f"parameters, {len(words)} new words, the block after base layer {net.after} of {net.prior.num_layers}",
+          flush=True)
     stop = _Stop()
     previous = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
     bar = tqdm(total=config.steps, initial=step, disable=not progress, desc="train commdm", unit="step")

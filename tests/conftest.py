@@ -1,12 +1,32 @@
-"""Shared fixtures: paths to the real reference data (read in place, never copied)."""
+"""Shared fixtures: paths to the real reference data (read in place, never copied); a temporary workspace."""
 from __future__ import annotations
 
+import atexit
+import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from engine.paths import PROJECT_ROOT, REAL_DATA_DIR
+
+# The motion library (engine.library) keeps every motion the CLI and the studio make in the workspace, by default the
+# user's data folder: the test run never writes there. Set before any test (and any subprocess it starts) runs;
+# each test then gets its own empty workspace (``workspace`` below).
+_SESSION_WORKSPACE = tempfile.mkdtemp(prefix="moattn-test-workspace-")
+os.environ["MOATTN_WORKSPACE"] = _SESSION_WORKSPACE
+os.environ.pop("MOATTN_LIBRARY_MB", None)
+atexit.register(shutil.rmtree, _SESSION_WORKSPACE, True)
+
+
+@pytest.fixture(autouse=True)
+def workspace(tmp_path_factory, monkeypatch) -> Path:
+    """This test's own motion-library workspace ($MOATTN_WORKSPACE), empty at its start."""
+    folder = tmp_path_factory.mktemp("workspace")
+    monkeypatch.setenv("MOATTN_WORKSPACE", str(folder))
+    return folder
 
 REAL_DATA = REAL_DATA_DIR  # the one definition lives in engine.paths (the inversion benchmark reads it too)
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from bokeh.events import Tap
 
-from app.tabs.compose.job import INTERVAL_COLORS, TRANSITION_COLOR, frame_colors, transition_at
+from app.tabs.compose.job import INTERVAL_COLORS, TRANSITION_COLOR, frame_colors, prepare, transition_at
 from app.tabs.compose.settings import IntervalRow
 from app.main import Studio
 from viz.colors import default_joint_colors
@@ -47,8 +47,9 @@ def test_timeline_add_remove_move_and_edit(studio):
     assert len(tab.rows) == 2
     # the expected length: 80 + 60 frames minus one 20-frame handshake
     assert c.expected_frames() == 120 and "120 frames (6.0 s)" in tab.length.object
-    tab.handshake.value = 0.5
-    assert c.handshake_frames == 10 and c.expected_frames() == 130
+    assert len(tab.transitions) == 1 and tab.transitions[0].frames.value == 20
+    tab.transitions[0].frames.value = 10
+    assert c.handshake_frames() == (10,) and c.expected_frames() == 130
     tab.rows[1].remove.clicks += 1
     tab.rows[0].remove.clicks += 1  # the last interval cannot go
     assert len(c.intervals) == 1 and studio.state.notices[-1] == ("error", "the timeline needs at least one interval")
@@ -94,9 +95,9 @@ def test_generate_a_long_motion(studio):
     assert tab.generate() and s.wait(300), s.notices[-1:]
     assert not [n for n in s.notices if n[0] == "error"], s.notices
     r = c.result
-    h = c.handshake_frames
-    assert h == 20
-    assert r.n_frames == 60 + 50 + 60 - 2 * h == len(s.item.joints)  # sum of intervals minus the handshakes
+    h = c.handshake_frames()
+    assert h == (20, 20)
+    assert r.n_frames == 60 + 50 + 60 - sum(h) == len(s.item.joints)  # sum of intervals minus the handshakes
     assert r.starts == [0, 40, 70] and r.transitions == [(40, 60), (70, 90)]
     assert s.current == r.name and s.item.info["compose"] is r
     assert np.isfinite(s.item.joints).all()
@@ -125,6 +126,51 @@ def test_generate_a_long_motion(studio):
     s.show_motion(s.item.joints[:10], title="other")
     tab.jump(75)
     assert s.current == r.name and s.frame == 75
+
+
+def test_a_handshake_per_transition_on_the_timeline(studio):
+    s, tab = studio.state, studio.compose
+    c = tab.settings
+    c.intervals = [IntervalRow("a person walks forward", 3.0), IntervalRow("a person jumps", 3.0),
+                   IntervalRow("a person waves", 3.0)]
+    # one widget per transition, between the rows it joins, with the engine's default and bounds
+    assert len(tab.transitions) == 2 and c.handshakes == [20, 20]
+    assert tab.rows_box.objects == [tab.rows[0].view, tab.transitions[0].view, tab.rows[1].view,
+                                    tab.transitions[1].view, tab.rows[2].view]
+    assert (tab.transitions[0].frames.start, tab.transitions[0].frames.end) == (0, 60)
+    tab.transitions[0].frames.value = 10
+    tab.transitions[1].frames.value = 30
+    assert c.handshakes == [10, 30] and c.expected_frames() == 180 - 40
+    assert "handshakes of 10 + 30 frames" in tab.length.object and "(1.50 s)" in tab.transitions[1].label.object
+    plan = prepare(s, c)
+    assert plan.config.handshakes(3) == (10, 30)
+    # out of range from the widget: a one-line error, the widget put back, the settings unchanged
+    tab.transitions[1].frames.value = 75
+    assert s.notices[-1] == ("error", "transition 2's handshake must be between 0 and 60 frames, got 75")
+    assert tab.transitions[1].frames.value == 30 and c.handshakes == [10, 30]
+    with pytest.raises(ValueError, match="there is no transition 3"):
+        c.set_handshake(2, 20)
+    # too long for the intervals it joins: the engine's message, before any work
+    tab.transitions[1].frames.value = 45
+    assert not tab.generate()
+    assert "with handshakes of 10 and 45 frames it needs at least" in s.notices[-1][1]
+    tab.transitions[1].frames.value = 30
+    # moving rows keeps the handshakes in their places; adding a row adds a default one; removing one removes its
+    tab.rows[2].up.clicks += 1
+    assert c.handshakes == [10, 30]
+    tab.add.clicks += 1
+    assert c.handshakes == [10, 30, 20] and len(tab.transitions) == 3
+    tab.rows[1].remove.clicks += 1  # the second row goes with the transition before it
+    assert c.handshakes == [30, 20] and len(tab.transitions) == 2
+    assert [t.frames.value for t in tab.transitions] == [30, 20]
+    # the composition runs them
+    c.intervals = c.intervals[:2]
+    assert c.handshakes == [30]
+    tab.second_take.value = False
+    assert tab.generate() and s.wait(300), s.notices[-1:]
+    r = c.result
+    assert r.handshakes == [30] and r.transitions == [(30, 60)] and r.n_frames == 90
+    assert "transitions (handshake 30 frames): 30–59" in tab.result.object
 
 
 def test_one_interval_and_first_take_only(studio):

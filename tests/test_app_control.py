@@ -1,6 +1,8 @@
 """The Control tab without a server, on the tiny model: paths set programmatically and as canvas strokes,
 inpainting when no control model exists (and why), the generated root following the drawn path (path_error),
-a wrist path, bad paths with clear messages, blend weights, and blending with a tiny fine-tuned root model."""
+the root and both wrists at once (blended with the shipped control models), bad paths with clear messages, blend
+weights judged by the engine's one rule (its message shown, nothing clamped), the method the tab opens on chosen by
+the control bench's record, and blending with a tiny fine-tuned root model."""
 from __future__ import annotations
 
 import numpy as np
@@ -41,6 +43,7 @@ def test_inpainting_only_without_control_models(studio_without_controls):
     assert k.available == [] and k.method == "inpainting"
     assert list(tab.method.options.values()) == ["inpainting"]
     assert "Only inpainting is offered" in tab.method_note.object and "no fine-tuned control models" in k.problem
+    assert "No control bench is recorded" in tab.bench_note.object and "opens on inpainting" in tab.bench_note.object
     k.method = "blending"  # forced (e.g. a stale page): refused with the reason, nothing runs
     assert not tab.generate()
     assert "no fine-tuned model for the root path" in studio.state.notices[-1][1]
@@ -117,35 +120,147 @@ def test_bad_inputs(studio):
     tab.use_root.value = False
     assert "no control is on" in tab.shares.object
     assert not tab.generate() and "turn on at least one control" in s.notices[-1][1]
-    tab.wrist.value = "right_wrist"
-    k.wrist_points = [(-0.3, 1.0), (-2.5, 1.0)]
+    tab.use_wrists["right_wrist"].value = True
+    assert not tab.generate() and "right wrist path: draw it on the front-view canvas" in s.notices[-1][1]
+    k.right_wrist_points = [(-0.3, 1.0), (-2.5, 1.0)]
     assert not tab.generate() and "right wrist: wrist path: points must stay within" in s.notices[-1][1]
     k.seconds = 12.0
     assert not tab.generate() and "between 1.0 and 9.8" in s.notices[-1][1]
 
 
-def test_wrist_and_root_together(studio):
+def test_front_view_draws_either_wrist(studio):
+    tab = studio.control
+    k = tab.settings
+    left, right = tab.front.layers["left_wrist"], tab.front.layers["right_wrist"]
+    assert k.drawing == "left_wrist" and tab.front.fig.toolbar.active_drag is left.freehand
+    left.stroke_src.data = dict(xs=[[0.2, 0.4, 0.5, 0.3]], ys=[[1.0, 1.3, 1.6, 1.7]])  # what the freehand tool sends
+    assert len(k.left_wrist_points) == 4 and k.right_wrist_points == []
+    tab.drawing.value = "right_wrist"  # the drags now draw the right wrist
+    assert tab.front.fig.toolbar.active_drag is right.freehand
+    right.points_src.data = dict(x=[-0.2, -0.4], y=[1.0, 1.4])  # the point tool
+    assert k.right_wrist_points == [(-0.2, 1.0), (-0.4, 1.4)] and len(k.left_wrist_points) == 4
+    assert "right wrist (pink) (drawing): 2 points" in tab.wrist_info.object
+    tab.clear_wrist.clicks += 1  # clears the wrist being drawn only
+    assert k.right_wrist_points == [] and len(k.left_wrist_points) == 4
+    tab.example_wrists.clicks += 1  # a letter per hand, from engine.methods.drawn_paths; both turned on
+    assert k.use_left_wrist and k.use_right_wrist and len(k.left_wrist_points) == 3  # "L"
+    assert len(right.points_src.data["x"]) == len(k.right_wrist_points) > 10  # "O"
+    assert k.active == ["root", "left_wrist", "right_wrist"]
+
+
+def test_root_and_both_wrists_together_blended(studio):
+    """The root path and both wrists at once, blended with the shipped control models (one per control, each with
+    its weight): the motion follows all three and the readout shows each error and the blend."""
     s, tab = studio.state, studio.control
     k = tab.settings
-    tab.wrist.value = "left_wrist"
-    assert tab.wrist_box.visible
-    tab.front.stroke_src.data = dict(xs=[[0.2, 0.4, 0.5, 0.3]], ys=[[1.0, 1.3, 1.6, 1.7]])
-    assert len(k.wrist_points) == 4
+    assert k.available == ["left_wrist", "right_wrist", "root"]
+    tab.example_wrists.clicks += 1
     k.seconds = 4.0
+    tab.method.value = "blending"
+    assert all(tab.weights[n].visible for n in ("root", "left_wrist", "right_wrist"))
+    k.weights = {"root": 2.0, "left_wrist": 1.0, "right_wrist": 1.0}
+    assert "0.50 × root path + 0.25 × left wrist + 0.25 × right wrist" in tab.shares.object
     assert tab.generate() and s.wait(300), s.notices[-1:]
+    assert not [n for n in s.notices if n[0] == "error"], s.notices
     r = k.result
-    assert r.controls == ["root", "left_wrist"] and r.wrist_error is not None and r.root_error["mean_m"] < 0.05
-    assert len(r.guides) == 2 and "wrist error, mean" in tab.readout.object
+    assert r.method == "blending" and r.controls == ["root", "left_wrist", "right_wrist"]
+    assert r.weights == {"root": 0.5, "left_wrist": 0.25, "right_wrist": 0.25}
+    assert set(r.wrist_errors) == {"left_wrist", "right_wrist"} and r.root_error["mean_m"] < 0.05
+    for e in r.wrist_errors.values():  # inpainted wrist dims: each wrist within 10 cm of its own path (swapped
+        assert e["mean_m"] < 0.10, r.wrist_errors  # paths would be 0.3 m off: the letters are 0.3 m apart)
+    assert len(r.guides) == 3 and len({c for c, _ in r.guides}) == 3
+    for label in ("left wrist error, mean", "right wrist error, mean", "0.50 × root path"):
+        assert label in tab.readout.object
+    assert "pink tube: the right wrist target" in tab.readout.object
     assert np.isfinite(s.item.joints).all()
 
 
-def test_weights_are_normalised(tiny_model_dir, tmp_path):
-    k = ControlSettings(controls_dir=tmp_path)
-    k.wrist = "right_wrist"
-    k.weights = {"root": 3.0, "right_wrist": 1.0, "left_wrist": 5.0}
-    assert k.normalized_weights() == {"root": 0.75, "right_wrist": 0.25}
-    k.weights = {"root": 0.0, "right_wrist": 0.0}
-    assert k.normalized_weights() == {"root": 0.5, "right_wrist": 0.5}
+def test_blend_weights_follow_the_engines_rule(studio):
+    """The tab neither clamps nor re-normalises: the engine's blend_shares decides, and its one-line message is what
+    the tab shows and what Generate refuses with."""
+    from engine.methods.control_options import blend_shares
+
+    s, tab = studio.state, studio.control
+    k = tab.settings
+    k.use_right_wrist = True
+    k.right_wrist_points = [(-0.2, 1.0), (-0.4, 1.4)]
+    tab.method.value = "blending"
+    k.weights = {"root": 3.0, "right_wrist": 1.0, "left_wrist": 5.0}  # the left wrist is off: not in the blend
+    assert k.shares() == {"root": 0.75, "right_wrist": 0.25}
+    assert "0.75 × root path + 0.25 × right wrist" in tab.shares.object
+    for weights in ({"root": -1.0, "right_wrist": 1.0}, {"root": 0.0, "right_wrist": 0.0},
+                    {"root": float("nan"), "right_wrist": 1.0}):
+        k.weights = {**k.weights, **weights}
+        with pytest.raises(ValueError) as refused:
+            blend_shares(k.weights, ["root", "right_wrist"])
+        message = str(refused.value)
+        assert "\n" not in message
+        with pytest.raises(ValueError, match=message.split(":")[0]):
+            k.shares()
+        assert message in tab.shares.object.replace("&#x27;", "'")  # shown as the engine says it
+        assert not tab.generate() and s.notices[-1] == ("error", f"cannot generate with control: {message}")
+    assert k.weights["root"] != k.weights["root"]  # kept as set (NaN), never clamped
+    tab.weights["root"].value = 0.4  # (the slider could not show NaN: it stayed where it was)
+    assert k.weights["root"] == 0.4 and "0.29 × root path + 0.71 × right wrist" in tab.shares.object
+    tab.weights["root"].value = 0.0  # the sliders reach 0 for every control: all 0 is the engine's refusal too
+    tab.weights["right_wrist"].value = 0.0
+    assert "blend weights are all 0" in tab.shares.object
+    tab.method.value = "inpainting"  # the weights do not apply: inpainting runs whatever they are
+    assert "apply to fine-tuned models only" in tab.shares.object
+
+
+def _bench_result(blending: dict, inpainting: dict) -> dict:
+    """What bench_control returns, reduced to what the bench record reads."""
+    rows = {m: {"paths": 3, "error_m": 0.02, "off_0_5m": 0.0, **figs}
+            for m, figs in (("blending", blending), ("inpainting", inpainting))}
+    return {"drawn": {"tasks": {"root+left_wrist": rows}}, "steps": 20, "motions": 8, "truth_skate": 0.05}
+
+
+def test_the_tab_opens_on_the_method_the_control_bench_has_ahead(tiny_model_dir, tmp_path):
+    """Blending only when the bench record beside the control models has it ahead of inpainting on both figures
+    (less skate, the action kept); otherwise inpainting, and the tab says which one is ahead."""
+    from engine.methods.control_options import BENCH_RECORD, write_bench_record
+    from tests.test_priormdm import controls_with_prior
+
+    folder = controls_with_prior(tiny_model_dir, tmp_path / "control", ("root", "left_wrist"), prior=False)
+    cases = [({"skate": 0.10, "action_match": 0.6}, {"skate": 0.30, "action_match": 0.2}, "blending",
+              "has blending ahead of inpainting"),
+             ({"skate": 0.40, "action_match": 0.1}, {"skate": 0.30, "action_match": 0.2}, "inpainting",
+              "has inpainting ahead of blending"),
+             ({"skate": 0.78, "action_match": 0.0}, {"skate": 0.84, "action_match": 0.22}, "inpainting",
+              "neither method ahead on both figures")]
+    for blending, inpainting, opened, said in cases:
+        write_bench_record(_bench_result(blending, inpainting), folder=folder)
+        studio = _studio(tiny_model_dir, controls_dir=folder)
+        try:
+            tab, k = studio.control, studio.control.settings
+            assert k.available == ["left_wrist", "root"] and k.method == opened and tab.method.value == opened
+            note = tab.bench_note.object
+            assert said in note and f"The tab opens on {opened}" in note, note
+            assert f"foot skate {blending['skate']:.2f} vs {inpainting['skate']:.2f}" in note
+        finally:
+            studio.close()
+    # blending ahead, but the models were retrained since the record: it no longer speaks for them
+    write_bench_record(_bench_result(*cases[0][:2]), folder=folder)
+    with open(folder / "root" / "weights.pt", "ab") as fh:
+        fh.write(b"\0")
+    k = ControlSettings(controls_dir=folder)
+    assert k.method == "inpainting" and "other control models" in k.verdict.message
+    (folder / BENCH_RECORD).write_text("{not json")
+    assert "cannot be read" in ControlSettings(controls_dir=folder).verdict.message
+
+
+def test_the_shipped_record_says_which_method_is_ahead(studio):
+    """The shipped control models come with their bench record (assets/control/bench.json): the tab opens on the
+    method it has ahead (inpainting unless blending is ahead on both figures) and says what each one is ahead on."""
+    tab, k = studio.control, studio.control.settings
+    verdict = k.verdict
+    assert verdict.record is not None and "other control models" not in verdict.message  # it speaks for these models
+    assert k.method == ("blending" if verdict.leader == "blending" else "inpainting")
+    note = tab.bench_note.object
+    assert verdict.message.split(":")[0] in note and f"The tab opens on {k.method}" in note
+    for figure in ("foot skate", "prompted action"):
+        assert figure in note and " ahead)" in note
 
 
 def test_blending_with_a_fine_tuned_root_model(tiny_model_dir, tmp_path):
@@ -164,8 +279,8 @@ def test_blending_with_a_fine_tuned_root_model(tiny_model_dir, tmp_path):
     assert "1.00 × root path" in tab.shares.object
     assert tab.generate() and s.wait(300), s.notices[-1:]
     assert k.result.method == "blending" and k.result.root_error["mean_m"] < 0.05
-    tab.wrist.value = "left_wrist"  # no fine-tuned wrist model: refused with a clear message
-    k.wrist_points = [(0.2, 1.0), (0.4, 1.4)]
+    tab.use_wrists["left_wrist"].value = True  # no fine-tuned wrist model: refused with a clear message
+    k.left_wrist_points = [(0.2, 1.0), (0.4, 1.4)]
     assert not tab.generate() and "no fine-tuned model for the left wrist" in s.notices[-1][1]
     studio.close()
 

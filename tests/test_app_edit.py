@@ -157,20 +157,31 @@ def test_example_based_and_style_transfer_with_session_sources(studio):
     tab.source.value = "(the prompt)"
 
 
-def test_replace_needs_aligned_prompts_and_says_why(studio):
+def test_replace_aligns_the_words_and_shows_how(studio):
     s, tab = studio.state, studio.edit
     tab.kind.value = "replace"
     assert s.edit.edited == "a person kicks twice"  # a suggestion aligned with the prompt
-    assert "align-ok" in tab.alignment.object and "'jumps' → 'kicks'" in html.unescape(tab.alignment.object)
+    shown = html.unescape(tab.alignment.object)
+    assert "align-ok" in shown and "aligned word by word" in shown and "'jumps' → 'kicks'" in shown, shown
+    assert "'a' = 'a'" in shown and "'twice' = 'twice'" in shown
+    # different word counts: aligned as prompt-to-prompt aligns them, and shown
     tab.edited.value = "a person kicks"
-    assert "align-bad" in tab.alignment.object and "4 words" in tab.alignment.object
+    shown = html.unescape(tab.alignment.object)
+    assert "align-ok" in shown and "(4 → 3 words)" in shown and "'jumps twice' → 'kicks'" in shown, shown
+    assert not tab.run.disabled
+    tab.edited.value = "a person slowly jumps twice"
+    shown = html.unescape(tab.alignment.object)
+    assert "+ 'slowly' (new: its own attention)" in shown and "'jumps' = 'jumps'" in shown, shown
+    # what cannot be replaced is refused with the reason
+    tab.edited.value = "a person jumps twice"
+    assert "align-bad" in tab.alignment.object and "the same as the prompt" in tab.alignment.object
     assert tab.run.disabled
     n_items = len(s.items)
     assert run_edit(s) is False  # refused with a visible error, no worker, no crash
     level, text = s.notices[-1]
-    assert level == "error" and "not aligned" in text and "word by word" in text
+    assert level == "error" and "the same as the prompt" in text
     assert not s.running and len(s.items) == n_items
-    tab.kind.value = "emphasise"  # only replacement needs aligned prompts
+    tab.kind.value = "emphasise"  # only replacement checks the edited prompt
     assert not tab.run.disabled
     tab.kind.value = "replace"
     assert tab.run.disabled
@@ -186,6 +197,83 @@ def test_replace_needs_aligned_prompts_and_says_why(studio):
     _run(studio, "replace")
     assert "replace 'jumps' → 'kicks'" in s.item.name and s.item.prompt == "a person kicks twice"
     assert s.compare_item.prompt == "a person jumps twice"
+    # a replacement with one word more runs too: the reference is the same motion
+    tab.edited.value = "a person quickly kicks twice"
+    _run(studio, "replace")
+    assert "replace 'jumps' → 'quickly kicks'" in s.item.name and s.item.prompt == "a person quickly kicks twice"
+    np.testing.assert_allclose(s.compare_item.joints, _plain(studio).joints, atol=1e-4)
+
+
+def test_ground_to_several_spans_dragged_on_the_word_curve(studio):
+    from bokeh.events import SelectionGeometry
+
+    s, tab = studio.state, studio.edit
+    assert s.generate() and s.wait(120)  # the plain motion again, shown with its attention (older ones lose theirs)
+    plain = s.item
+    np.testing.assert_allclose(plain.joints, _plain(studio).joints, atol=1e-4)
+    tab.kind.value = "ground"
+    tab.words.value = 2  # 'jumps'
+    assert tab.spans_box.visible and not tab.frames.visible
+    # the picked word's attention curve of the shown motion, to drag spans on
+    curve = np.asarray(tab.span_curve_src.data["y"])
+    assert len(curve) == 60 and np.allclose(curve, plain.attention.word_curve(2), atol=1e-6)
+    assert "'jumps'" in tab.span_fig.title.text
+    tab.clear_spans.clicks += 1
+    assert s.edit.spans == [] and "No span" in tab.spans_list.object
+
+    def drag(x0, x1):  # what the browser sends when a drag on the curve ends (the x-only box select)
+        tab.span_fig._trigger_event(SelectionGeometry(tab.span_fig, final=True,
+                                                      geometry={"type": "rect", "x0": x0, "x1": x1, "y0": 0, "y1": 1}))
+
+    drag(4.3, 13.6)
+    drag(41.0, 30.2)  # dragged right to left
+    assert s.edit.spans == [(4, 14), (30, 41)]
+    assert tab.span_src.data == {"x0": [4, 30], "x1": [14, 41]}  # drawn over the curve
+    assert tab.spans_text.value == "4:14,30:41" and "<li>4–14" in tab.spans_list.object
+    drag(10.0, 18.0)  # overlaps 4-14: refused, said, nothing changed
+    level, text = s.notices[-1]
+    assert level == "error" and "4:14 and 10:18 overlap" in text and s.edit.spans == [(4, 14), (30, 41)]
+    drag(-5.0, 2.4)  # clipped to the motion
+    assert s.edit.spans == [(0, 3), (4, 14), (30, 41)]
+    # the spans as text: typed, checked the same way
+    tab.spans_text.value = "4:14,30:41,48:58"
+    assert s.edit.spans == [(4, 14), (30, 41), (48, 58)]
+    tab.spans_text.value = "4:14,50:70"
+    level, text = s.notices[-1]
+    assert level == "error" and "runs past the motion's end: it has 60 frames" in text
+    assert s.edit.spans == [(4, 14), (30, 41), (48, 58)] and tab.spans_text.value == "4:14,30:41,48:58"
+    from app.tabs.edit.job import prepare
+
+    plan = prepare(s)
+    assert plan.options.frames == ((4, 14), (30, 41), (48, 58))
+    _run(studio, "ground")
+    assert "ground 'jumps' +0.30 frames 4–14, 30–41, 48–58" in s.item.name, s.item.name
+    np.testing.assert_allclose(s.compare_item.joints, plain.joints, atol=1e-4)
+    assert np.abs(s.item.joints - s.compare_item.joints).max() > 1e-3
+    tab.clear_spans.clicks += 1
+    assert s.edit.spans == [] and tab.spans_text.value == "" and tab.span_src.data["x0"] == []
+    assert prepare(s).options.frames is None  # no span: the whole motion
+    tab.kind.value = "emphasise"
+    assert tab.frames.visible and not tab.spans_box.visible
+
+
+def test_example_based_chunk_size_is_a_setting(studio):
+    from app.tabs.edit.job import prepare
+    from engine.methods.edit_options import option_spec
+
+    s, tab = studio.state, studio.edit
+    spec = option_spec("chunk_frames")
+    tab.kind.value = "example-based"
+    assert tab.chunk.visible and (tab.chunk.start, tab.chunk.end, tab.chunk.value) == (4, 100, spec.default)
+    assert tab.chunk.name == spec.label and tab.chunk_help.object == spec.help
+    tab.chunk.value = 10
+    tab.count.value = 2
+    assert prepare(s).options.chunk_frames == 10
+    _run(studio, "example-based")
+    assert s.item.name.endswith("example-based (10-frame chunks) #1"), s.item.name
+    tab.chunk.value = spec.default
+    tab.kind.value = "emphasise"
+    assert not tab.chunk.visible
 
 
 def test_bad_settings_are_notifications(studio):
@@ -281,14 +369,51 @@ def test_counting_readout_shows_count_baseline_and_peaks(studio):
     tab.kind.value = "emphasise"
 
 
+def test_counting_method_is_chosen_and_recounts_the_same_map(studio):
+    from app.session.items import MotionItem
+    from engine.analysis.counting import COUNTING_METHODS, CountingConfig, count_from_attention
+
+    s, tab = studio.state, studio.edit
+    assert list(tab.count_method.options.values()) == list(COUNTING_METHODS) and s.count_method == "lag"
+    joints = np.repeat(_plain(studio).joints[:1], 128, axis=0)
+    s.add_item(MotionItem(name="periodic 2", joints=joints, source="generated", prompt="a person jumps",
+                          words=("a", "person", "jumps"), attention=_periodic_record()))
+    lag = s.count_result
+    assert lag.method == "lag" and lag.rounded == 4 and 'class="count-method-used">lag<' in tab.readout.object
+    try:
+        for method in ("published", "rows"):
+            tab.count_method.value = method
+            readout = s.count_result
+            assert s.count_method == method and readout.method == method and readout.item == "periodic 2"
+            expected = count_from_attention(lag.self_map, CountingConfig(method=method))
+            assert readout.count == expected.count and readout.peaks == expected.peaks and readout.period is None
+            assert f'class="count-method-used">{method}<' in tab.readout.object
+            assert f'class="count-attention">{expected.count:.2f}<' in tab.readout.object
+        # an imported motion counted by inversion keeps its map: another method recounts it without inverting again
+        s.show_motion(joints, title="imported: still")
+        tab.count_button.clicks += 1
+        assert s.wait(120) and s.count_result.item == "imported: still" and s.count_result.method == "rows"
+        inverted = s.count_result
+        tab.count_method.value = "published"
+        assert not s.running and s.count_result.method == "published" and s.count_result.source == inverted.source
+        assert np.array_equal(s.count_result.self_map, inverted.self_map)
+    finally:
+        tab.count_method.value = "lag"
+    assert s.count_result.method == "lag"
+
+
 # ---------------------------------------------------------------------------------------------- shared mapping
 def test_word_choice_and_alignment_helpers():
     assert word_choice(["a", "person", "jumps", "and", "jumps"], 4) == ("jumps", 1)
     ok, message = alignment(None, "a person jumps", "a person walks")
     assert ok and "'jumps' → 'walks'" in message
     ok, message = alignment(None, "a person jumps", "a person walks fast")
-    assert not ok and "3 words" in message and "4" in message
+    assert ok and "(3 → 4 words)" in message and "'jumps' → 'walks fast' (its attention shared by the 2 words)" \
+        in message, message
+    ok, message = alignment(None, "a person jumps and waves", "a person jumps")
+    assert ok and "− 'and waves' (dropped)" in message, message
     assert not alignment(None, "a person jumps", "a person jumps")[0]
+    assert not alignment(None, "a person jumps", "")[0]
 
 
 def test_replace_alignment_reads_both_prompts_as_the_engine_does(tiny_model_dir):

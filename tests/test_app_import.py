@@ -2,6 +2,7 @@
 bad input is a one-line message and the session goes on."""
 from __future__ import annotations
 
+import base64
 import io
 from pathlib import Path
 
@@ -24,8 +25,8 @@ def _npy(frames: int) -> bytes:
 
 
 def _upload(panel: ImportPanel, data: bytes, name: str) -> None:
-    panel._input.filename = name
-    panel._input.value = data
+    """What the browser sends for a picked file: its name and content in one change (an empty file: no content)."""
+    panel._input._process_events({"filename": name, "value": base64.b64encode(data).decode(), "mime_type": ""})
 
 
 def test_import_window_cuts_and_refuses_with_the_fields_names():

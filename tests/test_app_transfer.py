@@ -152,6 +152,41 @@ def test_footwork_option_reaches_the_engine(studio):
         tab.feet.value = False
 
 
+def test_root_and_directions_reach_the_engine(studio):
+    """The tab's root and direction widgets come from the engine's declarations (default, labels, bounds, help)
+    and reach the config; a transfer with the direction trick runs and shows the follower as given."""
+    from app.tabs.transfer.job import prepare
+    from app.tabs.transfer.settings import ROOT_LABELS
+    from engine.methods.transfer_config import ROOT_CHOICES, ROOT_DEFAULT, option_info
+
+    s, tab = studio.state, studio.transfer
+    _set_prompts(tab, "a person walks forward", "a person jumps twice", seconds=(2.0, 2.0))
+    assert s.transfer.root == ROOT_DEFAULT and prepare(s).config.root == ROOT_DEFAULT
+    assert tab.root.options == ROOT_LABELS and set(ROOT_LABELS.values()) == set(ROOT_CHOICES)
+    assert (tab.directions.start, tab.directions.end) == option_info("directions").bounds and tab.directions.value == 1
+    assert ROOT_CHOICES[ROOT_DEFAULT][1][1:40] in tab.root_help.object
+    other = next(m for m in ROOT_CHOICES if m != ROOT_DEFAULT)
+    try:
+        tab.root.value = other
+        tab.directions.value = 3
+        plan = prepare(s)
+        assert plan.config.root == other and plan.config.directions == 3
+        assert f"root: {other}, 3 directions" in plan.description
+        assert "3 copies of its follower" in tab.root_help.object
+        _run(studio)
+        view = s.transfer.result
+        assert list(view.frames) == ["leader", "follower", "out"]  # the copies are read, not shown
+        tab.more.value = "a person runs\na person waves\na person kicks\na person claps\na person hops"
+        tab.directions.value = 4
+        assert s.launch(TransferJob(session=s)) is False
+        level, text = s.notices[-1]
+        assert level == "error" and "6 followers x 4 directions make 24 follower streams, at most 16" in text
+    finally:
+        tab.more.value = ""
+        tab.root.value = ROOT_DEFAULT
+        tab.directions.value = 1
+
+
 def test_one_leader_onto_several_followers(studio):
     s, tab = studio.state, studio.transfer
     _set_prompts(tab, "a person walks forward", "a person jumps twice", seconds=(3.0, 2.0))

@@ -5,9 +5,10 @@ import argparse
 import json
 
 import numpy as np
+import pytest
 
-from engine.evaluation.bench_edits import (EditBenchConfig, amplitude, bench_edits, format_table, iou, nearer_first,
-                                           root_speed, walk_threshold, walking_interval)
+from engine.evaluation.bench_edits import (EditBenchConfig, amplitude, bench_edits, format_table, grounding_spans, iou,
+                                           nearer_first, root_speed, spans_hit, walk_threshold, walking_interval)
 from tests.test_eval_run import tiny_evaluator, tiny_model  # noqa: F401  (fixtures)
 
 
@@ -34,6 +35,16 @@ def test_measurements():
     assert walk_threshold(slow) is None
 
 
+def test_grounding_spans_and_their_score():
+    assert grounding_spans(160, 4) == ((10, 30), (50, 70), (90, 110), (130, 150))  # the paper's four jumps, 8 s
+    assert grounding_spans(60, 2) == ((5, 25), (35, 55))
+    with pytest.raises(ValueError, match="do not fit"):
+        grounding_spans(60, 4)
+    spans = grounding_spans(160, 4)
+    assert spans_hit([12, 29, 70, 95, 155], spans) == [True, False, True, False]  # [start, end): 70 is outside
+    assert spans_hit([], spans) == [False] * 4
+
+
 def test_nearer_first_compares_the_two_captions(tiny_evaluator):  # noqa: F811
     from engine.synth import Corpus
 
@@ -49,7 +60,8 @@ def test_nearer_first_compares_the_two_captions(tiny_evaluator):  # noqa: F811
 def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     config = EditBenchConfig(counting_samples=2, emphasis_prompts=("a person jumps",), emphasis_weights=(-0.4, 0.0, 0.4),
                              emphasis_seeds=1, pairs=2, replacement_seeds=2, shift_prompts=2, examples=1,
-                             outputs_per_example=4, steps=3, seconds=3.0, reference_samples=32)
+                             outputs_per_example=4, steps=3, seconds=3.0, reference_samples=32,
+                             grounding_spans=2, grounding_seconds=3.0, grounding_seeds=2)
     result = bench_edits(tiny_model, tiny_evaluator, config, log=lambda line: None)
     assert set(result) >= {"counting", "emphasis_spearman", "replacement_iou", "shift_order_acc", "example_based", "fid"}
     assert result["counting"]["samples"] == 2
@@ -61,6 +73,17 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     assert 0.0 <= result["replacement_iou"] <= 1.0 if r["pairs"] else np.isnan(result["replacement_iou"])
     assert 0.0 <= r["edit_recognized"] <= 1.0 and 0.0 <= r["edit_recognized_without_replacement"] <= 1.0
     assert result["example_based"]["samples"] == 4
+    assert set(result["counting"]["by_method"]) == {"lag", "published", "rows"}
+    assert result["counting"]["by_method"]["lag"] == result["counting"]["attention"]  # the same maps, the default
+    g = result["grounding"]
+    assert g["spans"] == [[5, 25], [35, 55]] and len(g["draws"]) == 2 and g["frames"] == 60
+    for d in g["draws"]:
+        for role in ("grounded", "without"):
+            row = d[role]
+            assert row["spans_hit"] == np.mean(row["hits"]) and len(row["hits"]) == 2
+            assert row["jumps_outside"] <= row["jumps_detected"] == len(row["jump_apexes"])
+    assert g["spans_hit"] == np.mean([d["grounded"]["spans_hit"] for d in g["draws"]])
+    assert 0.0 <= g["spans_hit_without"] <= 1.0
     # the report reads the same from the result and from its saved JSON
     table = format_table(json.loads(json.dumps(result, default=float)))
     assert table == format_table(result)
@@ -68,6 +91,9 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     assert f"evaluator): {r['edit_recognized']:.2f}" in table
     assert sum(line.startswith("  a person walks forward then") for line in table.splitlines()) == len(r["per_pair"])
     assert table.splitlines()[-1].startswith("3 sampling steps, guidance 2.5, 3.0-s motions")
+    assert f"grounding to 2 spans ('a person jumps four times', 'jumps' -> 5:25,35:55 of 60 frames, weight 0.3, every " \
+        f"layer): jumps land in {g['spans_hit']:.2f} of the spans" in table
+    assert "same maps, by counting method: lag " in table
 
 
 def test_bench_presets_take_the_steps_flag():

@@ -60,6 +60,15 @@ def test_sequences_have_true_transitions():
         assert len(s.truth) >= sum(round(iv.seconds * 20) for iv in s.intervals)
 
 
+def test_sequences_keep_only_captions_the_model_reads():
+    config = ComposeBenchConfig(sequences=4)
+    plain = build_sequences(config)
+    refused = {plain[0].intervals[0].prompt}  # a model that refuses one caption of the first sequence
+    kept = build_sequences(config, readable=lambda caption: caption not in refused)
+    assert len(kept) == 4 and all(iv.prompt not in refused for s in kept for iv in s.intervals)
+    assert [s.intervals for s in kept[:1]] != [s.intervals for s in plain[:1]]
+
+
 def test_control_error_is_zero_on_the_truth():
     from engine.synth import Corpus
 
@@ -94,6 +103,14 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
         else:
             assert row["foot_skate_vs_truth"] is None
     assert f"{compose['naive']['jerk_vs_truth']:.2f}" in format_table(compose).split("jerk / truth")[1]
+    # the same figures inside the intervals (the model's own floor), and DoubleTake over the first take
+    for m in ("doubletake", "first_take", "naive"):
+        row = compose[m]
+        assert row["interior_jerk"] > 0 and 0.0 <= row["interior_foot_skate"] <= 1.0
+        assert row["interior_jerk_vs_truth"] == row["interior_jerk"] / compose["ground_truth_interior_jerk"]
+    vs = compose["vs_first_take"]
+    assert vs["jerk"] == compose["doubletake"]["jerk"] / compose["first_take"]["jerk"]
+    assert f"jerk {vs['jerk']:.2f}" in format_table(compose) and "target <= 0.8 on both" in format_table(compose)
     # adherence on each interval: every interval of every sequence checked, for the truth and each method
     intervals = sum(len(s.intervals) for s in build_sequences(ComposeBenchConfig(sequences=2)))
     for a in (compose["ground_truth_adherence"], *(compose[m]["adherence"] for m in ("doubletake", "first_take", "naive"))):

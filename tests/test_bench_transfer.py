@@ -7,8 +7,8 @@ import numpy as np
 
 from engine.cli import main
 from engine.evaluation.bench_transfer import (
-    KEYS, METHODS, MOTIF_JOINTS, RESTATED, TransferBenchConfig, bench_transfer, build_pairs, format_table, measure,
-    motif_region,
+    KEYS, METHODS, MOTIF_JOINTS, RESTATED, TransferBenchConfig, bench_transfer, build_pairs, build_speed_pairs,
+    format_table, measure, measure_speed, motif_region, root_speed,
 )
 from engine.methods.momo import canonical
 from engine.synth.splits import is_held_out
@@ -81,8 +81,38 @@ def test_motif_error_counts_only_the_motif_joints():
     assert m["gt_mpjpe_local"] <= m["motif_mpjpe_local"] + 1e-6
 
 
+def test_speed_pairs_take_the_followers_stride_at_the_leaders_steps():
+    config = TransferBenchConfig(speed_pairs=2)
+    pairs = build_speed_pairs(config)
+    kinds = [(p.leader.program.segments[0].action, p.follower.program.segments[0].action) for p in pairs]
+    assert kinds == [("walk", "run")] * 2 + [("run", "walk")] * 2
+    assert [p.leader.captions[0] for p in pairs] == [p.leader.captions[0] for p in build_speed_pairs(config)]
+    for p, (lead, follow) in zip(pairs, kinds):
+        assert p.leader.program.style == "none" == p.follower.program.style and not p.ood
+        assert p.truth.program.segments[0].action == follow and len(p.truth.joints) == len(p.leader.joints)
+        truth, leader = root_speed(canonical(p.truth.joints)), root_speed(canonical(p.leader.joints))
+        # the run's stride over the walk's (GAITS: 2.9 / 2.8 against 1.3 / 1.85 m per step): ~1.47x, or ~0.68x
+        assert (1.3 < truth / leader < 1.65) if lead == "walk" else (0.6 < truth / leader < 0.77)
+        assert measure_speed(canonical(p.truth.joints), p) == {"speed": truth, "speed_truth": truth, "speed_ratio": 1.0,
+                                                               "speed_error": 0.0}
+        copy = measure_speed(canonical(p.leader.joints), p)
+        assert abs(copy["speed_ratio"] - leader / truth) < 1e-9 and copy["speed_error"] > 0.2
+    assert build_speed_pairs(TransferBenchConfig(speed_pairs=0)) == []
+
+
+def test_root_speed_is_metres_per_second_on_the_floor():
+    t = np.arange(41) / 20.0
+    joints = np.zeros((41, 22, 3))
+    joints[:, :, 0] = 1.5 * t[:, None]  # 1.5 m/s along x
+    joints[:, :, 1] = 0.9 + 0.1 * np.sin(t)[:, None]  # bobbing does not count
+    assert abs(root_speed(joints) - 1.5) < 1e-9
+    joints[:, :, 2] = 2.0 * t[:, None]
+    assert abs(root_speed(joints) - 2.5) < 1e-9
+
+
 def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
-    result = bench_transfer(tiny_model, tiny_evaluator, TransferBenchConfig(pairs=2, ood_pairs=2, steps=3, distractors=8),
+    result = bench_transfer(tiny_model, tiny_evaluator,
+                            TransferBenchConfig(pairs=2, ood_pairs=2, steps=3, distractors=8, speed_pairs=1),
                             log=lambda line: None)
     assert result["pairs"] == 4 and result["ood_pairs"] == 2
     assert set(result["methods"]) == set(METHODS)
@@ -110,9 +140,34 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     assert truth["gt_mpjpe_local_vs_leader_copy"] < 1e-6 and truth["motif_mpjpe_local"] < 1e-6
     assert copy["follower_loc_to_truth"] == truth["follower_loc"]  # the leader copy scores 0 there
     assert copy["motif_mpjpe_local"] > 0.0
+    # the default config is one of the two root rows, run once
+    from engine.methods.transfer_config import ROOT_DEFAULT
+
+    assert result["default_root"] == ROOT_DEFAULT
+    assert result["methods"]["momo"] == result["methods"][f"momo_{ROOT_DEFAULT}"]
+    assert result["methods"]["momo_rotation"] != result["methods"]["momo_trajectory"]
+    # speed pairs: one walk -> run, one run -> walk, every method scored against the truth's speed
+    speed = result["speed"]
+    assert speed["pairs"] == 2 and set(speed["rows"]) == set(METHODS) | {"truth", "leader_copy"}
+    rows = speed["rows"]
+    assert rows["truth"]["speed_error"] == 0.0 and rows["truth"]["walk_run_ratio"] == 1.0
+    assert rows["leader_copy"]["walk_run_ratio"] < 0.8 and rows["leader_copy"]["run_walk_ratio"] > 1.25
+    # "trajectory" inpaints the (pinned, exactly rebuilt) leader's root: the leader's speed, not the truth's
+    for key in ("walk_run_ratio", "run_walk_ratio"):
+        assert abs(rows["momo_trajectory"][key] - rows["leader_copy"][key]) < 1e-3
+    assert all(np.isfinite(r["speed_error"]) and np.isfinite(r["gt_mpjpe_local_vs_leader_copy"]) for r in rows.values())
+    assert result["targets"]["speed_error"] == rows["momo"]["speed_error"]
+    assert result["targets"]["gt_mpjpe_local_vs_leader_copy"] == result["methods"]["momo"]["gt_mpjpe_local_vs_leader_copy"]
+    choice = result["root_choice"]
+    assert choice["default"] == ROOT_DEFAULT and choice["pick"] in ("rotation", "trajectory")
+    assert choice["modes"]["trajectory"]["n"] == 6  # 4 main pairs and 2 speed pairs
+    assert choice["modes"][choice["pick"]]["speed_error"] <= min(r["speed_error"] for r in choice["modes"].values()) + 1e-3
     table = format_table(result)
-    assert "motif_mpjpe_loc" in table and "mpjpe_loc/copy" in table
+    assert f"the bench picks root={choice['pick']}" in table
+    assert "motif_mpjpe_loc" in table and "mpjpe_loc/copy" in table and "|speed err|" in table
     assert f"{nn['gt_mpjpe_local_vs_leader_copy']:.3f}" in table
+    assert "walk->run" in table and f"{rows['leader_copy']['walk_run_ratio']:>17.3f}" in table
+    assert f"default root: {ROOT_DEFAULT}" in table and "(target <= 0.8)" in table
     json.dumps(result)
 
 
@@ -145,3 +200,32 @@ def test_cli_transfer_and_analysis(tiny_model_dir, tmp_path, capsys):
     assert main(["transfer", "--leader", "a person flurbs", "--follower", "a person jumps", "--out", str(out),
                  "--model", str(tiny_model_dir)]) == 2
     assert "flurbs" in capsys.readouterr().err
+
+
+def test_cli_root_modes_and_the_direction_trick(tiny_model_dir, tmp_path, capsys):
+    from engine.cli import build_parser
+    from engine.methods.transfer_config import ROOT_DEFAULT, ROOT_MODES, option_info
+
+    parser = build_parser()
+    base = ["transfer", "--leader", "a person walks", "--follower", "a person jumps", "--out", "x.npy"]
+    args = parser.parse_args(base)
+    assert args.root == ROOT_DEFAULT == option_info("root").default and args.directions == 1  # the config's defaults
+    sub = next(a for a in parser._subparsers._group_actions[0].choices["transfer"]._actions if a.dest == "root")
+    assert tuple(sub.choices) == ROOT_MODES and "paper" in sub.help
+    out = tmp_path / "d.npy"
+    common = ["--leader", "a person walks", "--follower", "a person jumps", "--steps", "3", "--seconds", "2",
+              "--model", str(tiny_model_dir)]
+    assert main(["transfer", *common, "--directions", "2", "--root", "trajectory", "--out", str(out)]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["root"] == "trajectory" and report["directions"] == 2
+    assert report["direction_copies"] == [["a person jumps (seed 9)"]]
+    assert np.load(out).shape == (40, 22, 3)
+    assert main(["transfer", *common, "--out", str(out)]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["root"] == ROOT_DEFAULT and "direction_copies" not in report
+    assert main(["transfer", *common, "--directions", "0", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "directions must be between 1 and 8, got 0" in err and len(err.splitlines()) == 1
+    assert main(["transfer", *common, "--follower", "a person runs", "--follower", "a person waves", "--directions",
+                 "6", "--out", str(out)]) == 2
+    assert "follower streams" in capsys.readouterr().err

@@ -16,7 +16,7 @@ TINY = CalibrationConfig(prompts=(("a person jumps", "jumps"),), weights=(-0.4, 
 def test_default_window_reads_calibrated_layers():
     config = {"edits": {"emphasize_layers": [1, 4, 5]}}
     assert default_window("emphasize", config).layers == (1, 4, 5)
-    assert default_window("ground", config).layers == (1, 4, 5)
+    assert default_window("ground", config).layers is None  # grounding acts in every layer (bench --edits)
     assert default_window("emphasize", None).layers is None and default_window("emphasize", {}).layers is None
     assert default_window("shift", config).layers is None  # only emphasis-like edits are calibrated
     assert default_window("shift", config).end == 0.4

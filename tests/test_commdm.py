@@ -297,7 +297,8 @@ def test_training_gives_completion_pairs_their_prefix_noise_free():
 
 # ----------------------------------------------------------------------------- the bench's measures
 def test_contact_and_placement_measures_on_ground_truth():
-    from engine.evaluation.bench_duet import FACE_TO_FACE, contact_timing, face_each_other, placement_error
+    from engine.analysis.duet_pose import face_each_other
+    from engine.evaluation.bench_duet import FACE_TO_FACE, contact_timing, placement_error
     from engine.methods.duet_data import few_shot
 
     for s in few_shot("test", per_interaction=2):
@@ -330,6 +331,9 @@ def test_bench_duet_runs_on_the_tiny_model(duet_model):
     assert set(result["beats_baseline"]) >= {"prefix.root_1s", "text.placement_m", "text.contact_timing_s"}
     table = format_table(result)
     assert "prefix completion" in table and "prior_twice" in table
+    layers = duet_model.denoiser.prior.num_layers  # the tiny block: after the last layer, trained with mirroring
+    assert (result["block_after_layer"], result["base_layers"], result["mirrored"]) == (layers, layers, True)
+    assert f"the block after base layer {layers} of {layers}, trained with mirrored duets" in table
 
 
 # ----------------------------------------------------------------------------- CLI
@@ -402,3 +406,135 @@ def test_bench_seeds_flag_goes_with_duet(capsys):
     assert "--seeds goes with --duet" in capsys.readouterr().err
     assert main(["bench", "--duet", "--seeds", "0"]) == 2
     assert "--seeds must be at least 1" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------- the block's layer (issue #33)
+def test_the_block_follows_the_last_layer_by_default():
+    from engine.methods.duet import new_duet
+
+    assert ComConfig().after == 0 and ComConfig().layer(6) == 6 and ComConfig(after=5).layer(6) == 5
+    loaded = random_corpus_model(layers=3)
+    assert DuetDenoiser(loaded.model, known_words=len(loaded.tokenizer) - 1, new_words=0).after == 3
+    # a new model records the layer as a number: it loads with that layer whatever "the last" becomes
+    assert new_duet(loaded, []).config["com"] == {"after": 3, "heads": 4, "ff": 512}
+    assert new_duet(loaded, [], config=ComConfig(after=1)).config["com"]["after"] == 1
+    with pytest.raises(ValueError, match="between 1 and 3 \\(0 = the last\\), got 4"):
+        DuetDenoiser(loaded.model, known_words=len(loaded.tokenizer) - 1, new_words=0, config=ComConfig(after=4))
+    for bad in ({"after": -1}, {"heads": 0}, {"after": 1.5}, {"ff": True}):
+        with pytest.raises(ValueError, match="must be a whole number"):
+            ComConfig(**bad)
+    with pytest.raises(TypeError):
+        ComConfig(2)  # keyword-only
+
+
+def test_where_the_block_sits_changes_the_prediction():
+    """The same trained block after layer 1 and after the last layer: the layer is used, not just recorded."""
+    loaded = random_corpus_model(layers=3)
+    known = len(loaded.tokenizer) - 1
+    last = DuetDenoiser(loaded.model, known_words=known, new_words=0)
+    first = DuetDenoiser(loaded.model, known_words=known, new_words=0, config=ComConfig(after=1))
+    torch.nn.init.normal_(last.com.delta.weight, std=0.5)  # a block that has learned something
+    first.load_state_dict(last.state_dict())
+    x, cond = _duet_batch(loaded, pairs=1)
+    t = torch.full((2,), 400)
+    with torch.no_grad():
+        a, b = last(x, t, cond), first(x, t, cond)
+    assert (last.after, first.after) == (3, 1) and (a - b)[:, :-1].abs().max() > 1e-3
+
+
+def test_the_shipped_block_loads_after_its_own_recorded_layer():
+    """assets/duet was trained after layer 5 of 6 (before the default became the last layer): it still loads there."""
+    from engine.paths import DUET_DIR
+    from engine.train_commdm import ComTrainConfig, load_trained
+
+    config = json.loads((DUET_DIR / "config.json").read_text())
+    assert config["com"]["after"] == 5 and "mirror" not in config["train"]
+    model = load_trained(DUET_DIR)
+    assert model.denoiser.after == 5 and model.denoiser.prior.num_layers == 6
+    # resuming its training config keeps what it trained with: layer 5, no mirroring (saved before it existed)
+    old = ComTrainConfig.from_json(config["train"])
+    assert old.com.after == 5 and old.mirror is False
+    assert ComTrainConfig().mirror is True and ComTrainConfig().com.after == 0
+
+
+def test_the_tiny_duet_trained_after_the_last_layer_with_mirroring(tiny_duet_dir):
+    config = json.loads((tiny_duet_dir / "config.json").read_text())
+    layers = json.loads((Path(config["train"]["prior"]) / "config.json").read_text())["model"]["layers"]
+    assert config["train"]["com"]["after"] == 0 and config["com"]["after"] == layers
+    assert config["train"]["mirror"] is True and config["mirrored"] is True and config["items"] % 2 == 0
+
+
+def test_train_duet_flags_come_from_the_configs():
+    done = _moattn("train", "duet", "--help")
+    assert done.returncode == 0, done.stderr
+    text = " ".join(done.stdout.split())
+    assert "--mirror, --no-mirror" in text and "mirrored left <-> right" in text and "(default: True)" in text
+    assert "--commdm-after COMMDM_AFTER the base layer the block follows" in text and "(the paper's place)" in text
+
+
+# ----------------------------------------------------------------------------- mirroring the few-shot duets
+def test_mirror_joints_swaps_sides_and_reflects():
+    from engine.skeleton import JOINT_INDEX, measure_bone_lengths, mirror_joints
+
+    s = make_duet("handshake", np.random.default_rng(1))
+    m = mirror_joints(s.joints_a)
+    lw, rw = JOINT_INDEX["left_wrist"], JOINT_INDEX["right_wrist"]
+    np.testing.assert_allclose(m[:, lw], s.joints_a[:, rw] * [-1, 1, 1])
+    np.testing.assert_allclose(mirror_joints(m), s.joints_a)
+    np.testing.assert_allclose(measure_bone_lengths(m), measure_bone_lengths(s.joints_a), atol=1e-6)
+    with pytest.raises(ValueError, match="expected joints"):
+        mirror_joints(np.zeros((5, 21, 3)))
+
+
+def test_a_mirrored_duet_is_the_scene_reflected_both_people_together():
+    from engine.methods.duet_data import mirror_caption, pair_item, training_items
+    from engine.representation import FEATURE_DIM, Normalizer
+    from engine.skeleton import mirror_joints
+
+    identity = Normalizer(mean=np.zeros(FEATURE_DIM), std=np.ones(FEATURE_DIM))
+    for interaction in ("handshake", "side_by_side", "following"):
+        s = make_duet(interaction, np.random.default_rng(4))
+        plain, mirrored = pair_item(s, identity), pair_item(s, identity, mirror=True)
+        for person in (0, 1):  # b stands on a's other side, turned the other way; a stays a
+            x, z, c, sn = plain.place[person].tolist()
+            np.testing.assert_allclose(mirrored.place[person].numpy(), [-x, z, c, -sn], atol=2e-3)
+        from engine.representation import joints_to_features
+
+        np.testing.assert_allclose(mirrored.motion[0].numpy(), joints_to_features(mirror_joints(s.joints_a)),
+                                   atol=1e-5)
+        assert not np.allclose(mirrored.motion[0].numpy(), plain.motion[0].numpy(), atol=1e-2)
+        assert mirrored.captions == plain.captions  # no side words in the duet captions
+    assert mirror_caption("a person waves the left hand, then the right hand") == \
+        "a person waves the right hand, then the left hand"
+    assert mirror_caption("leftover rights") == "leftover rights"
+    samples = [make_duet("hug", np.random.default_rng(k)) for k in range(2)]
+    both, plain = training_items(samples, identity, crop_every=40), training_items(samples, identity, crop_every=40,
+                                                                                      mirror=False)
+    assert len(both) == 2 * len(plain)
+    np.testing.assert_allclose(both[0].motion.numpy(), plain[0].motion.numpy())
+    np.testing.assert_allclose(both[1].place[:, 0].numpy(), -plain[0].place[:, 0].numpy(), atol=2e-3)
+
+
+def test_contact_distances_map_onto_themselves_when_mirrored():
+    """A right-hand handshake mirrored is a left-hand one: the contact set holds both, so the training's contact
+    term treats a mirrored duet as it treats the original (columns permuted, MIRRORED_COLUMNS)."""
+    from engine.methods.duet_data import few_shot, pair_item, stack_pairs
+    from engine.methods.duet_losses import CONTACT_PAIRS, MIRRORED_COLUMNS, _together, contact_distances
+    from engine.representation import FEATURE_DIM, Normalizer
+    from engine.skeleton import mirror_joints
+
+    assert len(CONTACT_PAIRS) == len(MIRRORED_COLUMNS) and sorted(MIRRORED_COLUMNS) == list(range(len(CONTACT_PAIRS)))
+    s = make_duet("handshake", np.random.default_rng(2))
+    ja, jb = torch.from_numpy(s.joints_a).double(), torch.from_numpy(s.joints_b).double()
+    d = contact_distances(ja, jb)
+    dm = contact_distances(torch.from_numpy(mirror_joints(s.joints_a)), torch.from_numpy(mirror_joints(s.joints_b)))
+    torch.testing.assert_close(dm[..., list(MIRRORED_COLUMNS)], d.to(dm.dtype))
+    touch = s.labels["contacts"][0]
+    frames = slice(touch["start"], touch["end"])
+    assert d[frames, 0].min() < 0.1 and dm[frames, 5].min() < 0.1  # right hands meet; mirrored, left hands do
+    # the same through the training's own path: features, placements, the people put together
+    identity = Normalizer(mean=np.zeros(FEATURE_DIM), std=np.ones(FEATURE_DIM))
+    samples = few_shot("test", per_interaction=1)
+    plain = _together(stack_pairs([pair_item(x, identity) for x in samples])[0], identity)
+    mirrored = _together(stack_pairs([pair_item(x, identity, mirror=True) for x in samples])[0], identity)
+    torch.testing.assert_close(mirrored[..., list(MIRRORED_COLUMNS)], plain, atol=2e-3, rtol=0)

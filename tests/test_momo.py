@@ -95,7 +95,7 @@ def test_transfer_changes_the_output_and_keeps_lengths_and_root(loaded):
     sample = SampleConfig(steps=STEPS, guidance=2.0)
     leader = Source(prompt="a person walks forward", seconds=2.5)
     followers = [Source(prompt="a person jumps", seconds=1.5), Source(prompt="a person runs forward", seconds=3)]
-    result = transfer(loaded, leader, followers, sample=sample)
+    result = transfer(loaded, leader, followers, TransferConfig(root="trajectory"), sample=sample)
     assert result.leader_joints().shape == (50, 22, 3)
     assert [result.follower(i).shape[0] for i in range(2)] == [30, 60]
     assert [result.out(i).shape[0] for i in range(2)] == [50, 50]
@@ -249,3 +249,133 @@ def test_a_text_less_slot_beside_prompted_ones_stays_finite(loaded, corpus_motio
                       sample=SampleConfig(steps=STEPS, guidance=2.5))
     assert result.leader.prompt is None
     assert np.isfinite(result.out(0)).all() and np.isfinite(result.follower(0)).all()
+
+
+# ----------------------------------------------------------------------------- the direction trick and the root
+def test_several_keys_slots_per_target_are_concatenated_in_time():
+    """keys_per_target=2: each out attends over its two followers' K, V (and masks) side by side; the other slots
+    keep their own keys, padded with masked frames."""
+    names = (LEADER, FOLLOWER, FOLLOWER, OUT, FOLLOWER, FOLLOWER, OUT)
+    roles = BatchRoles(names=names).with_uncond()
+    ctx = AttnCtx(layer=1, kind="self", step=0, t=900, roles=roles)
+    mix = MixedAttention(MixConfig(queries=LEADER, keys=FOLLOWER, keys_per_target=2, window=Window(0.0, 1.0, layers=(1,))),
+                         num_steps=4)
+    b, m = len(roles.names), 3
+    q = torch.arange(float(b)).view(b, 1, 1, 1).expand(b, 1, m, 2).clone()
+    k, v = q.clone() + 100, q.clone() + 200
+    q2, k2, v2 = mix.on_qkv(q, k, v, ctx)
+    assert q2.shape == q.shape and k2.shape == (b, 1, 2 * m, 2) and v2.shape == (b, 1, 2 * m, 2)
+    for out, group, leader in ((3, (1, 2), 0), (6, (4, 5), 0), (10, (8, 9), 7), (13, (11, 12), 7)):
+        assert q2[out, 0, 0, 0] == leader
+        assert k2[out, 0, :, 0].tolist() == [100 + group[0]] * m + [100 + group[1]] * m
+        assert v2[out, 0, :, 0].tolist() == [200 + group[0]] * m + [200 + group[1]] * m
+    assert k2[1, 0, :m, 0].tolist() == [101] * m and not k2[1, 0, m:].any()  # a follower: its own keys, padded
+    mask = torch.ones(b, m, dtype=torch.bool)
+    mask[2, -1] = False  # the second copy of follower 1 is a frame shorter
+    wide = mix.on_key_mask(mask, ctx)
+    assert wide.shape == (b, 2 * m)
+    assert wide[3].tolist() == [True] * m + [True, True, False]
+    assert wide[1].tolist() == [True] * m + [False] * m  # padding never attended
+    outside = AttnCtx(layer=0, kind="self", step=0, t=900, roles=roles)
+    assert mix.on_qkv(q, k, v, outside) is None and mix.on_key_mask(mask, outside) is None
+    with pytest.raises(KeyError, match="2 per target"):  # one follower slot for two outs of two copies each
+        mix.on_qkv(q[:4], k[:4], v[:4], _ctx((LEADER, FOLLOWER, OUT, OUT), step=0))
+    with pytest.raises(ValueError, match="keys_per_target"):
+        MixConfig(queries=LEADER, keys=FOLLOWER, keys_per_target=0)
+
+
+def test_two_identical_copies_give_the_same_attention_as_one():
+    """Concatenating a follower with itself leaves softmax attention unchanged: why the paper's constant rotation
+    (which changes no feature, see the next test) would be a no-op and the copies are turned instead."""
+    g = torch.Generator().manual_seed(1)
+    q, k, v = (torch.randn(3, 2, 5, 4, generator=g) for _ in range(3))
+    names = (LEADER, FOLLOWER, OUT)
+    one = MixedAttention(MixConfig(queries=LEADER, keys=FOLLOWER), num_steps=4)
+    q1, k1, v1 = one.on_qkv(q, k, v, _ctx(names, step=0))
+    dup = torch.cat([k[:2], k[1:2]]), torch.cat([v[:2], v[1:2]])
+    two = MixedAttention(MixConfig(queries=LEADER, keys=FOLLOWER, keys_per_target=2), num_steps=4)
+    q2, k2, v2 = two.on_qkv(torch.cat([q[:2], q[1:2], q[2:]]), torch.cat([dup[0], k[2:]]), torch.cat([dup[1], v[2:]]),
+                            _ctx((LEADER, FOLLOWER, FOLLOWER, OUT), step=0))
+    a = torch.nn.functional.scaled_dot_product_attention(q1[2], k1[2], v1[2])
+    b = torch.nn.functional.scaled_dot_product_attention(q2[3], k2[3], v2[3])
+    torch.testing.assert_close(a, b)
+
+
+def test_turned_copies_bend_the_path_and_keep_the_pose(corpus_motion):
+    from engine.methods.momo import direction_copies, turned
+    from engine.representation import facing_direction, features_to_joints, joints_to_features
+
+    base = joints_to_features(corpus_motion)
+    # a constant rotation about the vertical axis changes no feature at all (the paper's rotation, literally)
+    a = np.radians(70)
+    rot = corpus_motion.copy()
+    rot[..., 0], rot[..., 2] = (corpus_motion[..., 0] * np.cos(a) + corpus_motion[..., 2] * np.sin(a),
+                                -corpus_motion[..., 0] * np.sin(a) + corpus_motion[..., 2] * np.cos(a))
+    np.testing.assert_allclose(joints_to_features(rot), base, atol=2e-4)
+
+    def heading(joints):  # facing angle per frame, degrees, unwrapped
+        f = facing_direction(joints)
+        return np.degrees(np.unwrap(np.arctan2(f[:, 0], f[:, 2])))
+
+    # turned by +-90 degrees over the clip: as the model reads it (decoded from its features), the copy faces
+    # 90 degrees further round by the end, with the same root-relative pose and the same speed
+    for angle in (np.pi / 2, -np.pi / 2):
+        bent = joints_to_features(turned(corpus_motion, angle))
+        turn = heading(features_to_joints(bent)) - heading(features_to_joints(base))
+        assert abs(turn[-1] - np.degrees(angle)) < 12 and abs(turn[0]) < 1e-3
+        assert np.abs(bent[:, SLICES["ric"]] - base[:, SLICES["ric"]]).max() < 0.08  # the pose: within a few cm
+        speed = lambda f: np.linalg.norm(f[:, 1:3], axis=1)  # noqa: E731 (root speed per frame)
+        assert np.abs(speed(bent) - speed(base)).max() < 0.01
+        np.testing.assert_allclose(bent[:, SLICES["root_height"]], base[:, SLICES["root_height"]], atol=1e-6)
+    np.testing.assert_allclose(turned(corpus_motion, 0.0), corpus_motion, atol=1e-5)
+    copies = direction_copies(Source(joints=corpus_motion, prompt="a person walks", name="walk.npy"), 4)
+    assert [c.name for c in copies] == ["walk.npy (turned +90°)", "walk.npy (turned +180°)", "walk.npy (turned -90°)"]
+    assert all(c.prompt == "a person walks" for c in copies)
+
+
+def test_directions_trick_reads_several_followers(loaded, corpus_motion):
+    sample = SampleConfig(steps=STEPS, guidance=2.0)
+    leader, follower = Source(prompt="a person walks forward", seconds=2), Source(prompt="a person jumps", seconds=2)
+    one = transfer(loaded, leader, [follower], TransferConfig(root="none"), sample=sample)
+    three = transfer(loaded, leader, [follower], TransferConfig(root="none", directions=3), sample=sample)
+    assert three.output.generation.roles.names == (LEADER, FOLLOWER, FOLLOWER, FOLLOWER, OUT)
+    assert three.per_follower == 3 and len(three.copies[0]) == 2
+    np.testing.assert_allclose(three.follower(0), one.follower(0), atol=1e-5)  # the follower as given, same seed
+    assert np.abs(three.copy(0, 1) - three.follower(0)).max() > 1e-3  # another seed
+    assert [c.source.label for c in three.copies[0]] == ["a person jumps (seed 9)", "a person jumps (seed 17)"]
+    assert np.abs(three.out(0) - one.out(0)).max() > 1e-4  # the out read the copies too
+    np.testing.assert_allclose(three.leader_joints(), one.leader_joints(), atol=1e-5)
+    assert three.slot(FOLLOWER) == 1 and three.slot(OUT) == 4
+    with pytest.raises(IndexError, match="2 direction copies"):
+        three.copy(0, 3)
+    # an imported follower: turned copies, each inverted (pinned, so each rebuilds its turned motion)
+    real = transfer(loaded, leader, [Source(joints=corpus_motion, prompt="a person walks")],
+                    TransferConfig(directions=2), sample=sample)
+    assert all(c.inverted for c in real.copies[0]) and "turned +180°" in real.copies[0][0].source.label
+    from engine.methods.momo import turned
+
+    np.testing.assert_allclose(real.copy(0, 1), canonical(turned(corpus_motion, np.pi)), atol=1e-3)
+    assert np.isfinite(real.out(0)).all() and real.out(0).shape == (40, 22, 3)
+    # two followers with two directions each: each out reads its own follower's copies
+    both = transfer(loaded, leader, [follower, Source(prompt="a person runs forward", seconds=2)],
+                    TransferConfig(directions=2), sample=sample)
+    assert both.output.generation.roles.names == (LEADER, FOLLOWER, FOLLOWER, OUT, FOLLOWER, FOLLOWER, OUT)
+    assert both.slot(FOLLOWER, 1) == 4 and both.slot(OUT, 1) == 6
+
+
+def test_root_and_direction_options_fail_clearly(loaded):
+    from engine.methods.transfer_config import ROOT_DEFAULT, option_info
+
+    assert TransferConfig().root == ROOT_DEFAULT == option_info("root").default
+    for bad, message in ((0, "between 1 and 8"), (9, "between 1 and 8"), (1.5, "whole number"),
+                         (True, "whole number")):
+        with pytest.raises(ValueError, match=message):
+            TransferConfig(directions=bad)
+    with pytest.raises(ValueError, match="follower streams"):
+        transfer(loaded, Source(prompt="a person walks"), [Source(prompt="a person jumps")] * 3,
+                 TransferConfig(directions=6), sample=SampleConfig(steps=2))
+    with pytest.raises(ValueError, match="direction copies per follower"):
+        stream = prepare(loaded, Source(prompt="a person jumps", seconds=2), seed=0, steps=2)
+        transfer_streams(loaded, stream, [stream], TransferConfig(directions=2), sample=SampleConfig(steps=2))
+    with pytest.raises(ValueError, match="start must be between 0 and 1"):
+        TransferConfig(start=-0.1)

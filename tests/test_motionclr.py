@@ -183,7 +183,7 @@ def test_counting_on_a_synthetic_action_map():
     assert count_from_attention(weak, CountingConfig(method="rows")).rounded == 1
     with pytest.raises(ValueError, match="NaN"):
         count_from_attention(np.full((40, 40), np.nan))
-    with pytest.raises(ValueError, match="'lag' or 'rows'"):
+    with pytest.raises(ValueError, match="one of 'lag', 'published', 'rows', got 'fft'"):
         CountingConfig(method="fft")
     with pytest.raises(ValueError):
         count_from_attention(np.zeros((5, 6)))

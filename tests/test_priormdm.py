@@ -195,7 +195,9 @@ def test_cli_compose_and_control(tiny_model_dir, tmp_path, capsys):
                  str(tiny_model_dir), "--out", str(out), "--second-take-text"]) == 0
     capsys.readouterr()
     texted = np.load(out)
-    assert np.allclose(texted[:20], plain[:20]) and not np.allclose(texted[40:60], plain[40:60])
+    # the text reaches the handshake; the interval's own frames are in the sandwich too (M_soft), changed far less
+    assert not np.allclose(texted[40:60], plain[40:60])
+    assert np.abs(texted[:20] - plain[:20]).max() < np.abs(texted[40:60] - plain[40:60]).max()
     path = tmp_path / "root.json"
     path.write_text(json.dumps({"points": [[0, 0], [0, 2], [1, 3]]}))
     assert main(["control", "--prompt", "a person walks", "--root", str(path), "--inpaint", "--seconds", "4",

@@ -52,6 +52,33 @@ def test_combine_transfers_gait_kind_with_leader_rhythm():
         assert np.abs(np.diff(a["step_frames"][side]) - np.diff(c["step_frames"][side])).max() <= 3
 
 
+def test_combine_can_take_the_followers_stride():
+    """stride_of="follower": a walk -> run keeps the leader's step times and path shape with the run's stride, so
+    it covers more ground; a segment that keeps its gait kind is the same either way."""
+    import pytest
+
+    def speed(program):
+        root = make_sample(program).joints[:, 0, [0, 2]]
+        return float(np.linalg.norm(np.diff(root, axis=0), axis=1).mean() * 20)
+
+    walk = Program(segments=(Segment("walk", 100, direction="left"),))
+    run = Program(segments=(Segment("run", 80, direction="forward"),))
+    same = combine(outline_of=walk, motifs_of=run)
+    longer = combine(outline_of=walk, motifs_of=run, stride_of="follower")
+    ratio = (2.9 / 2.8) / (1.3 / 1.85)  # GAITS: the run's step length over the walk's
+    assert abs(speed(same) / speed(walk) - 1) < 0.03
+    assert abs(speed(longer) / speed(walk) - ratio) < 0.08
+    a, c = make_sample(same).labels.outline, make_sample(longer).labels.outline
+    assert a["step_frames"] == c["step_frames"]  # same steps, same times: only the stride changed
+    back = combine(outline_of=run, motifs_of=walk, stride_of="follower")
+    assert abs(speed(back) / speed(run) - 1 / ratio) < 0.08
+    styled = Program(segments=(Segment("walk", 80, direction="forward"),), style="zombie")
+    assert combine(outline_of=walk, motifs_of=styled, stride_of="follower") == combine(outline_of=walk,
+                                                                                         motifs_of=styled)
+    with pytest.raises(ValueError, match="stride_of"):
+        combine(outline_of=walk, motifs_of=run, stride_of="both")
+
+
 def test_with_intensity_raises_jumps_monotonically():
     p = Program(segments=(Segment("jump", 45, count=1),))
     heights = []

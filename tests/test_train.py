@@ -77,6 +77,26 @@ def test_resume_with_a_grown_vocabulary_keeps_word_ids(tmp_path):
     assert after.words[: len(before)] == before.words and "jumps" in after
 
 
+def test_new_words_start_as_the_word_the_old_vocabulary_read_them_as():
+    from engine.model.denoiser import Denoiser
+    from engine.text import Tokenizer
+    from engine.train import seed_new_words
+
+    old = Tokenizer(["a", "person", "jumps", "runs"])
+    grown = old.extended(["bounces", "sprints", "zzqx"])  # by meaning, by meaning, nothing
+    model = Denoiser(ModelConfig.from_json({**TINY.to_json(), "vocab_size": len(old)}))
+    model.text_encoder.resize_vocabulary(len(grown))
+    table = model.text_encoder.embed.weight
+    before = table.detach().clone()
+    assert seed_new_words(model, old=old, grown=grown) == 2
+    ids = {w: i for i, w in enumerate(grown.words)}
+    assert old.reading("bounces")[0] == "jumps" and old.reading("sprints")[0] == "runs"
+    assert torch.equal(table[ids["bounces"]], table[ids["jumps"]])
+    assert torch.equal(table[ids["sprints"]], table[ids["runs"]])
+    assert torch.equal(table[ids["zzqx"]], before[ids["zzqx"]])  # left out by the old vocabulary: untouched
+    assert torch.equal(table[: len(old)], before[: len(old)])
+
+
 def _write_folder(root: Path) -> None:
     source = ToySource()
     names = []

@@ -1,6 +1,7 @@
 """Visualisation: pyvista skeleton scenes (built once, updated in place) and renders.
 
-Submodules: ``scene`` (``SkeletonScene``), ``render`` (PNG/GIF/MP4, frame lists),
+Submodules: ``scene`` (``SkeletonScene``), ``render`` (PNG/GIF/MP4, frame lists), ``flat`` (``FlatRenderer``:
+the same picture drawn in 2D without VTK, for the studio's fast GIF/MP4 exports),
 ``sheet`` (contact sheets), ``colors``, ``geometry``, ``camera``. The names below are
 imported lazily so that ``import viz`` does not load VTK.
 """
@@ -17,6 +18,7 @@ _EXPORTS = {
     "render_file": "viz.render",
     "render_frames": "viz.render",
     "contact_sheet": "viz.sheet",
+    "FlatRenderer": "viz.flat",
 }
 
 __all__ = sorted(_EXPORTS)

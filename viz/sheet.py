@@ -67,3 +67,16 @@ def _fit_text(draw: ImageDraw.ImageDraw, text: str, *, font: ImageFont.ImageFont
     while text and draw.textlength(text + "…", font=font) > width:
         text = text[:-1]
     return text + "…"
+
+
+def pyvista_gallery(items: Sequence[tuple[str, np.ndarray]], *, poses: int) -> Image.Image:
+    """The corpus gallery drawn by the pyvista scene (``moattn corpus --gallery --renderer pyvista``): ``poses``
+    evenly spaced poses of each (label, joints (T, 22, 3)) item, one row each (about a third of a second a pose)."""
+    from viz.render import render_frames
+
+    images, labels = [], []
+    for label, joints in items:
+        idx = np.linspace(0, len(joints) - 1, poses).round().astype(int).tolist()
+        images += render_frames(joints.astype(np.float64), frames=idx, size=(120, 170))
+        labels += [f"{label} @{k}" if n == 0 else f"@{k}" for n, k in enumerate(idx)]
+    return Image.fromarray(contact_sheet(images, cols=poses, labels=labels, font_size=10))

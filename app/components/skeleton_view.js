@@ -18,6 +18,10 @@ function metresOfMm(b64) {
   return out;
 }
 const J = 22, TILE = 0.5, FOV = 30 * Math.PI / 180, NEAR = 0.05;
+// the camera's limits: above the floor (never level with it: the floor would vanish edge-on), and between a fifth of
+// and 3.5 times the distance that frames the motion (zoomed out further the body is a dot)
+const LIMITS = {minEl: 5, maxEl: 85, zoomIn: 0.2, zoomOut: 3.5, minDist: 0.3, maxTargetY: 2.5};
+const clamp = (x, lo, hi) => Math.max(lo, Math.min(hi, x));
 const FLOOR = ["rgb(232,232,228)", "rgb(206,208,204)"];
 const LEFT = [1, 4, 7, 10, 13, 16, 18, 20], RIGHT = [2, 5, 8, 11, 14, 17, 19, 21];
 const PELVIS = 0, HEAD = 15;
@@ -40,7 +44,7 @@ function decodeScene(msg) {
   return {key: msg.key, title: msg.title || "", T: msg.n_frames || 0, fps: msg.fps || 20, parents: msg.parents || [],
           radii: msg.radii || {joint: 0.032, head: 0.07, bone: 0.02}, azimuth: msg.azimuth || 0,
           elevation: msg.elevation || 18, roles, guides, denoising, preview: null, job: msg.job || null,
-          sentAt: msg.sent_at || null};
+          sentAt: msg.sent_at || null, legend: msg.legend || null};
 }
 
 function previewScene(msg) {
@@ -171,7 +175,21 @@ export function render({ model, el, view }) {
     const aspect = canvas.width / Math.max(1, canvas.height);
     const half = Math.min(FOV / 2, Math.atan(Math.tan(FOV / 2) * aspect));
     cam.dist = Math.max(0.5, radius / Math.sin(half) * 1.0);
+    cam.fitDist = cam.dist;
+    cam.el = clamp(cam.el, LIMITS.minEl, LIMITS.maxEl);
     dirty = true;
+  }
+  function distLimits() {
+    const fitDist = cam.fitDist || 4;
+    return [Math.max(LIMITS.minDist, fitDist * LIMITS.zoomIn), Math.max(LIMITS.minDist, fitDist * LIMITS.zoomOut)];
+  }
+  function keepTargetOnFloor() {
+    // a pan moves the point looked at, never off the floor's tiles nor under them or far above the body
+    if (!scene || !scene.floor) return;
+    const t = currentTarget(), [x0, x1, z0, z1] = scene.floor;
+    cam.target[0] += clamp(t[0], x0 * TILE, x1 * TILE) - t[0];
+    cam.target[2] += clamp(t[2], z0 * TILE, z1 * TILE) - t[2];
+    cam.target[1] = clamp(cam.target[1], 0, LIMITS.maxTargetY);
   }
 
   // ----------------------------------------------------------------- drawing
@@ -206,8 +224,8 @@ export function render({ model, el, view }) {
               dx * B.fwd[0] + dy * B.fwd[1] + dz * B.fwd[2]];
     };
     const scr = (c) => [W / 2 + f * c[0] / c[2], H / 2 - f * c[1] / c[2]];
-    // floor: a checkerboard under the motions (hidden from below)
-    if (cam.el > 0) {
+    // floor: a checkerboard under the motions (the camera is kept above it: see LIMITS)
+    if (B.eye[1] > 0) {
       const [x0, x1, z0, z1] = scene.floor;
       for (let a = 0; a < 2; a++) {
         ctx.fillStyle = FLOOR[a]; ctx.beginPath();
@@ -291,7 +309,75 @@ export function render({ model, el, view }) {
     }
     stats.draw_ms.push(performance.now() - t_start);
     if (stats.draw_ms.length > 240) stats.draw_ms.splice(0, stats.draw_ms.length - 240);
-    stats.camera = {az: cam.az, el: cam.el, dist: cam.dist};
+    drawLegend(W, H);
+    const [minDist, maxDist] = distLimits();
+    stats.camera = {az: cam.az, el: cam.el, dist: cam.dist, eye_y: B.eye[1], min_dist: minDist, max_dist: maxDist,
+                    fit_dist: cam.fitDist || null};
+  }
+  function fitText(text, width) {
+    let t = text || "";
+    while (t.length > 4 && ctx.measureText(t).width > width) t = t.slice(0, -2) + "\u2026";
+    return t;
+  }
+  function drawLegend(W, H) {
+    // what the colours mean, in the bottom-left corner (app/viewer/legend.py says what each colour mode shows)
+    const lg = scene && !scene.preview ? scene.legend : null;
+    if (!lg) { stats.legend = null; return; }
+    ctx.save();
+    const font = "12px sans-serif", pad = 6, lh = 16, sw = 11, maxW = Math.min(W - 24, Math.max(220, W * 0.62));
+    ctx.font = font;
+    const rows = [{text: fitText(lg.title, maxW - 2 * pad), bold: true}];
+    let boxW = 0;
+    if (lg.kind === "gradient") {
+      rows.push({gradient: lg.stops, low: lg.low, high: lg.high});
+      boxW = ctx.measureText(lg.low).width + ctx.measureText(lg.high).width + 168;
+    } else {
+      let row = [], w = 0;
+      const items = (lg.items || []).map((it) => ({label: fitText(it.label, maxW * 0.8), color: it.color}));
+      if (lg.more) items.push({label: `+${lg.more} more`, color: null});
+      for (const it of items) {
+        const iw = (it.color ? sw + 4 : 0) + ctx.measureText(it.label).width + 12;
+        if (row.length && w + iw > maxW - 2 * pad) { rows.push({items: row}); boxW = Math.max(boxW, w); row = []; w = 0; }
+        row.push({...it, x: w}); w += iw;
+      }
+      if (row.length) { rows.push({items: row}); boxW = Math.max(boxW, w); }
+    }
+    if (lg.note) rows.push({text: fitText(lg.note, maxW - 2 * pad), small: true});
+    for (const r of rows) if (r.text !== undefined) {
+      ctx.font = r.bold ? "bold " + font : r.small ? "11px sans-serif" : font;
+      boxW = Math.max(boxW, ctx.measureText(r.text).width);
+    }
+    ctx.font = font;
+    boxW = Math.min(boxW + 2 * pad, maxW);
+    const boxH = rows.length * lh + 2 * pad - 3, x0 = 10, y0 = H - boxH - 10;
+    ctx.fillStyle = "rgba(255,255,255,0.85)"; ctx.fillRect(x0, y0, boxW, boxH);
+    ctx.strokeStyle = "rgba(110,120,140,0.55)"; ctx.lineWidth = 1; ctx.strokeRect(x0 + 0.5, y0 + 0.5, boxW - 1, boxH - 1);
+    let y = y0 + pad + 11;
+    for (const r of rows) {
+      if (r.text !== undefined) {
+        ctx.font = r.bold ? "bold " + font : r.small ? "11px sans-serif" : font;
+        ctx.fillStyle = r.small ? "#556" : "#223"; ctx.fillText(r.text, x0 + pad, y); ctx.font = font;
+      } else if (r.gradient) {
+        const gx = x0 + pad + ctx.measureText(r.low).width + 5, gw = 150;
+        ctx.fillStyle = "#223"; ctx.fillText(r.low, x0 + pad, y);
+        const grad = ctx.createLinearGradient(gx, 0, gx + gw, 0);
+        r.gradient.forEach((c, i) => grad.addColorStop(i / Math.max(1, r.gradient.length - 1), c));
+        ctx.fillStyle = grad; ctx.fillRect(gx, y - 10, gw, 11);
+        ctx.fillStyle = "#223"; ctx.fillText(r.high, gx + gw + 5, y);
+      } else {
+        for (const it of r.items) {
+          const sx = x0 + pad + it.x;
+          if (it.color) {
+            ctx.fillStyle = it.color; ctx.fillRect(sx, y - 10, sw, sw);
+            ctx.strokeStyle = "rgba(0,0,0,0.35)"; ctx.strokeRect(sx + 0.5, y - 9.5, sw - 1, sw - 1);
+          }
+          ctx.fillStyle = "#223"; ctx.fillText(it.label, sx + (it.color ? sw + 4 : 0), y);
+        }
+      }
+      y += lh;
+    }
+    ctx.restore();
+    stats.legend = {kind: lg.kind, title: lg.title, items: (lg.items || []).length, box: [x0, y0, boxW, boxH]};
   }
 
   // ----------------------------------------------------------------- playback and sync
@@ -397,8 +483,9 @@ export function render({ model, el, view }) {
     if (drag.pan) {
       const B = basis(), s = cam.dist * 0.0018;
       for (let c = 0; c < 3; c++) cam.target[c] += (-dx * B.right[c] + dy * B.up[c]) * s;
+      keepTargetOnFloor();
     } else {
-      cam.az -= dx * 0.4; cam.el = Math.max(-10, Math.min(85, cam.el + dy * 0.3));
+      cam.az -= dx * 0.4; cam.el = clamp(cam.el + dy * 0.3, LIMITS.minEl, LIMITS.maxEl);
     }
     dirty = true;
   });
@@ -408,7 +495,8 @@ export function render({ model, el, view }) {
   canvas.addEventListener("contextmenu", (e) => e.preventDefault());
   canvas.addEventListener("wheel", (e) => {
     e.preventDefault();
-    cam.dist = Math.max(0.3, Math.min(60, cam.dist * Math.exp(e.deltaY * 0.001))); dirty = true;
+    const [minDist, maxDist] = distLimits();
+    cam.dist = clamp(cam.dist * Math.exp(e.deltaY * 0.001), minDist, maxDist); dirty = true;
   }, {passive: false});
   save.addEventListener("click", () => {
     canvas.toBlob((blob) => {

@@ -45,12 +45,27 @@ def intent_line(prompt: str, unknown=()) -> str:
         # beyond the corpus lexicon): no line, rather than an amber "no action recognised" under its prompts
         return ""
     cls = "intent-partial" if not intent.complete else "intent-full"
-    return f'<div class="{cls}" title="what this prompt asks for">asked for: {html.escape(intent.describe())}</div>'
+    text = intent.describe()
+    if len(text) <= MAX_INTENT_CHARS:
+        return f'<div class="{cls}" title="what this prompt asks for">asked for: {html.escape(text)}</div>'
+    # a long prompt's intent is one line, opened on demand (a 2,000-character prompt filled the sidebar with ~30)
+    short = text[:MAX_INTENT_CHARS].rsplit(" ", 1)[0].rstrip(" →,")
+    steps = text.count("→") + 1
+    return (f'<details class="{cls} intent-long"><summary title="what this prompt asks for: open for all of it">'
+            f'asked for: {html.escape(short)} … ({steps} actions in all)</summary>'
+            f'<div class="intent-rest">{html.escape(text)}</div></details>')
+
+
+#: the longest intent shown in full; a longer one is cut to a line that opens to the rest
+MAX_INTENT_CHARS = 90
 
 
 WORD_CSS = """
 .intent-full, .intent-partial { font-size: 12px; color: #335; margin-top: 2px; }
 .intent-partial { color: #8a5a00; }
+.intent-long summary { cursor: pointer; }
+.intent-rest { max-height: 7.5em; overflow-y: auto; border-left: 2px solid #dde; padding-left: 6px; margin-top: 2px; }
+.prompt-chips { max-height: 5.6em; overflow-y: auto; }
 .word-left-out { background: #f1f1f1; color: #777; text-decoration: line-through; padding: 0 3px; border-radius: 3px; }
 .word-read { background: #fff3d6; border-bottom: 1px dashed #b80; padding: 0 3px; border-radius: 3px; }
 .word-known { background: #e7f0ff; padding: 0 3px; border-radius: 3px; }

@@ -1,5 +1,8 @@
 """Counting the shown motion's repetitions (the session's ``count_result``: the Edit tab's readout, the Attention
-tab's peaks): from its recorded self-attention (at once, as it is shown) or by DDIM inversion (the Edit tab's job)."""
+tab's peaks): from its recorded self-attention (at once, as it is shown) or by DDIM inversion (the Edit tab's job),
+with the session's counting method (``count_method``: the project's lag profile, MotionCLR's recipe as published, or
+the per-row variant; see ``engine.analysis.counting.COUNTING_METHODS``). A readout keeps its self-attention map, so
+another method recounts it at once (an imported motion is not inverted again)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -21,15 +24,31 @@ class CountReadout:
     source: str  # how the self-attention map was obtained
     period: int | None = None  # frames between repetitions (None: no repetition found)
     span: tuple[int, int] | None = None  # first and last frame of the repetitions
+    method: str = "lag"  # the counting method (engine.analysis.counting.COUNTING_METHODS)
+    self_map: np.ndarray | None = None  # (T, T) the self-attention map counted on
 
 
-def count_record(record: AttentionRecord, joints: np.ndarray, *, item: str, run=None) -> CountReadout:
+def _run(method: str | None):
+    from engine.analysis.counting import CountingConfig
+    from engine.methods.edits import CountingRun
+
+    return CountingRun(counting=CountingConfig(method=method or CountingConfig.method))
+
+
+def _readout(result, *, item: str, baseline: int, source: str, run, attn: np.ndarray) -> CountReadout:
+    return CountReadout(item=item, count=result.count, rounded=result.rounded, baseline=baseline,
+                        peaks=list(result.peaks), processed=result.processed, downsample=run.counting.downsample,
+                        source=source, period=result.period, span=result.span, method=run.counting.method,
+                        self_map=np.asarray(attn, dtype=np.float32))
+
+
+def count_record(record: AttentionRecord, joints: np.ndarray, *, item: str, run=None,
+                 method: str | None = None) -> CountReadout:
     """Count on a generated motion's recorded self-attention (the recipe of ``edits.count_actions``: mean over
     heads and layers of the recorded steps in the run's step window)."""
     from engine.analysis.counting import count_from_attention, count_from_root_height
-    from engine.methods.edits import CountingRun
 
-    run = run or CountingRun()
+    run = run or _run(method)
     steps = run.chosen_steps(list(record.steps), record.num_steps)
     layers = run.chosen_layers(list(range(record.n_layers)))
     maps = record.self_maps[[record.step_position(s) for s in steps]][:, layers]
@@ -38,32 +57,51 @@ def count_record(record: AttentionRecord, joints: np.ndarray, *, item: str, run=
     source = (f"recorded self-attention: mean of heads, layers {', '.join(str(l + 1) for l in layers)} of "
               f"{record.n_layers} over {len(steps)} recorded step(s) {steps[0] + 1}–{steps[-1] + 1} "
               f"of {record.num_steps}")
-    return CountReadout(item=item, count=result.count, rounded=result.rounded,
-                        baseline=count_from_root_height(np.asarray(joints)[:, 0, 1]), peaks=list(result.peaks),
-                        processed=result.processed, downsample=run.counting.downsample, source=source,
-                        period=result.period, span=result.span)
+    return _readout(result, item=item, baseline=count_from_root_height(np.asarray(joints)[:, 0, 1]), source=source,
+                    run=run, attn=attn)
 
 
-def count_imported(loaded, joints: np.ndarray, *, item: str, prompt: str = "", steps: int = 20) -> CountReadout:
+def count_imported(loaded, joints: np.ndarray, *, item: str, prompt: str = "", steps: int = 20,
+                   method: str | None = None) -> CountReadout:
     """Count on a motion without recorded attention: DDIM-invert it, record self-attention while it is rebuilt."""
-    from engine.methods.edits import CountingRun, count_motion
+    from engine.methods.edits import count_motion
 
-    run = CountingRun()
+    run = _run(method)
     count = count_motion(loaded, np.asarray(joints), prompt=prompt, steps=steps, run=run)
-    r = count.attention
-    return CountReadout(item=item, count=r.count, rounded=r.rounded, baseline=count.baseline, peaks=list(r.peaks),
-                        processed=r.processed, downsample=run.counting.downsample, period=r.period,
-                        span=r.span, source=f"inverted ({steps} DDIM steps), self-attention recorded while it was rebuilt")
+    return _readout(count.attention, item=item, baseline=count.baseline, run=run, attn=count.self_map,
+                    source=f"inverted ({steps} DDIM steps), self-attention recorded while it was rebuilt")
+
+
+def recount(readout: CountReadout, method: str) -> CountReadout:
+    """The same self-attention map counted with another method (nothing is recorded or inverted again)."""
+    from engine.analysis.counting import count_from_attention
+
+    if readout.self_map is None:
+        raise ValueError(f"the count of {readout.item!r} kept no map to recount")
+    run = _run(method)
+    result = count_from_attention(readout.self_map, run.counting)
+    return _readout(result, item=readout.item, baseline=readout.baseline, source=readout.source, run=run,
+                    attn=readout.self_map)
 
 
 def auto_count(session) -> None:
-    """Generated motions are counted from their recorded maps as soon as they are shown (milliseconds)."""
+    """Generated motions are counted from their recorded maps as soon as they are shown (milliseconds), with the
+    session's counting method; a motion counted by inversion is recounted from its kept map when the method
+    changes."""
     item = session.item
-    if item is None or item.attention is None:
+    method = getattr(session, "count_method", None)
+    if item is None:
         session.count_result = None
         return
+    if item.attention is None:
+        previous = session.count_result
+        if previous is None or previous.item != item.name:
+            session.count_result = None
+        elif previous.method != method and previous.self_map is not None:
+            session.count_result = recount(previous, method)
+        return
     try:
-        session.count_result = count_record(item.attention, item.joints, item=item.name)
+        session.count_result = count_record(item.attention, item.joints, item=item.name, method=method)
     except ValueError as exc:  # e.g. too short
         session.count_result = None
         session.warning(f"cannot count on {item.name!r}: {exc}")

@@ -40,6 +40,7 @@ class SceneSpec:
     guides: tuple[tuple[str, str, np.ndarray], ...] = ()  # (role, colour, (N, 3) points): target paths drawn in 3-D
     together: bool = False  # every role in one shared space (a duet), not side by side
     denoising: Denoising | None = None  # of the first role
+    legend: dict | None = None  # what the colours mean (app.viewer.legend.scene_legend), drawn in the view's corner
 
     @property
     def roles(self) -> tuple[str, ...]:
@@ -130,6 +131,7 @@ def scene_message(spec: SceneSpec | None, *, key: int, job: tuple[float, float] 
         "roles": roles,
         "guides": guides,
         "denoising": None,
+        "legend": spec.legend,
         "job": None if job is None else {"started": job[0], "ended": job[1]},
         "sent_at": time.time(),  # wall clock: the bench splits a result's latency into server and page
     }

@@ -5,6 +5,7 @@ import panel as pn
 import param
 
 from app.components.skeleton_view import SkeletonView
+from app.viewer.legend import scene_legend
 from app.viewer.scene import SceneSpec, preview_message, scene_message
 from app.session.duets import is_duet
 from app.session.state import StudioState
@@ -38,6 +39,23 @@ class SkeletonViewer(pn.viewable.Viewer):
         self.follow = pn.widgets.Checkbox.from_param(s.param.follow, label="camera follows")
         self.path = pn.widgets.Checkbox.from_param(s.param.show_path, label="root path")
         self.color = pn.widgets.Checkbox.from_param(s.param.color_by_word, label="colour by word attention")
+        # the Motion list reads the motion library (when the session has one): search, kind, pin, delete
+        self.search = pn.widgets.TextInput.from_param(s.param.motion_search, name="", placeholder="search prompts",
+                                                      width=150, css_classes=["motion-search"])
+        self.kind = pn.widgets.Select.from_param(s.param.motion_kind, name="", width=120,
+                                                 css_classes=["motion-kind"])
+        self.pin = pn.widgets.Checkbox(label="pinned", value=False, css_classes=["motion-pin"], align="center",
+                                       visible=s.library is not None)
+        self.delete = pn.widgets.Button(label="Delete", width=80, css_classes=["motion-delete"],
+                                        description="delete the shown motion (from the library too)")
+        self.library_line = pn.pane.Str(s.library_status, css_classes=["library-status"], sizing_mode="stretch_width",
+                                        styles={"font-size": "11px", "color": "#666"}, visible=s.library is not None,
+                                        stylesheets=["pre { white-space: pre-wrap; overflow-wrap: anywhere; "
+                                                     "margin: 0; }"])  # a long workspace path wraps
+        self.pin.param.watch(self._on_pin, "value")
+        self.delete.on_click(lambda _: self.state.current and self.state.delete_motion(self.state.current))
+        s.param.watch(lambda e: setattr(self.library_line, "object", e.new), "library_status")
+        s.param.watch(self._on_items, ["motion_search", "motion_kind"])
         self.show_select.param.watch(self._on_show_select, "value")
         self.compare_select.param.watch(self._on_compare_select, "value")
         self.player.param.watch(self._on_player_frame, "frame")
@@ -75,9 +93,22 @@ class SkeletonViewer(pn.viewable.Viewer):
             title = f'{item.name}  —  colour: "{item.attention.words[s.word]}"'
         if notes:
             title = notes[0]
+        legend = self._legend(item, motions, colors, notes, values)
         return SceneSpec(motions=tuple(motions), frame_values=values,
                          role_colors=tuple(colors), title=title, guides=tuple(guides), together=is_duet(shown),
-                         denoising=item.denoising if len(shown) == 1 else None)
+                         denoising=item.denoising if len(shown) == 1 else None, legend=legend)
+
+    def _legend(self, item, motions, colors, notes, values) -> dict:
+        """What the colours of this scene mean (every colour mode has its legend; app.viewer.legend)."""
+        s = self.state
+        word, why = None, ""
+        if values is not None and s.word is not None and item.attention is not None:
+            word = item.attention.words[s.word]
+        elif s.color_by_word:
+            why = "no recorded attention" if item.attention is None else "pick a word (Attention tab)"
+        return scene_legend(roles=[r for r, _ in motions], role_colors=tuple(colors), note=notes[0] if notes else "",
+                            word=word, values=values if word is not None else None, word_wanted=s.color_by_word,
+                            why_no_word=why)
 
     def _refresh(self, *_):
         spec = self.spec()
@@ -103,7 +134,7 @@ class SkeletonViewer(pn.viewable.Viewer):
                                             title=p.title))
 
     def _on_items(self, *_):
-        names = list(self.state.items)
+        names = self.state.listed_names()
         self.show_select.options = names
         self.compare_select.options = [NONE, *names]
         self._sync_selects()
@@ -115,8 +146,17 @@ class SkeletonViewer(pn.viewable.Viewer):
             if s.current in self.show_select.options:
                 self.show_select.value = s.current
             self.compare_select.value = s.compare if s.compare in self.compare_select.options else NONE
+            item = s.item
+            self.pin.value = bool(item is not None and item.pinned)
+            self.pin.disabled = item is None or not item.library_id
+            self.delete.disabled = item is None
         finally:
             self._syncing = False
+
+    def _on_pin(self, event):
+        if not self._syncing and self.state.current:
+            if not self.state.pin_motion(self.state.current, event.new):
+                self._sync_selects()
 
     def _on_show_select(self, event):
         if not self._syncing and event.new and event.new != self.state.current:
@@ -131,6 +171,9 @@ class SkeletonViewer(pn.viewable.Viewer):
             self._sync_selects()
 
     def _on_current(self, *_):
+        s = self.state
+        if s.motion_search or s.motion_kind or (s.current and s.current not in self.show_select.options):
+            self._on_items()  # the list filtered: the motion shown is always listed, the one left is not
         self._sync_selects()
         self._refresh()
 
@@ -154,7 +197,9 @@ class SkeletonViewer(pn.viewable.Viewer):
     def __panel__(self):
         controls = pn.Row(self.follow, self.path, self.color, align="center")
         selects = pn.Row(self.show_select, self.compare_select)
-        return pn.Column(selects, self.player, controls, sizing_mode="stretch_width", css_classes=["viewer"])
+        library = pn.Row(self.search, self.kind, self.pin, self.delete, css_classes=["motion-library"])
+        return pn.Column(selects, library, self.library_line, self.player, controls, sizing_mode="stretch_width",
+                         css_classes=["viewer"])
 
 
 def _role(name: str, avoid: list[str] | tuple[str, ...] = ()) -> str:

@@ -8,6 +8,21 @@ from scipy.ndimage import gaussian_filter, gaussian_filter1d
 from scipy.signal import find_peaks
 
 
+#: the counting methods, name -> what it does (the CLI's ``--count-method`` and the Edit tab's choice read this)
+COUNTING_METHODS: dict[str, str] = {
+    "lag": "lag profile (this project's, the default): the period from the map's stripes parallel to the diagonal, "
+           "count = repeating span / period",
+    "published": "MotionCLR as published (its Code 6): peaks per row of the smoothed, pooled, normalised map above "
+                 "3 x the whole map's mean; count = peaks / rows with a peak",
+    "rows": "row peaks above 3 x each row's own mean (this project's earlier reading of the recipe, kept for "
+            "comparison); count = peaks / rows with a peak",
+}
+
+#: name -> a short label (the Edit tab's choice)
+COUNTING_LABELS: dict[str, str] = {"lag": "lag profile (this project's)", "published": "MotionCLR as published",
+                                   "rows": "row means (variant)"}
+
+
 @dataclass(frozen=True)
 class CountingConfig:
     """How a self-attention map becomes a count.
@@ -25,11 +40,13 @@ class CountingConfig:
     it attends more to the frames a period away than to those half a period away (rest frames attend
     alike to both), above ``active_fraction`` of the strongest frame's contrast. Dividing the whole
     clip by P instead counts the standing still before and after as repetitions too.
-    ``method`` "rows": MotionCLR's recipe as published — Gaussian ``sigma`` on the map, ``downsample``
-    average pooling, min-max normalisation, peaks per row above ``height_factor`` × the row mean, count =
-    peaks / rows with a peak. On this project's maps the diagonal dominates every row and the recipe
-    mostly returns 1 (see ``moattn bench --edits``), so it is kept for comparison.
-    Both return the same smoothed, pooled map (``processed``) for display.
+    ``method`` "published": MotionCLR's recipe exactly as published (the paper's Code 6) — Gaussian ``sigma`` on
+    the map, ``downsample`` average pooling, min-max normalisation, peaks in every row above ``height_factor`` ×
+    the mean of the *whole* normalised map (one threshold for all rows), count = peaks / rows with a peak.
+    ``method`` "rows": the same with each row's own mean as its threshold (how this project first read the
+    recipe). On this project's maps the diagonal dominates every row and it mostly returns 1 (see
+    ``moattn bench --edits``, which scores every method on the same maps).
+    All return the same smoothed, pooled map (``processed``) for display.
     """
 
     method: str = "lag"
@@ -44,15 +61,16 @@ class CountingConfig:
     active_fraction: float = 0.35  # lag: a frame's period contrast, relative to the strongest, to be active
 
     def __post_init__(self) -> None:
-        if self.method not in ("lag", "rows"):
-            raise ValueError(f"counting method must be 'lag' or 'rows', got {self.method!r}")
+        if self.method not in COUNTING_METHODS:
+            raise ValueError(f"the counting method must be one of {', '.join(map(repr, COUNTING_METHODS))}, "
+                             f"got {self.method!r}")
         if not 0.0 <= self.relative_prominence <= 1.0:
             raise ValueError(f"relative_prominence must be in [0, 1], got {self.relative_prominence}")
 
 
 @dataclass(frozen=True)
 class CountResult:
-    count: float  # lag: active span / period; rows: total peaks / rows with at least one peak
+    count: float  # lag: active span / period; published, rows: total peaks / rows with at least one peak
     peaks: list[tuple[int, int]]  # (row, column) in original frame units
     processed: np.ndarray  # the filtered, downsampled, normalised map
     period: int | None = None  # lag: the detected period in frames (None: no repetition found)
@@ -120,7 +138,7 @@ def count_from_attention(attn: np.ndarray, config: CountingConfig = CountingConf
     """attn (T, T) self-attention (mean over heads) -> count of repeated actions."""
     attn = _check_map(attn)
     norm = _pooled(attn, config)
-    if config.method == "rows":
+    if config.method in ("published", "rows"):
         return _count_rows(norm, config)
     n = len(attn)
     corr = correlation(attn)
@@ -141,10 +159,13 @@ def count_from_attention(attn: np.ndarray, config: CountingConfig = CountingConf
 
 
 def _count_rows(norm: np.ndarray, config: CountingConfig) -> CountResult:
+    """Peaks per row above ``height_factor`` x the whole map's mean ("published") or the row's own ("rows")."""
     f = config.downsample
     peaks, rows_with_peaks = [], 0
+    whole = config.height_factor * norm.mean()
     for r, row in enumerate(norm):
-        found, _ = find_peaks(row, height=config.height_factor * row.mean(), distance=config.distance)
+        height = whole if config.method == "published" else config.height_factor * row.mean()
+        found, _ = find_peaks(row, height=height, distance=config.distance)
         if len(found):
             rows_with_peaks += 1
             peaks.extend((r * f + f // 2, int(c) * f + f // 2) for c in found)

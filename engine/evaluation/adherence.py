@@ -25,7 +25,8 @@ import numpy as np
 
 from engine.analysis.detectors import Detected, MotionSignals, detect
 from engine.intent import COUNTED_ACTIONS, SIDES_OF, Intent, IntentSegment
-from engine.synth.program import FPS, MAX_FRAMES, SPEEDS, Program, Segment
+from engine.synth.intents import realise_segment
+from engine.synth.program import FPS, MAX_FRAMES, Program, Segment
 
 ATTRIBUTES = ("action", "count", "side", "direction", "order")
 RELIABLE = 0.95  # agreement with ground truth a check needs to be scored
@@ -167,30 +168,6 @@ def program_for_intent(intent: Intent, rng: np.random.Generator) -> Program:
     style = intent.style if intent.style in STYLES else "none"
     return Program(segments=tuple(segments), style=style, person=random_person(rng),
                    blend=int(rng.integers(6, 11)), seed=int(rng.integers(2**31)))
-
-
-def realise_segment(want: IntentSegment, rng: np.random.Generator) -> Segment:
-    """A corpus segment for an intended action: what the prompt states, the rest drawn as the corpus draws it."""
-    from engine.synth.splits import random_segment
-
-    seg = random_segment(rng, want.action)
-    fields: dict = {}
-    if want.count is not None:
-        fields["count"] = int(want.count)
-    if want.side is not None:
-        fields["side"] = want.side
-    if want.speed is not None:
-        fields["speed"], fields["speed_word"] = SPEEDS[want.speed], want.speed
-    if want.direction is not None:
-        if want.action == "turn":
-            fields["turn"] = {"around": np.pi, "left": np.pi / 2, "right": -np.pi / 2}[want.direction]
-            fields["direction"] = want.direction
-        elif want.action in ("walk", "run", "jog"):
-            d = want.direction
-            fields["direction"] = ("circle_left" if rng.random() < 0.5 else "circle_right") if d == "circle" else d
-        elif want.action == "side_step" and want.direction in ("left", "right"):
-            fields["direction"] = want.direction
-    return replace(seg, **fields)
 
 
 def ground_truth_motion(intent: Intent, seed: int) -> np.ndarray:

@@ -29,8 +29,8 @@ from engine.generate import FPS, SampleConfig
 from engine.methods.commdm import Pose, placements
 from engine.methods.duet import DuetModel, complete, text_to_duet
 from engine.methods.duet_contact import ContactConfig
+from engine.analysis.duet_pose import face_each_other
 from engine.methods.duet_data import few_shot
-from engine.representation import facing_direction
 from engine.skeleton import JOINT_INDEX
 from engine.units import DEFAULT_GUIDANCE
 from engine.units import MAX_SECONDS
@@ -111,19 +111,6 @@ def placement_error(joints: np.ndarray, truth_a: np.ndarray, truth_b: np.ndarray
     return best
 
 
-def face_each_other(joints: np.ndarray, *, frame: int | None = None, within_deg: float = 45.0) -> bool:
-    """Whether each person faces the other (facing within ``within_deg`` of the direction to them)."""
-    k = joints.shape[1] // 2 if frame is None else frame
-    ok = True
-    for me, other in ((0, 1), (1, 0)):
-        face = facing_direction(joints[me, k])
-        to = joints[other, k, 0] - joints[me, k, 0]
-        to[1] = 0.0
-        to = to / max(np.linalg.norm(to), 1e-9)
-        ok &= float(np.degrees(np.arccos(np.clip(face @ to, -1, 1)))) < within_deg
-    return bool(ok)
-
-
 def _prefix_errors(duet_joints: np.ndarray, ja: np.ndarray, jb: np.ndarray, given: int) -> dict:
     out = {}
     for sec in (1, 2, 3):
@@ -142,7 +129,9 @@ def bench_duet(model: DuetModel, config: DuetBenchConfig = DuetBenchConfig(), *,
     samples = few_shot("test", per_interaction=config.per_interaction, seed=config.seed)
     given, total = FPS, 4 * FPS
     result: dict = {"samples": len(samples), "interactions": sorted({s.interaction for s in samples}),
-                    "steps": config.steps, "seeds": config.seeds, "prefix": {}, "text": {}}
+                    "steps": config.steps, "seeds": config.seeds, "prefix": {}, "text": {},
+                    "block_after_layer": model.denoiser.after, "base_layers": model.denoiser.prior.num_layers,
+                    "mirrored": bool(model.config.get("mirrored", False))}
     for method, (communicate, contact) in METHODS.items():
         errs, place_m, place_deg, timing, touched, facing = [], [], [], [], [], []
         per_kind: dict[str, list[float]] = {}
@@ -187,8 +176,11 @@ def bench_duet(model: DuetModel, config: DuetBenchConfig = DuetBenchConfig(), *,
 
 
 def format_table(result: dict) -> str:
+    block = (f"; the block after base layer {result['block_after_layer']} of {result['base_layers']}, trained "
+             f"{'with' if result['mirrored'] else 'without'} mirrored duets" if "block_after_layer" in result else "")
     lines = [f"ComMDM vs the prior twice (no block): {result['samples']} held-out duets "
-             f"({', '.join(result['interactions'])}), {result['steps']} steps, {result['seeds']} seed(s) each, {result['seconds']:.0f} s",
+             f"({', '.join(result['interactions'])}), {result['steps']} steps, {result['seeds']} seed(s) each, "
+             f"{result['seconds']:.0f} s{block}",
              "", f"prefix completion (1 s given, text masked, no contact guidance; n = {result['prefix']['commdm']['n']}), "
              "L2 error in m",
              f"{'method':<13}" + "".join(f"{h:>10}" for h in ("root 1s", "root 2s", "root 3s", "joint 1s",

@@ -4,7 +4,8 @@ Figures (JSON keys):
 - counting.attention / counting.baseline: exact-match rate of repetition counts on held-out corpus
   motions with known counts (attention: the motion is DDIM-inverted and its self-attention recorded
   while it is rebuilt, counted from its lag profile, see engine.analysis.counting; baseline: peaks of the
-  smoothed root height);
+  smoothed root height); counting.by_method: the same maps counted by every counting method (the lag
+  profile, MotionCLR's recipe as published, its per-row variant);
 - emphasis_spearman: rank correlation between the emphasis weight on the verb and the motion's
   amplitude as the corpus's intensity scales it (see :func:`amplitude`), averaged over prompts and seeds;
   emphasis acts in the layers calibrated for the model (``moattn bench --edits --calibrate``, on other prompts);
@@ -19,6 +20,11 @@ Figures (JSON keys):
   the unshifted one;
 - example_based: FID (vs held-out corpus motions) and diversity of example-based outputs beside
   perturbing the example's noise directly;
+- grounding: "a person jumps four times" with "jumps" grounded to four chosen 1-s spans (the paper's
+  headline grounding case); ``spans_hit``: the share of the spans in which a jump lands (a jump's apex, by
+  the adherence detectors, engine.analysis.detectors), beside the same prompt from the same noise without
+  grounding (``spans_hit_without``); also the jumps counted in the whole motion by the detectors, by
+  root-height peaks and from the self-attention (lag profile), and the jumps outside every span;
 - fid: FID of every edit's outputs vs held-out corpus motions (few samples: compare within the run).
 """
 from __future__ import annotations
@@ -31,13 +37,15 @@ import torch
 from scipy.ndimage import gaussian_filter1d
 from scipy.stats import spearmanr
 
+from engine.analysis.counting import COUNTING_METHODS, CountingConfig, count_from_attention
+from engine.attention import AttentionStore, StoreConfig, stack
 from engine.checkpoint import LoadedModel
 from engine.evaluation.evaluator import LoadedEvaluator
 from engine.evaluation.metrics import diversity, fid
 from engine.generate import Request, SampleConfig, generate
 from engine.methods import edits
 from engine.methods.edit_options import EditOptions, calibrated_layers, run_edit
-from engine.methods.motionclr import ExampleConfig, ReplaceConfig, ShiftConfig
+from engine.methods.motionclr import ExampleConfig, Ground, GroundingConfig, ReplaceConfig, ShiftConfig
 from engine.representation import SLICES, joints_to_features
 from engine.skeleton import JOINT_INDEX
 from engine.units import DEFAULT_GUIDANCE
@@ -62,12 +70,19 @@ class EditBenchConfig:
     guidance: float = DEFAULT_GUIDANCE
     seconds: float = 5.0
     reference_samples: int = 128
+    grounding_prompt: str = "a person jumps four times"
+    grounding_word: str = "jumps"
+    grounding_spans: int = 4  # 1-s spans, evenly spread over the motion
+    grounding_seconds: float = 8.0
+    grounding_seeds: int = 3
+    grounding_weight: float = 0.3
+    grounding_layers: tuple[int, ...] | None = None  # None: the grounding edit's default (as `moattn edit ground`)
 
     @classmethod
     def quick(cls) -> "EditBenchConfig":
         return cls(counting_samples=16, emphasis_prompts=("a person jumps", "a person kicks with the right leg"),
                    emphasis_seeds=2, pairs=4, replacement_seeds=1, shift_prompts=4, examples=2, outputs_per_example=4,
-                   steps=20, reference_samples=64)
+                   steps=20, reference_samples=64, grounding_seeds=2)
 
 
 # ----------------------------------------------------------------------------- measurements on joints
@@ -154,13 +169,18 @@ def bench_counting(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -
         action = segs[0].action
         truth = s.labels.counts[action]
         count = edits.count_motion(loaded, s.joints, prompt=s.captions[0], steps=min(config.steps, 20))
+        by_method = {m: count_from_attention(count.self_map, CountingConfig(method=m)).rounded
+                     for m in COUNTING_METHODS}  # the same map, every method
         rows.append({"action": action, "truth": int(truth), "attention": count.attention.rounded,
-                     "attention_raw": round(count.attention.count, 2), "baseline": count.baseline})
+                     "attention_raw": round(count.attention.count, 2), "baseline": count.baseline,
+                     "by_method": by_method})
         hits_attn += count.attention.rounded == truth
         hits_base += count.baseline == truth
         log(f"counting {len(rows)}/{config.counting_samples}: {rows[-1]}")
     n = max(1, len(rows))
-    return {"attention": hits_attn / n, "baseline": hits_base / n, "samples": len(rows), "rows": rows}
+    by_method = {m: sum(r["by_method"][m] == r["truth"] for r in rows) / n for m in COUNTING_METHODS}
+    return {"attention": hits_attn / n, "baseline": hits_base / n, "samples": len(rows), "rows": rows,
+            "by_method": by_method}
 
 
 def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> tuple[dict, list[np.ndarray]]:
@@ -287,6 +307,89 @@ def bench_example(loaded: LoadedModel, evaluator: LoadedEvaluator, reference: np
             "perturbed_noise_diversity": float(np.mean(div_pert)), "samples": len(ours)}
 
 
+def grounding_spans(frames: int, n: int, *, width: int = 20) -> tuple[tuple[int, int], ...]:
+    """``n`` spans of ``width`` frames (1 s) centred at (k + 1/2) / n of a ``frames``-frame motion."""
+    if n < 1 or n * width > frames:
+        raise ValueError(f"{n} spans of {width} frames do not fit in {frames} frames")
+    centres = [int(round((k + 0.5) * frames / n)) for k in range(n)]
+    return tuple((max(0, c - width // 2), min(frames, c - width // 2 + width)) for c in centres)
+
+
+JUMP_KINDS = ("jump", "jump_forward")
+
+
+def jump_frames(joints: np.ndarray) -> list[int]:
+    """The apex frames of the jumps in a motion (the adherence detectors: both feet leave and land together)."""
+    from engine.analysis.detectors import MotionSignals, detect
+
+    m = MotionSignals(joints)
+    return sorted(e.frame for kind in JUMP_KINDS for e in detect(m, kind))
+
+
+def spans_hit(frames: list[int], spans) -> list[bool]:
+    """Per span: does a jump's apex fall inside it?"""
+    return [any(a <= f < b for f in frames) for a, b in spans]
+
+
+def bench_grounding(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> dict:
+    """The paper's four-jumps case: the prompt with its verb grounded to chosen spans vs the prompt alone (the
+    pair's reference, same noise). Scored per span by the jump detector, and counted three ways."""
+    from engine.analysis.counting import count_from_root_height
+    from engine.methods.edits import CountingRun, count_actions
+
+    frames = int(config.grounding_seconds * 20)
+    spans = grounding_spans(frames, config.grounding_spans)
+    cfg = GroundingConfig.from_spans(config.grounding_word, spans, frames=frames, weight=config.grounding_weight,
+                                     window=edits_window(loaded, config.grounding_layers))
+    loaded.tokenizer.encode(config.grounding_prompt).word_index(config.grounding_word)
+    run = CountingRun()
+    draws, hit, hit_without = [], [], []
+    for seed in range(config.grounding_seeds):
+        sample = SampleConfig(steps=config.steps, guidance=config.guidance, seed=seed)
+        lo, hi = int(run.steps[0] * sample.steps), int(run.steps[1] * sample.steps)
+        store = AttentionStore(StoreConfig(kinds=("self",), steps=frozenset(range(lo, hi)),
+                                           budget_bytes=1024 * 1024 * 1024))
+        noise = torch.randn(1, frames, loaded.model.config.feature_dim,
+                            generator=torch.Generator().manual_seed(seed)).expand(2, -1, -1).clone()
+        request = Request(prompts=[config.grounding_prompt] * 2, frames=[frames] * 2, roles=["ref", "out"],
+                          noise=noise)
+        gen = generate(loaded, request, sample, controller=stack(Ground(cfg, num_steps=sample.steps), store))
+        row = {"seed": seed}
+        for role, slot in (("without", 0), ("grounded", 1)):
+            joints = gen.joints[slot]
+            jumps = jump_frames(joints)
+            hits = spans_hit(jumps, spans)
+            attention = count_actions(store, joints, frames=frames, num_steps=sample.steps, slot=slot, run=run)
+            row[role] = {"spans_hit": float(np.mean(hits)), "hits": hits, "jump_apexes": jumps,
+                         "jumps_detected": len(jumps),
+                         "jumps_outside": sum(not any(a <= f < b for a, b in spans) for f in jumps),
+                         "root_height_count": count_from_root_height(joints[:, 0, 1]),
+                         "attention_count": round(attention.attention.count, 2)}
+        hit.append(row["grounded"]["spans_hit"])
+        hit_without.append(row["without"]["spans_hit"])
+        draws.append(row)
+        g, w = row["grounded"], row["without"]
+        log(f"grounding seed {seed}: spans hit {g['spans_hit']:.2f} (without {w['spans_hit']:.2f}); jumps detected "
+            f"{g['jumps_detected']} at {g['jump_apexes']} (without {w['jumps_detected']}), outside the spans "
+            f"{g['jumps_outside']}; root-height count {g['root_height_count']}, attention count "
+            f"{g['attention_count']}")
+    return {"spans_hit": float(np.mean(hit)), "spans_hit_without": float(np.mean(hit_without)),
+            "prompt": config.grounding_prompt, "word": config.grounding_word, "spans": [list(s) for s in spans],
+            "frames": frames, "weight": config.grounding_weight,
+            "layers": list(cfg.window.layers) if cfg.window.layers is not None else "all",
+            "draws": draws}
+
+
+def edits_window(loaded: LoadedModel, layers: tuple[int, ...] | None = None):
+    """The grounding edit's window for this model: ``layers``, or its default (as ``moattn edit ground``: every
+    layer)."""
+    from engine.methods.edit_options import default_window
+    from engine.methods.windows import Window
+
+    window = default_window("ground", loaded.config)
+    return window if layers is None else Window(window.start, window.end, tuple(layers))
+
+
 def bench_edits(loaded: LoadedModel, evaluator: LoadedEvaluator, config: EditBenchConfig = EditBenchConfig(),
                 *, log=print) -> dict:
     from engine.evaluation.run import load_split
@@ -298,6 +401,7 @@ def bench_edits(loaded: LoadedModel, evaluator: LoadedEvaluator, config: EditBen
     replacement, repl_out = bench_replacement(loaded, evaluator, config, log=log)
     shifting, shift_out = bench_shift(loaded, config, log=log)
     example = bench_example(loaded, evaluator, reference, config, log=log)
+    grounding = bench_grounding(loaded, config, log=log)
 
     def edit_fid(joints: list[np.ndarray]) -> float | None:
         if len(joints) < 4:
@@ -306,7 +410,7 @@ def bench_edits(loaded: LoadedModel, evaluator: LoadedEvaluator, config: EditBen
 
     return {
         "counting": {"attention": counting["attention"], "baseline": counting["baseline"],
-                     "samples": counting["samples"], "rows": counting["rows"]},
+                     "samples": counting["samples"], "rows": counting["rows"], "by_method": counting["by_method"]},
         "emphasis_spearman": emphasis["spearman"],
         "emphasis": emphasis,
         "replacement_iou": replacement["iou"],
@@ -314,10 +418,26 @@ def bench_edits(loaded: LoadedModel, evaluator: LoadedEvaluator, config: EditBen
         "shift_order_acc": shifting["accuracy"],
         "shift": shifting,
         "example_based": example,
+        "grounding": grounding,
         "fid": {"emphasis": edit_fid(emph_out), "replacement": edit_fid(repl_out), "shift": edit_fid(shift_out),
                 "example_based": example["fid"]},
         "settings": {**config.__dict__, "seconds_taken": round(time.perf_counter() - t0, 1)},
     }
+
+
+def format_grounding(g: dict) -> str:
+    """The grounding row: the share of the chosen spans where a jump lands, with and without grounding."""
+    spans = ",".join(f"{a}:{b}" for a, b in g["spans"])
+    detected = [d["grounded"]["jumps_detected"] for d in g["draws"]]
+    outside = [d["grounded"]["jumps_outside"] for d in g["draws"]]
+    attention = [d["grounded"]["attention_count"] for d in g["draws"]]
+    plain = [d["without"]["jumps_detected"] for d in g["draws"]]
+    layers = g.get("layers", "all")
+    layers = "every layer" if layers == "all" else "layers " + ", ".join(map(str, layers))
+    return (f"grounding to {len(g['spans'])} spans ({g['prompt']!r}, {g['word']!r} -> {spans} of {g['frames']} "
+            f"frames, weight {g['weight']:g}, {layers}): jumps land in {g['spans_hit']:.2f} of the spans (without "
+            f"grounding {g['spans_hit_without']:.2f}; {len(g['draws'])} draws); jumps detected per draw {detected} (without {plain}), outside the spans "
+            f"{outside}, attention count {attention}")
 
 
 def format_table(result: dict) -> str:
@@ -326,6 +446,10 @@ def format_table(result: dict) -> str:
     lines = [
         f"counting exact match: attention {c['attention']:.2f}  root-height baseline {c['baseline']:.2f}  "
         f"({c['samples']} motions)",
+    ]
+    if "by_method" in c:  # results saved before this figure existed lack it
+        lines.append("  same maps, by counting method: " + ", ".join(f"{m} {v:.2f}" for m, v in c["by_method"].items()))
+    lines += [
         f"emphasis Spearman (weight vs amplitude): {result['emphasis_spearman']:.2f} (layers "
         f"{', '.join(map(str, result['emphasis']['layers']))})",
         f"replacement timing IoU: {r['iou']:.2f} (same noise, no replacement: {r['iou_without_replacement']:.2f}; "
@@ -341,6 +465,8 @@ def format_table(result: dict) -> str:
         f"{e['perturbed_noise_fid']:.3f} diversity {e['perturbed_noise_diversity']:.3f}",
         "FID per edit: " + ", ".join(f"{k} {v:.3f}" for k, v in result["fid"].items() if v is not None),
     ]
+    if "grounding" in result:
+        lines.append(format_grounding(result["grounding"]))
     settings = result.get("settings", {})
     if "steps" in settings:
         lines.append(f"{settings['steps']} sampling steps, guidance {settings['guidance']}, {settings['seconds']}-s motions, "

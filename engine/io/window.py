@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from engine.generate import FPS
+from engine.units import FPS
 from engine.io.errors import MAX_IMPORT_SECONDS  # noqa: F401 - the import cap, stated once (see the docstring)
 
 FLAGS = ("--start", "--seconds")

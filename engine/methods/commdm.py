@@ -1,6 +1,9 @@
 """ComMDM (PriorMDM): two people from two copies of one frozen prior and a small trained block.
 
-The block sits after layer ``after`` of the prior. For each person it merges the person's own
+The block sits after layer ``after`` of the prior: by default the last, as in the paper ("placed after the last (8th)
+layer"; its ablation finds higher layers better). A model folder records the layer its block was trained after
+(``config.json``'s ``com.after``), and loads with that one: the shipped block follows layer 5 of 6. For each person it
+merges the person's own
 activations with the other's (Linear 2w -> w per frame), adds one placement token (both
 persons' noisy placements and the timestep), runs one transformer encoder layer and returns a
 correction ΔO of the person's activations (zero at initialisation) and the person's clean
@@ -22,7 +25,7 @@ from __future__ import annotations
 
 import copy
 import hashlib
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, field, fields, replace
 
 import numpy as np
 import torch
@@ -36,13 +39,24 @@ ROLES = ("person_a", "person_b")
 PLACE_DIMS = 4  # (x, z, cos yaw, sin yaw) of the other person in this person's canonical frame
 
 
-@dataclass(frozen=True)
-class ComConfig:
-    """The communication block. ``after``: the prior layer it follows (1 … layers; 0 = the last)."""
+def _option(default: int, *, help: str, low: int):  # noqa: A002 (help, as argparse)
+    return field(default=default, metadata={"help": help, "bounds": (low, None)})
 
-    after: int = 0
-    heads: int = 4
-    ff: int = 512
+
+@dataclass(frozen=True, kw_only=True)
+class ComConfig:
+    """The communication block: where it sits and its size (each field's help and lower bound in its metadata)."""
+
+    after: int = _option(0, low=0, help="the base layer the block follows, 1 to the base's number of layers; 0 = the "
+                         "last (the paper's place)")
+    heads: int = _option(4, low=1, help="attention heads of the block's encoder layer")
+    ff: int = _option(512, low=1, help="feed-forward width of the block's encoder layer")
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value, low = getattr(self, f.name), f.metadata["bounds"][0]
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise ValueError(f"ComMDM {f.name} must be a whole number >= {low}, got {value!r}")
 
     def to_json(self) -> dict:
         return asdict(self)
@@ -55,10 +69,17 @@ class ComConfig:
         return cls(**data)
 
     def layer(self, layers: int) -> int:
+        """The 1-based base layer the block follows in a base of ``layers`` layers."""
         after = self.after or layers
         if not 1 <= after <= layers:
-            raise ValueError(f"the block must follow a layer between 1 and {layers}, got {self.after}")
+            raise ValueError(f"the ComMDM block must follow a layer between 1 and {layers} (0 = the last), "
+                             f"got {self.after}")
         return after
+
+    def resolved(self, layers: int) -> "ComConfig":
+        """This config with ``after`` as the layer number it means in a base of ``layers`` layers (what a model
+        folder records, so it loads with its own layer)."""
+        return replace(self, after=self.layer(layers))
 
 
 # ----------------------------------------------------------------------------- placement geometry

@@ -15,12 +15,11 @@ import torch
 from engine.checkpoint import LoadedModel, load_model
 from engine.diffusion import CLEAN, CosineSchedule, StepState
 from engine.generate import Generation, Request, SampleConfig, denoiser_for, frames_for, generate
+from engine.methods.control_options import CONTROLS, blend_shares
 from engine.paths import CONTROL_PRIOR_DIR, PROJECT_ROOT
 from engine.representation import SLICES, ric_dims
 from engine.runtime import CPU, Runtime
 from engine.skeleton import JOINT_INDEX
-
-CONTROLS = ("root", "left_wrist", "right_wrist")
 
 
 def control_dims(name: str) -> np.ndarray:
@@ -131,29 +130,26 @@ class DiffusionBlending:
         return out
 
 
-def normalized_weights(weights: list[float] | None, n: int) -> list[float]:
-    """Equal weights by default; given weights are scaled to sum to 1 (all must be >= 0, some > 0)."""
-    if weights is None:
-        return [1.0 / n] * n
-    if len(weights) != n:
-        raise ValueError(f"{len(weights)} weights for {n} controls")
-    w = np.asarray(weights, dtype=np.float64)
-    if not np.isfinite(w).all() or (w < 0).any() or w.sum() <= 0:
-        raise ValueError("blend weights must be >= 0 and not all 0")
-    return (w / w.sum()).tolist()
+def normalized_weights(weights, n: int) -> list[float]:
+    """Equal weights by default; given weights (one per control) are scaled to sum to 1 by the one blend-weight rule,
+    :func:`engine.methods.control_options.blend_shares` (finite, none negative, not all 0)."""
+    return blend_shares(weights, [f"control {i + 1}" for i in range(n)])
 
 
 def controlled(loaded: LoadedModel, prompt: str, controls: list[Control], *, seconds: float,
-               models: dict[str, LoadedModel] | None = None, weights: list[float] | None = None,
+               models: dict[str, LoadedModel] | None = None, weights=None,
                sample: SampleConfig = SampleConfig(), on_step=None) -> Generation:
     """Text + controls -> motion. With ``models`` (name -> fine-tuned control model): each control's
-    model, blended (DiffusionBlending), controls noise-free (Algorithm 2). Without: plain inpainting
-    with ``loaded`` (the baseline)."""
+    model, blended (DiffusionBlending) with ``weights`` (None: equal; one per control in order, or control name ->
+    raw weight; scaled to sum 1 by :func:`~engine.methods.control_options.blend_shares`), controls noise-free
+    (Algorithm 2). Without: plain inpainting with ``loaded`` (the baseline), which takes no weights."""
     if not controls:
         raise ValueError("give at least one control (a root or wrist path)")
     names = [c.name for c in controls]
     if len(set(names)) != len(names):
         raise ValueError(f"each control at most once, got {names}")
+    if models is None and weights is not None:
+        raise ValueError("blend weights apply to blending (the fine-tuned control models), not to inpainting")
     frames = frames_for(seconds)
     known = KnownFeatures.of(controls, loaded.normalizer, frames=frames, dim=loaded.model.config.feature_dim)
     schedule = CosineSchedule()
@@ -164,7 +160,7 @@ def controlled(loaded: LoadedModel, prompt: str, controls: list[Control], *, sec
         if missing:
             raise FileNotFoundError(f"no control model for {', '.join(missing)}")
         denoisers = [denoiser_for(models[n], sample) for n in names]
-        base = DiffusionBlending(denoisers, normalized_weights(weights, len(names)))
+        base = DiffusionBlending(denoisers, blend_shares(weights, names))
         noise_free = True
     else:
         base = denoiser_for(loaded, sample)

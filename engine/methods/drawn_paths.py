@@ -232,11 +232,11 @@ def shoulder_height() -> float:
     return float(rest[JOINT_INDEX["left_shoulder"], 1] - rest[:, 1].min())
 
 
-def letter(char: str, *, side: str = "right", height: float = LETTER_HEIGHT, depth: float = LETTER_DEPTH,
-           centre_y: float | None = None, offset: float = LETTER_SIDE, pace: float = 1.0) -> DrawnPath:
-    """The letter ``char`` written in the air with the ``side`` wrist: ``height`` m tall, centred at
-    ``centre_y`` (default: shoulder height), ``depth`` m in front of the body and ``offset`` m toward the
-    writing hand; ``pace`` > 1 writes it more slowly."""
+def letter_outline(char: str, *, side: str = "right", height: float = LETTER_HEIGHT, centre_y: float | None = None,
+                   offset: float = LETTER_SIDE) -> np.ndarray:
+    """The letter ``char``'s polyline (N, 2) as (x, y) in the body frame, written with the ``side`` wrist:
+    ``height`` m tall, centred at ``centre_y`` (default: shoulder height) and ``offset`` m toward the writing hand.
+    Its corners only (what a person would click in the studio's front view; :func:`letter` densifies and times it)."""
     if char not in LETTERS:
         raise ValueError(f"no drawn letter {char!r}: choose from {', '.join(LETTER_ORDER)}")
     if side not in ("left", "right"):
@@ -248,7 +248,16 @@ def letter(char: str, *, side: str = "right", height: float = LETTER_HEIGHT, dep
     u = (uv[:, 0] - uv[:, 0].min() - width / 2) * height
     v = (uv[:, 1] - 0.5) * height
     # the writer's right is -X: a letter read by the writer is mirrored for someone facing them
-    xyz = _densified(np.stack([hand_x - u, centre_y + v, np.full(len(uv), depth)], -1), 0.015)
+    return np.stack([hand_x - u, centre_y + v], -1)
+
+
+def letter(char: str, *, side: str = "right", height: float = LETTER_HEIGHT, depth: float = LETTER_DEPTH,
+           centre_y: float | None = None, offset: float = LETTER_SIDE, pace: float = 1.0) -> DrawnPath:
+    """The letter ``char`` written in the air with the ``side`` wrist: ``height`` m tall, centred at
+    ``centre_y`` (default: shoulder height), ``depth`` m in front of the body and ``offset`` m toward the
+    writing hand; ``pace`` > 1 writes it more slowly."""
+    xy = letter_outline(char, side=side, height=height, centre_y=centre_y, offset=offset)
+    xyz = _densified(np.concatenate([xy, np.full((len(xy), 1), depth)], -1), 0.015)
     times = _stroke_times(xyz) * pace
     # hold the first point, draw, hold the last point
     times = np.concatenate([[0.0], times + HOLD])

@@ -66,13 +66,16 @@ def new_duet(prior: LoadedModel, words, *, config: ComConfig = ComConfig(), mean
     known = len(prior.tokenizer) - 1
     denoiser = DuetDenoiser(prior.model, known_words=known, new_words=len(tokenizer) - 1 - known, config=config)
     denoiser.to(prior.model.device)  # the block lives where its prior does
+    # the block's layer as a number (not "0 = the last"): a folder records the layer it was trained after
     return DuetModel(prior=prior, denoiser=denoiser, tokenizer=tokenizer, mean_place=mean_place,
-                     config={"com": config.to_json(), "words": list(tokenizer.words[len(prior.tokenizer):]),
+                     config={"com": config.resolved(prior.model.num_layers).to_json(),
+                             "words": list(tokenizer.words[len(prior.tokenizer):]),
                              "prior": fingerprint(prior), "mean_place": mean_place.vector().tolist()})
 
 
 def load_duet(folder: str | Path, prior: LoadedModel, *, prefer: str = "weights") -> DuetModel:
-    """A trained duet model on its prior (clear errors for a missing folder or another prior)."""
+    """A trained duet model on its prior (clear errors for a missing folder or another prior), its block after the
+    layer its ``config.json`` records (``com.after``; 0 = the last)."""
     folder = Path(folder)
     config = read_config(folder)
     if config.get("kind") != "commdm":

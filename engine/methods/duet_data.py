@@ -1,8 +1,12 @@
 """The few-shot two-person data ComMDM trains and is scored on (the corpus's interactions).
 
 A pair item holds both persons' normalised features, each in the person's own canonical frame,
-and each person's placement of the other. Cropping (later start frames, re-canonicalised)
-multiplies the few samples, as in the paper.
+and each person's placement of the other. Cropping (later start frames, re-canonicalised) and
+mirroring multiply the few samples, as in the paper ("we augment the data by randomly mirroring
+and cropping each sequence"): a mirrored pair is the scene reflected left <-> right, both people
+together (x -> -x in their shared frame, each left joint swapped with its right partner, "left"
+and "right" swapped in the captions), so person a stays person a, a right-hand handshake becomes
+a left-hand one and b stands on a's other side.
 """
 from __future__ import annotations
 
@@ -14,6 +18,7 @@ import torch
 
 from engine.methods.commdm import PLACE_DIMS, Pose, mean_pose, pack, placements
 from engine.representation import Normalizer, joints_to_features
+from engine.skeleton import mirror_joints
 from engine.synth.duet import DUET_CAPTIONS, INTERACTIONS, DuetCorpus, DuetSample
 
 MIN_FRAMES = 60  # the shortest crop used for training
@@ -49,23 +54,39 @@ class PairItem:
     interaction: str
 
 
-def pair_item(sample: DuetSample, normalizer: Normalizer, *, start: int = 0) -> PairItem:
+_SIDES = {"left": "right", "right": "left"}
+
+
+def mirror_caption(text: str) -> str:
+    """A caption of the mirrored scene: "left" and "right" swapped (other words kept)."""
+    return re.sub(r"\b(left|right)\b", lambda m: _SIDES[m.group(1)], text)
+
+
+def pair_item(sample: DuetSample, normalizer: Normalizer, *, start: int = 0, mirror: bool = False) -> PairItem:
+    """Both people from frame ``start``; ``mirror``: the scene reflected left <-> right (both people together)."""
     ja, jb = sample.joints_a[start:], sample.joints_b[start:]
+    captions = list(sample.captions)
+    if mirror:
+        ja, jb = mirror_joints(ja), mirror_joints(jb)
+        captions = [mirror_caption(c) for c in captions]
     feats = np.stack([joints_to_features(ja), joints_to_features(jb)])
     b_from_a, a_from_b = placements(ja, jb)
     return PairItem(motion=torch.from_numpy(normalizer.normalize(feats)).float(),
                     place=torch.from_numpy(np.stack([b_from_a.vector(), a_from_b.vector()])),
-                    captions=list(sample.captions), interaction=sample.interaction)
+                    captions=captions, interaction=sample.interaction)
 
 
-def training_items(samples: list[DuetSample], normalizer: Normalizer, *, crop_every: int = 10) -> list[PairItem]:
+def training_items(samples: list[DuetSample], normalizer: Normalizer, *, crop_every: int = 10,
+                   mirror: bool = True) -> list[PairItem]:
     """Every sample from its first frame and from later starts (every ``crop_every`` frames) while
-    at least MIN_FRAMES remain."""
+    at least MIN_FRAMES remain; with ``mirror`` (the default, as the paper) each of those crops mirrored too."""
     items = []
     for s in samples:
         last = len(s.joints_a) - 1 - MIN_FRAMES
         for start in range(0, max(0, last) + 1, crop_every):
             items.append(pair_item(s, normalizer, start=start))
+            if mirror:
+                items.append(pair_item(s, normalizer, start=start, mirror=True))
     return items
 
 

@@ -2,7 +2,9 @@
 
 - ``duet_losses``: L_simple on both persons' motion, its frame-to-frame velocity, and the placement.
 - ``contact_loss``: the distances that make a contact (right hand to right hand, each wrist to the
-  other's chest), measured on the predicted people put together by the predicted placement,
+  other's chest, left hand to left hand: a set that maps onto itself when the scene is mirrored, so a
+  mirrored training duet's contact counts as the original's), measured on the predicted people put
+  together by the predicted placement,
   against the same distances in the truth. Plain feature MSE places people well but leaves their
   hands 20–30 cm apart; this term is what makes them touch.
 - ``prefix_cells``: the cells a completion knows (the first frames of both people and the
@@ -16,7 +18,7 @@ import torch
 from engine.methods.commdm import PLACE_DIMS
 from engine.representation import Normalizer, features_to_joints
 from engine.skeleton import JOINT_INDEX
-from engine.train import masked_losses
+from engine.diffusion.losses import masked_losses
 
 RW, LW, CHEST = JOINT_INDEX["right_wrist"], JOINT_INDEX["left_wrist"], JOINT_INDEX["spine3"]
 
@@ -37,16 +39,22 @@ def place_seen_from_a(joints_b: torch.Tensor, place: torch.Tensor) -> torch.Tens
     return torch.stack([c * x + s * z + place[:, 0, None, None], y, -s * x + c * z + place[:, 1, None, None]], -1)
 
 
+# the columns of contact_distances, and the column each becomes when the scene is mirrored (left <-> right)
+CONTACT_PAIRS = ("right hands", "a's left wrist to b's chest", "a's right wrist to b's chest",
+                 "b's left wrist to a's chest", "b's right wrist to a's chest", "left hands")
+MIRRORED_COLUMNS = (5, 2, 1, 4, 3, 0)
+
+
 def contact_distances(ja: torch.Tensor, jb: torch.Tensor) -> torch.Tensor:
-    """(P, T, 22, 3) twice, one frame -> (P, T, 5): right hand to right hand, each wrist of each
-    person to the other's chest."""
+    """(P, T, 22, 3) twice, one frame -> (P, T, 6): right hand to right hand, each wrist of each
+    person to the other's chest, left hand to left hand (``CONTACT_PAIRS``)."""
     pairs = ((ja[..., RW, :], jb[..., RW, :]), (ja[..., LW, :], jb[..., CHEST, :]), (ja[..., RW, :], jb[..., CHEST, :]),
-             (jb[..., LW, :], ja[..., CHEST, :]), (jb[..., RW, :], ja[..., CHEST, :]))
+             (jb[..., LW, :], ja[..., CHEST, :]), (jb[..., RW, :], ja[..., CHEST, :]), (ja[..., LW, :], jb[..., LW, :]))
     return torch.stack([torch.linalg.vector_norm(p - q, dim=-1) for p, q in pairs], dim=-1)
 
 
 def _together(x: torch.Tensor, normalizer: Normalizer) -> torch.Tensor:
-    """Duet states (2P, T + 1, D) (a slots, then b slots) -> contact distances (P, T, 5)."""
+    """Duet states (2P, T + 1, D) (a slots, then b slots) -> contact distances (P, T, 6)."""
     p = x.shape[0] // 2
     joints = features_to_joints(normalizer.denormalize(x[:, :-1]))  # (2P, T, 22, 3)
     return contact_distances(joints[:p], place_seen_from_a(joints[p:], x[:p, -1, :PLACE_DIMS]))

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 #: the fields of ``EditOptions`` an edit kind can read besides the prompt, the step window and the layers
-INPUTS = frozenset({"word", "weight", "mode", "frames", "edited", "fraction", "style", "count", "seed"})
+INPUTS = frozenset({"word", "weight", "mode", "frames", "edited", "fraction", "style", "count", "chunk_frames", "seed"})
 
 
 @dataclass(frozen=True)
@@ -53,13 +53,19 @@ def _need(value, what: str, kind: str):
     return value
 
 
+def _spans(options, frames: int) -> tuple[tuple[int, int], ...]:
+    """The options' frame spans, checked against a motion of ``frames`` frames (() = none given)."""
+    from engine.methods.spans import check_spans
+
+    return check_spans(options.spans, frames=frames)
+
+
 def _span(options, frames: int) -> tuple[int, int] | None:
-    if options.frames is None:
-        return None
-    lo, hi = int(options.frames[0]), int(options.frames[1])
-    if not 0 <= lo < hi:
-        raise ValueError(f"the frame window must satisfy 0 <= start < end, got ({lo}, {hi})")
-    return lo, min(hi, frames)
+    """The one frame span of an edit that takes a single span (None = none given)."""
+    spans = _spans(options, frames)
+    if len(spans) > 1:
+        raise ValueError(f"{options.kind} takes one frame span, got {len(spans)} (several spans are for ground)")
+    return spans[0] if spans else None
 
 
 def _emphasize_config(o, *, frames, steps):
@@ -81,9 +87,8 @@ def _erase_config(o, *, frames, steps):
 def _ground_config(o, *, frames, steps):
     from engine.methods.motionclr import GroundingConfig
 
-    lo, hi = _span(o, frames) or (0, frames)
-    return GroundingConfig(word=_need(o.word, "a word", o.kind), mask=tuple(lo <= i < hi for i in range(frames)),
-                           weight=abs(float(o.weight)), window=steps)
+    return GroundingConfig.from_spans(_need(o.word, "a word", o.kind), _spans(o, frames) or ((0, frames),),
+                                      frames=frames, weight=abs(float(o.weight)), window=steps)
 
 
 def _replace_config(o, *, frames, steps):
@@ -105,7 +110,7 @@ def _example_config(o, *, frames, steps):
 
     from engine.methods.motionclr import ExampleConfig
 
-    return replace(ExampleConfig(seed=int(o.seed)), window=steps)
+    return replace(ExampleConfig(seed=int(o.seed), chunk_frames=int(o.chunk_frames)), window=steps)
 
 
 def _style_config(o, *, frames, steps):
@@ -161,15 +166,16 @@ REGISTRY: dict[str, EditKind] = {k.name: k for k in (
              inputs=frozenset({"word", "frames"}), build=_erase_config, run=_run("reweight")),
     EditKind("replace", "replace",
              "Generate the prompt and the edited prompt together; the edited one takes the reference's attention "
-             "maps in the first steps, so its new action lands in the reference's time slots.",
+             "maps in the first steps, so its new action lands in the reference's time slots. The words are aligned "
+             "as prompt-to-prompt aligns them: words may be added (they keep their own attention) or dropped.",
              inputs=frozenset({"edited"}), build=_replace_config, run=_run_replace,
              window=_method_window("ReplaceConfig")),
     EditKind("shift", "shift", "Roll the reference's Q, K, V in time: the first part of the motion moves to the end.",
              inputs=frozenset({"fraction"}), build=_shift_config, run=_run("shift"),
              window=_method_window("ShiftConfig")),
     EditKind("example", "example-based",
-             "Several new motions whose self-attention queries are the example's, shuffled in 1-s chunks.",
-             inputs=frozenset({"count", "seed"}), build=_example_config,
+             "Several new motions whose self-attention queries are the example's, shuffled in chunks (default 1 s).",
+             inputs=frozenset({"count", "chunk_frames", "seed"}), build=_example_config,
              run=_run("example_based", prompt_what="an example prompt or motion",
                       extra=lambda o: {"count": int(o.count)}),
              window=_method_window("ExampleConfig"), source=True),
@@ -177,11 +183,13 @@ REGISTRY: dict[str, EditKind] = {k.name: k for k in (
              inputs=frozenset({"style"}), build=_style_config, run=_run_style,
              window=_method_window("StyleTransferConfig"), source=True),
     EditKind("ground", "ground",
-             "Emphasise the picked word inside the frame window and de-emphasise it outside (when it happens).",
-             inputs=frozenset({"word", "weight", "frames"}), build=_ground_config, run=_run("ground"),
-             calibrated=True),
-    EditKind("count", "count", "Count repetitions from the self-attention map (peaks), beside the root-height "
-             "baseline."),
+             "Emphasise the picked word inside the frame span(s) and de-emphasise it outside (when it happens): "
+             "several spans ground it several times, e.g. four jumps at chosen times.",
+             inputs=frozenset({"word", "weight", "frames"}), build=_ground_config, run=_run("ground")),
+    # (grounding acts in every layer, as in the paper: on the shipped model the emphasis-calibrated layers put the
+    # jumps in 0.55 of four chosen spans, below the 0.68 of no grounding; every layer 0.80; moattn bench --edits)
+    EditKind("count", "count", "Count repetitions from the self-attention map (the project's lag profile, or "
+             "MotionCLR's row peaks as published), beside the root-height baseline."),
 )}
 
 #: every kind ``moattn edit`` takes; all but "count" are edits

@@ -9,7 +9,7 @@ through :mod:`engine.methods.edits`. Counting is not an edit (see ``edits.count_
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
 
 from typing import TYPE_CHECKING, Any
 
@@ -17,8 +17,32 @@ if TYPE_CHECKING:  # imported lazily below: the CLI reads KINDS without loading 
     from engine.methods.windows import Window
 
 from engine.methods.edit_kinds import EDIT_KINDS, KINDS, REGISTRY  # noqa: F401 (the registry's names, re-exported)
+from engine.methods.spans import Span, as_spans, check_spans
 
 Source = Any  # a prompt (str), or joints (T, 22, 3) of a real motion (DDIM-inverted by the edit)
+
+
+def _option(default, *, bounds: tuple[int, int] | None = None, label: str, help: str):
+    """A user option declared once: its default, bounds, label and help (the CLI's flag and the tab's widget read
+    them through :func:`option_spec`)."""
+    return field(default=default, metadata={"bounds": bounds, "label": label, "help": help})
+
+
+@dataclass(frozen=True)
+class OptionSpec:
+    name: str
+    default: Any
+    bounds: tuple[int, int] | None
+    label: str
+    help: str
+
+    @property
+    def flag(self) -> str:
+        return "--" + self.name.replace("_", "-")
+
+    def check(self, value) -> None:
+        if self.bounds is not None and not self.bounds[0] <= value <= self.bounds[1]:
+            raise ValueError(f"{self.label.lower()} must be between {self.bounds[0]} and {self.bounds[1]}, got {value}")
 
 
 @dataclass(frozen=True)
@@ -27,9 +51,10 @@ class EditOptions:
 
     ``prompt``: the prompt (the reference prompt for replace; the example / content source for
     example / style, where it may also be joints). ``frames``: the frame span [start, end) the
-    edit touches (None = the kind's default: all frames, erase the last half). ``step_window``:
+    edit touches, or for grounding several spans ``((start, end), ...)`` (None = the kind's default: all
+    frames, erase the last half); several spans are kept sorted and must not overlap. ``step_window``:
     fractions of the sampling run (None = the method's default window). ``layers``: None = the kind's default
-    (all layers; emphasize and ground: the layers calibrated for the model, see :func:`default_window`).
+    (all layers; emphasize: the layers calibrated for the model, see :func:`default_window`).
     """
 
     kind: str
@@ -38,11 +63,16 @@ class EditOptions:
     occurrence: int = 0
     weight: float = 0.3
     mode: str = "add"
-    frames: tuple[int, int] | None = None
+    frames: Span | tuple[Span, ...] | None = None
     edited: str | None = None
     fraction: float = 0.5
     style: Source | None = None
     count: int = 4
+    chunk_frames: int = _option(
+        20, bounds=(4, 100), label="Chunk size (frames)",
+        help="example-based: the example's self-attention queries are cut into chunks of this many frames and "
+             "shuffled per output (paper: 1 s = 20 frames). Shorter chunks give more varied outputs, longer ones "
+             "keep more of the example's order; a chunk as long as the motion copies it")
     step_window: tuple[float, float] | None = None
     layers: tuple[int, ...] | None = None
     seed: int = 0
@@ -50,6 +80,26 @@ class EditOptions:
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
             raise ValueError(f"unknown edit kind {self.kind!r}; one of {', '.join(KINDS)}")
+        if self.frames is not None:
+            spans = check_spans(as_spans(self.frames))  # sorted; overlapping or reversed spans refused here
+            if not spans:
+                raise ValueError("no frame span given")
+            object.__setattr__(self, "frames", spans[0] if len(spans) == 1 else spans)
+        option_spec("chunk_frames").check(self.chunk_frames)
+
+    @property
+    def spans(self) -> tuple[Span, ...]:
+        """The frame span(s) as a tuple of spans (() = the kind's default)."""
+        return as_spans(self.frames)
+
+
+def option_spec(name: str) -> OptionSpec:
+    """The declaration of an ``EditOptions`` field: default, bounds, label, help."""
+    found = {f.name: f for f in fields(EditOptions)}.get(name)
+    if found is None or "help" not in found.metadata:
+        raise KeyError(f"{name!r} is not a declared edit option")
+    m = found.metadata
+    return OptionSpec(name=name, default=found.default, bounds=m["bounds"], label=m["label"], help=m["help"])
 
 
 #: edit kinds whose default layers come from the model's calibration (``config.json`` "edits")

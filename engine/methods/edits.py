@@ -22,6 +22,7 @@ from engine.methods.motionclr import (
     ExampleBased, ExampleConfig, Ground, GroundingConfig, Replace, ReplaceConfig, Reweight, ReweightConfig, Shift,
     ShiftConfig, StyleTransfer, StyleTransferConfig,
 )
+from engine.methods.word_alignment import WordAlignment, align_words
 
 Source = str | np.ndarray  # a prompt, or joints (T, 22, 3) of a real motion
 OnStep = Callable[[StepState], None] | None  # called after every sampling step (progress, cancel by raising)
@@ -78,20 +79,34 @@ def reweight(loaded: LoadedModel, prompt: str, config: ReweightConfig, *, frames
 
 def ground(loaded: LoadedModel, prompt: str, config: GroundingConfig, *, frames: int,
            sample: SampleConfig = SampleConfig(), record: bool = False, on_step: OnStep = None) -> EditOutput:
+    """Grounded generation: ``config.word`` emphasised inside its mask's span(s), de-emphasised outside; "ref" is the
+    unedited motion, "out" the grounded one (``extra["spans"]``: the mask's spans)."""
     loaded.tokenizer.encode(prompt).word_index(config.word)
-    return _pair_edit(loaded, prompt, Ground(config, num_steps=sample.steps), frames=frames, sample=sample, record=record,
-                      on_step=on_step)
+    if len(config.mask) != frames:
+        raise ValueError(f"the grounding mask covers {len(config.mask)} frames but the motion has {frames}")
+    out = _pair_edit(loaded, prompt, Ground(config, num_steps=sample.steps), frames=frames, sample=sample,
+                     record=record, on_step=on_step)
+    out.extra["spans"] = config.spans
+    return out
 
 
 def replace(loaded: LoadedModel, reference: str, edited: str, config: ReplaceConfig = ReplaceConfig(), *, frames: int,
             sample: SampleConfig = SampleConfig(), record: bool = False, on_step: OnStep = None) -> EditOutput:
-    """In-place replacement: the edited prompt's action lands in the reference's time slots."""
-    ref, edit = loaded.tokenizer.encode(reference), loaded.tokenizer.encode(edited)
-    if len(ref.words) != len(edit.words):
-        raise ValueError(f"in-place replacement needs prompts with the same number of words, aligned word by word "
-                         f"({len(ref.words)} vs {len(edit.words)}): e.g. 'a person jumps' -> 'a person kicks'")
-    return _pair_edit(loaded, reference, Replace(config, num_steps=sample.steps), frames=frames, sample=sample,
-                      record=record, roles=(config.source, config.target), prompts=[reference, edited], on_step=on_step)
+    """In-place replacement: the edited prompt's action lands in the reference's time slots.
+
+    The prompts' words (as the model reads them) are aligned as prompt-to-prompt aligns them; the alignment is in
+    ``extra["alignment"]`` (an :class:`engine.methods.word_alignment.WordAlignment`)."""
+    out = replace_alignment(loaded, reference, edited)
+    result = _pair_edit(loaded, reference, Replace(config, num_steps=sample.steps), frames=frames, sample=sample,
+                        record=record, roles=(config.source, config.target), prompts=[reference, edited],
+                        on_step=on_step)
+    result.extra["alignment"] = out
+    return result
+
+
+def replace_alignment(loaded: LoadedModel, reference: str, edited: str) -> WordAlignment:
+    """The words of both prompts as the model reads them, aligned as the replacement will align them."""
+    return align_words(loaded.tokenizer.encode(reference).words, loaded.tokenizer.encode(edited).words)
 
 
 def shift(loaded: LoadedModel, prompt: str, config: ShiftConfig = ShiftConfig(), *, frames: int,
@@ -113,7 +128,8 @@ def _resolve(loaded: LoadedModel, source: Source, frames: int, seed: int, steps:
 
 def example_based(loaded: LoadedModel, example: Source, config: ExampleConfig = ExampleConfig(), *, count: int = 4,
                   frames: int, sample: SampleConfig = SampleConfig(), record: bool = False, on_step: OnStep = None) -> EditOutput:
-    """``count`` diverse motions whose self-attention queries are the example's, shuffled in 1-s chunks."""
+    """``count`` diverse motions whose self-attention queries are the example's, shuffled in chunks of
+    ``config.chunk_frames`` frames."""
     if not 1 <= count <= 16:
         raise ValueError("count must be between 1 and 16")
     prompt, example_noise, frames = _resolve(loaded, example, frames, sample.seed, sample.steps)

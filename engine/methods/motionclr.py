@@ -13,8 +13,11 @@ import torch
 
 from engine.attention.context import AttnCtx
 from engine.attention.controller import Controller
+from engine.methods.edit_options import option_spec
 from engine.methods.mixing import MixConfig, MixedAttention
+from engine.methods.spans import Span, mask_spans, spans_mask
 from engine.methods.windows import BoundWindow, Window
+from engine.methods.word_alignment import WORD_BY_WORD, WordAlignment, align_words
 
 
 def _frame_slice(frames: tuple[int, int] | None, n: int) -> slice:
@@ -113,7 +116,11 @@ def erase_config(word: str, *, frames: tuple[int, int] | None = None, factor: fl
 # ----------------------------------------------------------------------------- grounded generation
 @dataclass(frozen=True)
 class GroundingConfig:
-    """Ground a word in time: +weight on its column inside ``mask`` frames, -weight outside."""
+    """Ground a word in time: +weight on its column inside ``mask`` frames, -weight outside.
+
+    The mask may hold several separate spans (:meth:`from_spans`): the paper's "a person jumps four times" grounded
+    to four chosen spans gives four jumps where the plain prompt gave seven.
+    """
 
     word: str
     mask: tuple[bool, ...]  # per frame
@@ -126,6 +133,18 @@ class GroundingConfig:
             raise ValueError("the grounding mask selects no frame")
         if not 0.0 < self.weight <= 1.0:
             raise ValueError("the grounding weight must be in (0, 1]")
+
+    @classmethod
+    def from_spans(cls, word: str, spans: tuple[Span, ...] | list[Span], *, frames: int, weight: float = 0.3,
+                   window: Window = Window(), role: str = "out") -> "GroundingConfig":
+        """The mask of one or several [start, end) spans of a ``frames``-frame motion (checked: in range, sorted,
+        not overlapping)."""
+        return cls(word=word, mask=spans_mask(spans, frames), weight=weight, window=window, role=role)
+
+    @property
+    def spans(self) -> tuple[Span, ...]:
+        """The mask's runs as [start, end) spans."""
+        return mask_spans(self.mask)
 
 
 class Ground(Controller):
@@ -156,8 +175,10 @@ class Ground(Controller):
 class ReplaceConfig:
     """The edited prompt's cross-attention maps ← the reference's for the first steps.
 
-    Reference ("ref") and edited ("edit") prompts share the noise and must have the same number
-    of words (aligned word by word). ``self_attention`` also copies the self-attention maps.
+    Reference ("ref") and edited ("edit") prompts share the noise. Their words are aligned as prompt-to-prompt
+    aligns them (:mod:`engine.methods.word_alignment`): word by word when both have as many words, otherwise the
+    shared words are matched and the swapped ones take the attention of the words they replace, while words only
+    the edited prompt has keep their own maps. ``self_attention`` also copies the self-attention maps.
     """
 
     window: Window = field(default_factory=lambda: Window(0.0, 0.5))
@@ -172,6 +193,26 @@ class Replace(Controller):
     def __init__(self, config: ReplaceConfig, *, num_steps: int):
         self.config = config
         self.window = config.window.bind(num_steps)
+        self._alignments: dict[tuple[tuple[str, ...], tuple[str, ...]], WordAlignment] = {}
+
+    def alignment(self, source: tuple[str, ...], target: tuple[str, ...]) -> WordAlignment:
+        key = (tuple(source), tuple(target))
+        if key not in self._alignments:
+            self._alignments[key] = align_words(*key)
+        return self._alignments[key]
+
+    def _cross(self, src_probs: torch.Tensor, dst_probs: torch.Tensor, alignment: WordAlignment) -> torch.Tensor:
+        """(H, F, L) maps of the edited slot: each word's column from the reference's words it is linked to, or its
+        own (an inserted word; the padding past its words)."""
+        width = dst_probs.shape[-1]
+        links = torch.zeros(src_probs.shape[-1], width, dtype=dst_probs.dtype, device=dst_probs.device)
+        taken = torch.zeros(width, dtype=torch.bool, device=dst_probs.device)
+        for j, link in enumerate(alignment.links):
+            for i, w in link:
+                links[i, j] = w
+                taken[j] = True
+        mapped = torch.einsum("hfw,wn->hfn", src_probs, links)
+        return torch.where(taken, mapped, dst_probs)
 
     def on_probs(self, probs, ctx: AttnCtx):
         c = self.config
@@ -181,10 +222,11 @@ class Replace(Controller):
         for src, dst in halves(ctx, c.source, c.target):
             if ctx.kind == "cross" and ctx.roles.uncond[dst]:
                 continue  # the unconditional pass has no cross-attention
-            if ctx.kind == "cross" and ctx.words is not None and len(ctx.words.words[src]) != len(ctx.words.words[dst]):
-                raise ValueError(
-                    "in-place replacement needs prompts with the same number of words, aligned word by word: "
-                    f"{' '.join(ctx.words.words[src])!r} vs {' '.join(ctx.words.words[dst])!r}")
+            if ctx.kind == "cross" and ctx.words is not None:
+                alignment = self.alignment(ctx.words.words[src], ctx.words.words[dst])
+                if alignment.mode != WORD_BY_WORD:
+                    probs[dst] = self._cross(probs[src], probs[dst], alignment)
+                    continue
             probs[dst] = probs[src]
         return probs
 
@@ -226,13 +268,20 @@ class Shift(Controller):
 # ----------------------------------------------------------------------------- example-based generation
 @dataclass(frozen=True)
 class ExampleConfig:
-    """Each "out" slot takes the example's Q with its 1-s chunks shuffled (per-slot seed)."""
+    """Each "out" slot takes the example's Q with its chunks of ``chunk_frames`` frames shuffled (per-slot seed).
 
-    chunk_frames: int = 20
+    The chunk size's default, bounds and help are the ``chunk_frames`` edit option's (``moattn edit example
+    --chunk-frames``, the Edit tab's slider): paper 1 s = 20 frames.
+    """
+
+    chunk_frames: int = option_spec("chunk_frames").default
     window: Window = field(default_factory=lambda: Window(0.0, 0.6))
     seed: int = 0
     example: str = "ref"
     target: str = "out"
+
+    def __post_init__(self) -> None:
+        option_spec("chunk_frames").check(self.chunk_frames)
 
 
 class ExampleBased(Controller):

@@ -1,43 +1,94 @@
-"""MoMo's transfer settings (the step and layer window, the root, the footwork): one declaration, read by the method,
-the CLI's flags and the studio's Transfer tab. Torch-free, so a command line's parser can read its defaults."""
+"""MoMo's transfer settings (the step and layer window, the root, the footwork, the direction trick), declared once:
+fields, bounds, defaults, labels and help, read by the method, the CLI's flags (``moattn transfer``) and the studio's
+Transfer tab. Torch-free, so a command line's parser can read its defaults.
+
+Each user option is a dataclass field whose metadata holds its ``label``, ``help`` and, for numbers, ``bounds``
+(inclusive); :func:`option_info` reads them back and :func:`check_option` is the one range check (a one-line
+ValueError). The root modes carry their own label and help (:data:`ROOT_CHOICES`).
+"""
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Literal
+from dataclasses import dataclass, field, fields
+from typing import Any, Literal
 
-ROOT_MODES = ("trajectory", "rotation", "none")
+# mode -> (label in the studio, help). The default is chosen by ``moattn bench --transfer`` (see ROOT_DEFAULT).
+ROOT_CHOICES: dict[str, tuple[str, str]] = {
+    "trajectory": ("leader's path",
+                   "the leader's root rotation and linear velocity are inpainted at every step: the output keeps the "
+                   "leader's path and speed (a walk -> run runs at walking speed); its root height stays its own"),
+    "rotation": ("leader's heading (paper)",
+                 "the paper's fix: the leader's root rotation (angular velocity about the vertical) is copied into the "
+                 "finished output, which keeps its own speed and stride (a walk -> run runs at running speed) but "
+                 "also travels as its follower does (a dance leader with a walking follower walks off)"),
+    "none": ("its own", "the output's own root (direction and speed): nothing is taken from the leader's root"),
+}
+ROOT_MODES = tuple(ROOT_CHOICES)
+# Chosen by `moattn bench --transfer` (its "the bench picks root=..." line: the lower root speed error over every
+# pair). Quick bench, shipped model: trajectory 0.17 vs rotation 1.1 of the truth's speed. "rotation" wins the
+# walk <-> run speed pairs (output / truth speed 0.99 and 0.92 vs 0.68 and 1.47) but, taking the follower's way of
+# travelling, misses the path on the other pairs (gt_mpjpe 1.9 m vs 0.12 m); the pose error is the same.
+ROOT_DEFAULT = "trajectory"
+MAX_DIRECTIONS = 8
+
+
+def option(default, *, label: str, help: str, bounds: tuple[float, float] | None = None):  # noqa: A002 (argparse)
+    """A config field with its label, help and (numbers) bounds (inclusive)."""
+    return field(default=default, metadata={"label": label, "help": help, "bounds": bounds})
+
+
+@dataclass(frozen=True)
+class OptionInfo:
+    name: str
+    default: Any
+    label: str
+    help: str
+    bounds: tuple[float, float] | None
+
+    @property
+    def flag(self) -> str:
+        return "--" + self.name.replace("_", "-")
 
 
 @dataclass(frozen=True)
 class TransferConfig:
-    """Where the output mixes, and how.
+    """Where the output mixes, and how (each option's help is its declaration's; this adds how they interact).
 
-    ``start``/``end``: fractions of the sampling steps (paper: steps 90 -> 10 of 100 = 0.1 -> 0.9).
     ``layers``: 0-based blocks that mix; None = every layer but the first (paper: 2-12 of 12).
-    ``root``: what the output takes from the leader's root
-      - "trajectory" (default): the root's rotation and linear velocity are inpainted from the
-        leader at every step, so the output follows the leader's path on the floor and the body is
-        generated for it (the root height stays the output's: a crouched follower stays low);
-      - "rotation": the paper's fix, the leader's root angular velocity copied into the finished
-        output (keeps the direction, the output's own speed and path shape);
-      - "none": the output's own root.
-    ``hard``: arg-max instead of softmax (the latent nearest-neighbour baseline).
-    ``feet``: also keep the leader's footwork (not in the paper): its foot-contact labels and the feet and
-      ankles' root-relative positions are inpainted into the outputs at every step, so the output steps
-      exactly where and when the leader does and the follower shows in the rest of the body (its own
-      gait style and walk -> run changes are given up).
+    ``hard``: arg-max instead of softmax (the latent nearest-neighbour baseline; not a user option).
+    ``directions`` > 1 applies to every follower: an imported follower is inverted once per turned copy, a
+    generated one sampled once per seed, and the batch holds each copy (one stream each).
     """
 
-    start: float = 0.1
-    end: float = 0.9
+    start: float = option(0.1, bounds=(0.0, 1.0), label="First step that mixes (fraction of the run)",
+                          help="fraction of the sampling run where mixing starts (paper: step 90 of 100 = 0.1)")
+    end: float = option(0.9, bounds=(0.0, 1.0), label="Last step that mixes (fraction of the run)",
+                        help="fraction of the sampling run where mixing ends (paper: step 10 of 100 = 0.9)")
     layers: tuple[int, ...] | None = None
-    root: Literal["trajectory", "rotation", "none"] = "trajectory"
+    root: Literal["trajectory", "rotation", "none"] = option(
+        ROOT_DEFAULT, label="Root of the out",
+        help="what the output takes from the leader's root: " + "; ".join(f"{m}: {h}" for m, (_, h) in
+                                                                         ROOT_CHOICES.items()))
     hard: bool = False
-    feet: bool = False
+    feet: bool = option(False, label="keep the leader's footwork (feet and contacts; not in the paper)",
+                        help="also keep the leader's footwork (not in the paper): its foot-contact labels and the feet "
+                             "and ankles' root-relative positions are inpainted at every step, so the output steps "
+                             "exactly where and when the leader does and the follower shows in the rest of the body "
+                             "(its own gait style and walk -> run changes are given up)")
+    directions: int = option(
+        1, bounds=(1, MAX_DIRECTIONS), label="Follower directions (the paper's direction trick)",
+        help="the paper's direction trick: each output attends over this many copies of its follower, concatenated "
+             "in time, so each leader frame finds the copy heading its way: a generated follower is sampled once per "
+             "seed, an imported one turned about the vertical axis (its heading turning by 360/N degree steps over "
+             "the clip) and inverted once per copy. 1 = off; costs one stream per copy")
 
     def __post_init__(self) -> None:
         if self.root not in ROOT_MODES:
-            raise ValueError(f"root must be 'trajectory', 'rotation' or 'none', got {self.root!r}")
+            raise ValueError(f"root must be one of {', '.join(repr(m) for m in ROOT_MODES)}, got {self.root!r}")
+        for name in ("start", "end"):
+            check_option(name, getattr(self, name), what=f"the step window's {name}")
+        if isinstance(self.directions, bool) or not isinstance(self.directions, int):
+            raise ValueError(f"directions must be a whole number, got {self.directions!r}")
+        check_option("directions", self.directions)
         from engine.methods.windows import Window
 
         Window(self.start, self.end)  # validates the step window
@@ -49,3 +100,22 @@ class TransferConfig:
         if not layers:
             raise ValueError("mixed attention needs at least one layer")
         return Window(self.start, self.end, layers=layers).check_layers(n_layers)
+
+
+def option_info(name: str) -> OptionInfo:
+    """The declared default, label, help and bounds of one option of :class:`TransferConfig`."""
+    for f in fields(TransferConfig):
+        if f.name == name and "help" in f.metadata:
+            return OptionInfo(name, f.default, f.metadata["label"], f.metadata["help"], f.metadata["bounds"])
+    raise KeyError(f"TransferConfig has no option {name!r}")
+
+
+def check_option(name: str, value, *, what: str | None = None) -> None:
+    """ValueError (one line) unless ``value`` is a finite number within the declared bounds of option ``name``."""
+    info = option_info(name)
+    label = what or name
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or value != value:
+        raise ValueError(f"{label} must be a number, got {value!r}")
+    lo, hi = info.bounds
+    if not lo <= value <= hi:
+        raise ValueError(f"{label} must be between {lo:g} and {hi:g}, got {value:g}")

@@ -138,30 +138,24 @@ def gallery_programs():
     return rows
 
 
-def render_gallery(path: str | Path, *, poses: int = 10, view: str = "oblique", renderer: str = "lines") -> Path:
-    """Write the contact sheet (one strip per action and per style) to ``path``.
-
-    renderer "lines" (default): the fast built-in drawing, poses side by side with real
-    displacement. "pyvista": ``viz.render.render_frames`` + ``viz.sheet.contact_sheet`` (slower:
-    about a third of a second per pose on a CPU).
-    """
+def gallery_joints() -> list[tuple[str, np.ndarray]]:
+    """(label, canonical joints (T, 22, 3)) of every gallery program, in sheet order."""
     from engine.synth.compose import synthesize
     from engine.synth.corpus import to_canonical
 
-    items = []
-    for label, program in gallery_programs():
-        joints, _, _ = to_canonical(synthesize(program).joints)
-        items.append((label, joints))
-    if renderer == "pyvista":
-        from viz.render import render_frames
-        from viz.sheet import contact_sheet
+    return [(label, to_canonical(synthesize(program).joints)[0]) for label, program in gallery_programs()]
 
-        images, labels = [], []
-        for label, joints in items:
-            idx = np.linspace(0, len(joints) - 1, poses).round().astype(int).tolist()
-            images += render_frames(joints.astype(np.float64), frames=idx, size=(120, 170))
-            labels += [f"{label} @{k}" if n == 0 else f"@{k}" for n, k in enumerate(idx)]
-        img = Image.fromarray(contact_sheet(images, cols=poses, labels=labels, font_size=10))
+
+def render_gallery(path: str | Path, *, poses: int = 10, view: str = "oblique", draw=None) -> Path:
+    """Write the contact sheet (one strip per action and per style) to ``path``.
+
+    The fast built-in line drawing by default (poses side by side with real displacement); ``draw`` (the
+    command line passes viz.sheet.pyvista_gallery for ``--renderer pyvista``) turns ``gallery_joints()`` and
+    ``poses`` into the sheet instead: the engine itself draws with nothing from viz/.
+    """
+    items = gallery_joints()
+    if draw is not None:
+        img = draw(items, poses=poses)
     else:
         img = sheet([strip(j, poses=poses, view=view, label=label, width=1100, height=170) for label, j in items])
     path = Path(path)

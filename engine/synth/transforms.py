@@ -119,14 +119,25 @@ def with_style(program: Program, style: str, strength: float = 1.0) -> Program:
     return replace(program, style=style, style_strength=float(strength))
 
 
-def combine(*, outline_of: Program, motifs_of: Program, transfer_action: bool = True) -> Program:
+def combine(*, outline_of: Program, motifs_of: Program, transfer_action: bool = True,
+            stride_of: str = "leader") -> Program:
     """MoMo's ground truth: the leader's outline with the follower's motifs.
 
     Outline (from ``outline_of``): segment timing, counts, paths/directions, speed, cadence (the
     leader's step rhythm), leading foot. Motifs (from ``motifs_of``): style and strength,
     person (posture habits), gestures layered on the body. With ``transfer_action`` a leader
     gait segment takes the follower's gait kind (walk -> run keeps the leader's rhythm).
+
+    ``stride_of``: whose stride length a segment whose gait kind changed (walk -> run, run -> walk) takes:
+    ``"leader"`` (default): the leader's path as it is, so the run covers the walk's distance at the walk's speed;
+    ``"follower"``: the paper's reading ("the type of step (walk, run, hop) belongs to the motifs", the outline
+    is the sequence and pace of steps): the leader's path shape and step times with the follower gait's stride,
+    i.e. the path scaled by the ratio of the two gaits' strides (``GAITS`` speed / cadence), so a walk -> run
+    runs faster than the leader walked and a run -> walk walks slower. Segments that keep their gait kind are
+    the same either way.
     """
+    if stride_of not in ("leader", "follower"):
+        raise ValueError(f"stride_of must be 'leader' or 'follower', got {stride_of!r}")
     leader, follower = outline_of, motifs_of
     lead_syn = synthesize(leader)
     f_gaits = [s for s in follower.segments if family(s.action) == "locomotion" and s.action != "turn"]
@@ -143,6 +154,9 @@ def combine(*, outline_of: Program, motifs_of: Program, transfer_action: bool = 
             fa = f_gaits[0].action
             if fa in ("walk", "run", "jog"):
                 fields["action"] = fa
+                if stride_of == "follower" and fa != s.action and fields["path"] is not None:
+                    ratio = _stride(fa) / _stride(s.action)
+                    fields["path"] = tuple((x * ratio, z * ratio) for x, z in fields["path"])
         if f_gestures and s.overlay is None and s.action in ("walk", "stand", "side_step", "turn"):
             g = f_gestures[0]
             fields["overlay"] = replace(g, frames=s.frames)
@@ -152,6 +166,13 @@ def combine(*, outline_of: Program, motifs_of: Program, transfer_action: bool = 
         style = "none"
     return replace(leader, segments=tuple(segs), style=style, style_strength=follower.style_strength,
                    person=follower.person)
+
+
+def _stride(action: str) -> float:
+    """A gait's base step length (m): its speed over its cadence."""
+    from engine.synth.primitives.locomotion import GAITS
+
+    return GAITS[action].speed / GAITS[action].cadence
 
 
 def _relative_path(root_xz: np.ndarray, heading: float, points: int = 16) -> tuple[tuple[float, float], ...]:

@@ -7,6 +7,7 @@ heatmap row is outlined); clicking a word (button or curve) highlights it.
 """
 from __future__ import annotations
 
+import html
 import time
 
 import numpy as np
@@ -24,10 +25,17 @@ from app.session.state import StudioState
 
 MEAN = -1
 WIDTH = 560
+LEGEND_COLUMNS = 6  # words per row of the word curves' legend
 
 
 def _label_options(n: int, what: str, mean_label: str) -> dict[str, int]:
     return {mean_label: MEAN, **{f"{what} {i}": i for i in range(n)}}
+
+
+def word_labels(words) -> list[str]:
+    """The words as the word buttons and the curves' legend name them: a repeated word with its position."""
+    words = list(words)
+    return [w if words.count(w) == 1 else f"{w} ({i})" for i, w in enumerate(words)]
 
 
 def curve_range(cross: np.ndarray, *, snap: float = 0.05) -> tuple[float, float]:
@@ -77,6 +85,10 @@ class AttentionExplorer(pn.viewable.Viewer):
         self.curves_pane = pn.pane.Bokeh(self.curves, margin=(0, 10))
         self.heatmap_pane = pn.pane.Bokeh(self.heatmap, margin=(0, 10))
         self.row_pane = pn.pane.Bokeh(self.row_fig, margin=(0, 10))
+        self.selects = pn.Row(self.layer, self.head, self.step)
+        # what is shown only for a motion with attention: hidden (never another motion's axes or cursor) otherwise
+        self.plots = pn.Column(self.words, self.curves_pane, self.selects, self.heatmap_pane, self.row_pane,
+                               margin=0, css_classes=["attention-plots"])
 
         # the maps are rebuilt after the change that caused them has reached the page (served: the next tick), so
         # a new motion's scene is not held back behind them; several changes in one tick rebuild once
@@ -90,12 +102,18 @@ class AttentionExplorer(pn.viewable.Viewer):
 
     # ------------------------------------------------------------------ figures
     def _build_curves(self) -> None:
-        self.curve_src = ColumnDataSource(dict(xs=[], ys=[], color=[], width=[], alpha=[], word=[]))
-        fig = figure(height=230, width=WIDTH, tools="tap,xwheel_zoom,xpan,reset", toolbar_location="right",
+        self.curve_src = ColumnDataSource(dict(xs=[], ys=[], color=[], width=[], alpha=[], word=[], label=[]))
+        fig = figure(height=260, width=WIDTH, tools="tap,xwheel_zoom,xpan,reset", toolbar_location="right",
                      x_axis_label="frame", y_axis_label="attention on word", title="Cross-attention per word",
                      css_classes=["cross-curves"])
+        # the legend names each curve's word in its colour (below the plot, in rows: a long prompt adds rows)
         lines = fig.multi_line("xs", "ys", source=self.curve_src, line_color="color", line_width="width",
-                               line_alpha="alpha")
+                               line_alpha="alpha", legend_field="label")
+        legend = fig.legend[0]
+        legend.update(orientation="horizontal", ncols=LEGEND_COLUMNS, label_text_font_size="10px", glyph_width=16,
+                      label_standoff=3, spacing=2, padding=2, margin=4, border_line_alpha=0, background_fill_alpha=0,
+                      css_classes=["word-legend"])
+        fig.add_layout(legend, "below")
         lines.selection_glyph = None
         lines.nonselection_glyph = None
         fig.add_tools(HoverTool(renderers=[lines], tooltips=[("word", "@word")], line_policy="nearest"))
@@ -171,11 +189,19 @@ class AttentionExplorer(pn.viewable.Viewer):
         item = self.state.item
         self._syncing = True
         try:
-            self.rerecord.visible = bool(item is not None and item.evicted and item.settings is not None)
+            self.rerecord.visible = bool(item is not None and (item.evicted or item.from_library)
+                                         and item.settings is not None)
             if record is None:
                 self.words.options = {}
                 if item is None:
                     self.info.object = "Generate a motion to see its attention."
+                elif item.from_library and item.source != "imported":
+                    self.info.object = ("This motion was kept in the motion library, which stores motions and their "
+                                        "recipes but not attention maps. "
+                                        + ("Re-record its attention: its recipe (the same settings and seed) gives "
+                                           "the same motion." if item.settings is not None else
+                                           "Only a motion generated in the Generate box can be re-recorded; run "
+                                           "its job again to see its attention."))
                 elif item.evicted:
                     self.info.object = (f"This motion's attention was dropped to keep memory bounded: only the "
                                         f"{MAX_ITEMS_WITH_ATTENTION} latest generated motions keep theirs. "
@@ -187,18 +213,18 @@ class AttentionExplorer(pn.viewable.Viewer):
                     self.info.object = "This motion has no recorded attention: its job does not record it."
                 else:
                     self.info.object = "This motion has no recorded attention: it was imported."
-                self.curve_src.data = dict(xs=[], ys=[], color=[], width=[], alpha=[], word=[])
-                self.heat_src.data = _no_heat()
-                self.row_src.data = dict(x=[], y=[])
-                self.peak_src.data = dict(x=[], y=[])
+                if item is not None:  # said as what it is: the plots are not available, and why
+                    self.info.object = (f"**Attention plots not available** for *{html.escape(item.name)}* "
+                                        f"({item.n_frames} frames). {self.info.object}")
+                self._clear_plots(item.n_frames if item is not None else 0)
                 return
-            self.words.options = {f"{w}" if record.words.count(w) == 1 else f"{w} ({i})": i
-                                  for i, w in enumerate(record.words)}
+            self.words.options = {label: i for i, label in enumerate(word_labels(record.words))}
             self.layer.options = _label_options(record.n_layers, "layer", "mean of layers")
             self.head.options = _label_options(record.n_heads, "head", "mean of heads")
             steps = {f"step {s + 1}/{record.num_steps}" + (f" (t={t})" if t >= 0 else ""): s
                      for s, t in zip(record.steps, record.timesteps)}
             self.step.options = {**steps, "mean of steps": MEAN}
+            self._show_plots(True)
             n = record.n_frames
             self.curves.x_range.start, self.curves.x_range.end = 0, n - 1
             self.heatmap.x_range.start, self.heatmap.x_range.end = 0, n
@@ -212,6 +238,30 @@ class AttentionExplorer(pn.viewable.Viewer):
         self._update_maps()
         self._on_word()
         self._on_frame()
+
+    def _show_plots(self, visible: bool) -> None:
+        if self.plots.visible != visible:
+            self.plots.visible = visible
+
+    def _clear_plots(self, n_frames: int) -> None:
+        """No attention for the shown motion: no data, the axes and cursors on its own frames, the plots hidden (the
+        info line says why); nothing of the motion shown before stays."""
+        n = max(int(n_frames), 1)
+        with pn.io.hold():
+            self._cross = None
+            self.curve_src.data = dict(xs=[], ys=[], color=[], width=[], alpha=[], word=[], label=[])
+            self.heat_src.data = _no_heat()
+            self.row_src.data = dict(x=[], y=[])
+            self.peak_src.data = dict(x=[], y=[])
+            self.curves.x_range.update(start=0, end=max(n - 1, 1))
+            self.curves.y_range.update(start=0.0, end=1.0)
+            self.heatmap.x_range.update(start=0, end=n)
+            self.heatmap.y_range.update(start=n, end=0)
+            frame = min(self.state.frame, n - 1)
+            self.curve_cursor.location = frame
+            self.row_box.bottom, self.row_box.top = frame, frame + 1
+            self.row_fig.title.text = "Row of the picked frame"
+            self._show_plots(False)
 
     def _on_peaks(self, *_):
         readout = self.state.count_result
@@ -273,6 +323,7 @@ class AttentionExplorer(pn.viewable.Viewer):
             width=[4.5 if i == chosen else 1.8 for i in range(w)],
             alpha=[1.0 if chosen is None or i == chosen else 0.35 for i in range(w)],
             word=list(record.words),
+            label=word_labels(record.words),  # as the word buttons name them ("a (3)" for a repeated word)
         )
 
     def _on_word(self, *_):
@@ -320,6 +371,4 @@ class AttentionExplorer(pn.viewable.Viewer):
         self._on_heat_tap(Tap(self.heatmap, x=key_frame + 0.5, y=query_frame + 0.5))
 
     def __panel__(self):
-        selects = pn.Row(self.layer, self.head, self.step)
-        return pn.Column(self.info, self.rerecord, self.words, self.curves_pane, selects, self.heatmap_pane, self.row_pane,
-                         css_classes=["attention-explorer"])
+        return pn.Column(self.info, self.rerecord, self.plots, css_classes=["attention-explorer"])

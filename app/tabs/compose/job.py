@@ -35,7 +35,7 @@ class ComposeSummary:
     ends: list[int]  # one past its last frame
     transitions: list[tuple[int, int]]  # [start, end) of each handshake
     n_frames: int
-    handshake: int  # frames
+    handshakes: list[int]  # frames, one per transition
     second_take: bool
     seconds_taken: float  # wall time
     second_take_text: bool = False  # the second take denoised each transition with "A, then B"
@@ -54,9 +54,8 @@ class ComposePlan:
 
 def prepare(state, settings: ComposeSettings) -> ComposePlan:
     """Every check before any work starts; raises ValueError with a message for the user."""
-    from engine.diffusion import CosineSchedule
     from engine.generate import SampleConfig
-    from engine.methods.doubletake import DoubleTakeConfig, Interval, SecondTake, check_intervals
+    from engine.methods.doubletake import Interval, check_intervals, second_take_timesteps
 
     loaded = state.model
     rows = settings.intervals
@@ -66,24 +65,21 @@ def prepare(state, settings: ComposeSettings) -> ComposePlan:
         if not row.prompt.strip():
             raise ValueError(f"interval {i + 1}: type what the person does")
         loaded.tokenizer.encode(row.prompt)  # unknown words: a PromptError (ValueError) naming them
-    h = settings.handshake_frames
-    take = SecondTake(text=settings.second_take_text) if settings.second_take else None
-    config = DoubleTakeConfig(handshake=h, second_take=take)
+    config = settings.config()
+    take = config.second_take
     intervals = [Interval(row.prompt.strip(), float(row.seconds)) for row in rows]
-    lengths = check_intervals(intervals, h)
+    hs = config.handshakes(len(intervals))
+    check_intervals(intervals, hs)
     limit = loaded.model.config.max_frames
-    for i, n in enumerate(lengths):
+    for i, row in enumerate(rows):
+        n = int(round(row.seconds * FPS))
         if n > limit:
             raise ValueError(f"interval {i + 1} lasts {n} frames: this model handles at most {limit} "
                              f"({limit / FPS:.1f} s)")
-    if take is not None and len(rows) > 1 and h + 2 * take.context > limit:
-        raise ValueError(f"a handshake of {h} frames is too long for the second take (at most "
-                         f"{(limit - 2 * take.context) / FPS:.1f} s): shorten it or turn the second take off")
     sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
     total = sample.steps
-    if take is not None and len(rows) > 1 and h > 0:
-        schedule = CosineSchedule()
-        total += sum(1 for t in schedule.timesteps(sample.steps) if t <= take.renoise * (schedule.steps - 1))
+    if take is not None and any(hs):
+        total += len(second_take_timesteps(take, sample.steps))
     description = f"compose {len(rows)} interval{'s' * (len(rows) != 1)}"
     return ComposePlan(intervals=intervals, config=config, sample=sample, total_steps=total, description=description)
 
@@ -139,7 +135,7 @@ def finish(state, settings: ComposeSettings, job: ComposePlan, result) -> None:
     title = f"compose · {' > '.join(_short(iv.prompt) for iv in job.intervals)} · seed {job.sample.seed}"
     summary = ComposeSummary(name="", prompts=[iv.prompt for iv in job.intervals], starts=list(result.starts),
                              ends=[min(e, n) for e in ends], transitions=[tuple(t) for t in result.transitions],
-                             n_frames=n, handshake=job.config.handshake,
+                             n_frames=n, handshakes=[b - a for a, b in result.transitions],
                              second_take=job.config.second_take is not None, seconds_taken=result.seconds,
                              second_take_text=job.config.second_take is not None and job.config.second_take.text)
     item = MotionItem(name=state.unique_name(title), joints=np.asarray(result.joints, dtype=np.float32),

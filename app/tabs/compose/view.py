@@ -1,5 +1,5 @@
-"""The Compose tab (DoubleTake): a timeline of intervals (prompt + seconds, add / remove / move), the handshake and
-the second take, Generate with progress and cancel; the long motion in the viewer, coloured per interval with the
+"""The Compose tab (DoubleTake): a timeline of intervals (prompt + seconds, add / remove / move) with a handshake
+length between each two (one widget per transition), the second take, Generate with progress and cancel; the long motion in the viewer, coloured per interval with the
 transitions highlighted, and a timeline strip of the result (click it to move the viewer there).
 
 The settings live on the session (``state.compose``, a ``ComposeSettings``); the widgets are made from them.
@@ -7,6 +7,7 @@ The settings live on the session (``state.compose``, a ``ComposeSettings``); the
 from __future__ import annotations
 
 import html
+import inspect
 
 import panel as pn
 import param
@@ -15,15 +16,22 @@ from bokeh.models import ColumnDataSource, LabelSet, Range1d, Span
 from bokeh.plotting import figure
 
 from app.components.jobbar import JobBar, on_text
+from app.components.number_box import FloatBox, IntBox
 from app.components.words import WORD_CSS, prompt_notes
 from app.session.state import StudioState
 from app.tabs.compose.job import FPS, INTERVAL_COLORS, TRANSITION_COLOR, ComposeJob, transition_at
+from app.tabs.compose.settings import HANDSHAKE, ComposeSettings
 from engine.units import MAX_SECONDS
 
+# what an emptied interval length becomes (a new row's length)
+DEFAULT_SECONDS = float(inspect.signature(ComposeSettings.add).parameters["seconds"].default)
+
 HELP = ("Each interval is generated as its own clip; consecutive clips share a **handshake** (the end of one is the "
-        "start of the next), so the long motion lasts the sum of the intervals minus one handshake per transition. "
-        "The **second take** re-denoises every transition with soft masks, without text as in the authors' code, or "
-        "*with text* (\"A, then B\"). Seed, steps and guidance come from the sidebar.")
+        "start of the next; its length is set per transition, between the rows), so the long motion lasts the sum of "
+        "the intervals minus the handshakes. The **second take** re-denoises every transition with the neighbouring "
+        "intervals around it, through soft masks (the handshake may change a lot, the intervals little), without "
+        "text as in the authors' code, or *with text* (\"A, then B\"). Seed, steps and guidance come from the "
+        "sidebar.")
 
 
 class IntervalRowView:
@@ -34,8 +42,8 @@ class IntervalRowView:
         self.index = index
         self.prompt = pn.widgets.TextInput(value=row.prompt, placeholder="a person walks forward",
                                            css_classes=["compose-prompt"], sizing_mode="stretch_width")
-        self.seconds = pn.widgets.FloatInput(value=row.seconds, start=0.5, end=MAX_SECONDS, step=0.5, width=70,
-                                             css_classes=["compose-seconds"])
+        self.seconds = FloatBox(value=row.seconds, start=0.5, end=MAX_SECONDS, step=0.5, width=70,
+                                empty=DEFAULT_SECONDS, css_classes=["compose-seconds"])  # emptied: the default
         self.up = pn.widgets.Button(label="↑", width=34, css_classes=["compose-up"])
         self.down = pn.widgets.Button(label="↓", width=34, css_classes=["compose-down"])
         self.remove = pn.widgets.Button(label="✕", width=34, css_classes=["compose-remove"])
@@ -51,6 +59,25 @@ class IntervalRowView:
                               css_classes=["compose-row"], sizing_mode="stretch_width", margin=0)
 
 
+class TransitionView:
+    """The handshake widget of transition k (between timeline rows k and k + 1), in frames."""
+
+    def __init__(self, tab: "ComposeTab", index: int):
+        self.index = index
+        lo, hi = HANDSHAKE.bounds
+        self.frames = IntBox(value=tab.settings.handshake_frames()[index], start=int(lo), end=int(hi), step=5,
+                             width=80, empty=int(HANDSHAKE.default), css_classes=["compose-handshake"])
+        self.label = pn.pane.Markdown("", css_classes=["compose-handshake-label"], margin=(8, 6))
+        self.frames.param.watch(lambda e: tab.edit_handshake(self.index, e.new, e.old), "value")
+        self.view = pn.Row(pn.pane.Markdown(f"⇅ handshake {index + 1}", margin=(8, 6, 8, 30), width=120),
+                           self.frames, self.label, css_classes=["compose-transition"], sizing_mode="stretch_width",
+                           margin=0)
+        self.show(self.frames.value)
+
+    def show(self, frames: int) -> None:
+        self.label.object = f"frames ({frames / FPS:.2f} s)" + (" — a plain cut" if frames == 0 else "")
+
+
 class ComposeTab(pn.viewable.Viewer):
     state = param.ClassSelector(class_=StudioState)
 
@@ -59,11 +86,10 @@ class ComposeTab(pn.viewable.Viewer):
         self.settings = c = self.state.compose
         self._syncing = False
         self.rows: list[IntervalRowView] = []
+        self.transitions: list[TransitionView] = []
         self.rows_box = pn.Column(sizing_mode="stretch_width", css_classes=["compose-rows"])
         self.add = pn.widgets.Button(label="+ Add interval", width=140, css_classes=["compose-add"])
         self.add.on_click(lambda _: c.add())
-        self.handshake = pn.widgets.FloatSlider.from_param(c.param.handshake, css_classes=["compose-handshake"],
-                                                           sizing_mode="stretch_width")
         self.second_take = pn.widgets.Checkbox.from_param(c.param.second_take, css_classes=["compose-second-take"])
         self.second_take_text = pn.widgets.Checkbox.from_param(c.param.second_take_text, disabled=not c.second_take,
                                                                css_classes=["compose-second-take-text"])
@@ -75,8 +101,8 @@ class ComposeTab(pn.viewable.Viewer):
         self.jumps = pn.Row(css_classes=["compose-jumps"], sizing_mode="stretch_width")
         self._build_strip()
         self.strip_pane = pn.pane.Bokeh(self.strip, margin=(0, 10), css_classes=["compose-strip"])
-        c.param.watch(self._on_intervals, "intervals")
-        c.param.watch(self._on_length, ["intervals", "handshake"])
+        c.param.watch(self._on_intervals, ["intervals", "handshakes"])
+        c.param.watch(self._on_length, ["intervals", "handshakes"])
         c.param.watch(self._on_result, "result")
         self.state.param.watch(self._on_frame, ["frame", "current"])
         self.state.param.watch(self._on_length, "prompt_words")  # a model loaded late: unknown words change
@@ -95,6 +121,20 @@ class ComposeTab(pn.viewable.Viewer):
             return
         self.settings.edit(index, prompt=prompt, seconds=seconds)
 
+    def edit_handshake(self, index: int, frames, old=None) -> None:
+        """A transition's widget changed: into the settings, or the error shown and the widget put back."""
+        if self._syncing or index >= len(self.settings.handshakes):
+            return
+        try:
+            self.settings.set_handshake(index, frames)
+        except ValueError as exc:
+            self.state.error(str(exc))
+            self._syncing = True
+            try:
+                self.transitions[index].frames.value = self.settings.handshake_frames()[index]
+            finally:
+                self._syncing = False
+
     def remove_row(self, index: int) -> None:
         try:
             self.settings.remove(index)
@@ -104,11 +144,24 @@ class ComposeTab(pn.viewable.Viewer):
     # ------------------------------------------------------------------ settings -> widgets
     def _on_intervals(self, *_):
         rows = self.settings.intervals
+        hs = self.settings.handshake_frames()
         if len(rows) != len(self.rows):
-            self.rows = [IntervalRowView(self, i) for i in range(len(rows))]
-            self.rows_box.objects = [r.view for r in self.rows]
+            self._syncing = True
+            try:
+                self.rows = [IntervalRowView(self, i) for i in range(len(rows))]
+                self.transitions = [TransitionView(self, k) for k in range(len(hs))]
+            finally:
+                self._syncing = False
+            views = [self.rows[0].view]
+            for t, r in zip(self.transitions, self.rows[1:]):
+                views += [t.view, r.view]
+            self.rows_box.objects = views
         self._syncing = True
         try:
+            for view, frames in zip(self.transitions, hs):
+                if view.frames.value != frames:
+                    view.frames.value = frames
+                view.show(frames)
             for view, row in zip(self.rows, rows):
                 if view.prompt.value != row.prompt:
                     view.prompt.value = row.prompt
@@ -129,8 +182,10 @@ class ComposeTab(pn.viewable.Viewer):
         n = c.expected_frames()
         k = max(0, len(c.intervals) - 1)
         total = sum(r.seconds for r in c.intervals)
+        hs = c.handshake_frames()
+        said = (f"{hs[0]} frames" if len(set(hs)) == 1 else " + ".join(map(str, hs)) + " frames") if hs else "0 frames"
         self.length.object = (f"Long motion: **{n} frames ({n / FPS:.1f} s)** = {total:g} s of intervals − {k} "
-                              f"handshake{'s' * (k != 1)} of {c.handshake_frames} frames")
+                              f"handshake{'s' * (k != 1)} of {said}")
 
     def _on_result(self, *_):
         r = self.settings.result
@@ -142,12 +197,15 @@ class ComposeTab(pn.viewable.Viewer):
             return
         take = ("first + second take" + (" (with text)" if r.second_take_text else "")) if r.second_take \
             else "first take only"
-        spans = ", ".join(f"{a}–{b - 1}" for a, b in r.transitions) or "none"
+        spans = ", ".join(f"{a}–{b - 1}" if b > a else f"a cut at {a}" for a, b in r.transitions) or "none"
+        lengths = sorted(set(r.handshakes), key=r.handshakes.index)
+        hand = (f"handshake {lengths[0]} frames" if len(lengths) == 1 else
+                f"handshakes {', '.join(map(str, r.handshakes))} frames") if lengths else "no handshake"
         self.result.object = (
             f'<div class="compose-box"><b>{html.escape(r.name)}</b><br>'
             f'<span class="compose-frames">{r.n_frames} frames ({r.n_frames / FPS:.1f} s of motion)</span> · '
             f'<span class="compose-wall">wall time {r.seconds_taken:.1f} s</span> · {take}<br>'
-            f'<span class="compose-transitions">transitions (handshake {r.handshake} frames): {spans}</span>'
+            f'<span class="compose-transitions">transitions ({hand}): {spans}</span>'
             f'<div class="compose-legend"><span style="color:{INTERVAL_COLORS[0]}">■</span>'
             f'<span style="color:{INTERVAL_COLORS[1]}">■</span> intervals · '
             f'<span style="color:{TRANSITION_COLOR}">■</span> transitions (skeleton and strip)</div></div>')
@@ -159,7 +217,8 @@ class ComposeTab(pn.viewable.Viewer):
         self.strip.x_range.start, self.strip.x_range.end = 0, max(1, r.n_frames)
         buttons = []
         for k, (a, b) in enumerate(r.transitions):
-            button = pn.widgets.Button(label=f"▶ transition {k + 1} ({a}–{b - 1})", width=170,
+            button = pn.widgets.Button(label=f"▶ transition {k + 1} ({a}–{b - 1})" if b > a else
+                                       f"▶ cut {k + 1} ({a})", width=170,
                                        css_classes=["compose-jump"])
             button.on_click(lambda _, a=a: self.jump(a))
             buttons.append(button)
@@ -214,7 +273,7 @@ class ComposeTab(pn.viewable.Viewer):
         return pn.Column(
             pn.pane.Markdown(HELP, styles={"font-size": "12px", "color": "#444"}, margin=(0, 10)),
             "#### Timeline", self.rows_box, self.add, self.length,
-            pn.Row(self.handshake, self.second_take, self.second_take_text, sizing_mode="stretch_width"),
+            pn.Row(self.second_take, self.second_take_text, sizing_mode="stretch_width"),
             self.bar, self.result, self.strip_pane, self.jumps,
             css_classes=["compose-tab"], sizing_mode="stretch_width")
 

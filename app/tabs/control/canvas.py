@@ -4,7 +4,7 @@
 - ``TopDownCanvas``: the floor seen from above (x, z in metres; forward +z is up, so the person's left, +x, is to
   the left of the screen); the root path, its start in green.
 - ``FrontCanvas``: the person seen from the front (x: the person's left to the right of the screen, y height);
-  the rest pose for scale; the wrist path on the plane ``wrist_depth`` in front of the body.
+  the rest pose for scale; both wrists' paths (one layer each) on the plane ``wrist_depth`` in front of the body.
 
 Both write to ``ControlSettings`` (a stroke is thinned to points) and redraw when it changes.
 
@@ -20,7 +20,7 @@ from bokeh.models import ColumnDataSource, CustomJS, FreehandDrawTool, PointDraw
 from bokeh.plotting import figure
 
 from app.components.guard import SyncGuard
-from app.tabs.control.paths import DEFAULT_ROOT, ROOT_COLOR, WRIST_COLOR
+from app.tabs.control.paths import COLORS, DEFAULT_ROOT, LABELS, WRISTS, example_wrist
 from app.tabs.control.settings import ControlSettings
 
 
@@ -40,34 +40,30 @@ def allow_hold_then_draw(doc) -> None:
     doc.js_on_event("document_ready", CustomJS(code=_HOLD_THEN_DRAW_JS))
 
 
-class PathCanvas:
-    """A figure with a freehand stroke layer and an editable point layer for one of the settings' paths."""
+class PathLayer:
+    """One of the settings' paths on a figure: a freehand stroke layer and an editable point layer, each with its tool."""
 
-    kind = "root"  # which path of the settings: "root" (x, z) or "wrist" (x, y)
-    color = ROOT_COLOR
-
-    def __init__(self, *, settings: ControlSettings, fig):
+    def __init__(self, *, settings: ControlSettings, fig, kind: str):
         self.settings = settings
-        self.fig = fig
+        self.kind = kind  # which path of the settings: "root" (x, z), "left_wrist" or "right_wrist" (x, y)
+        color, label = COLORS[kind], LABELS[kind]
         self._syncing = SyncGuard()
         self.stroke_src = ColumnDataSource(dict(xs=[], ys=[]))
         self.points_src = ColumnDataSource(dict(x=[], y=[]))
         self.start_src = ColumnDataSource(dict(x=[], y=[]))
-        stroke = fig.multi_line("xs", "ys", source=self.stroke_src, line_color=self.color, line_width=2, alpha=0.6)
-        fig.line("x", "y", source=self.points_src, line_color=self.color, line_width=3)
-        points = fig.scatter("x", "y", source=self.points_src, size=7, fill_color="white", line_color=self.color,
+        stroke = fig.multi_line("xs", "ys", source=self.stroke_src, line_color=color, line_width=2, alpha=0.6)
+        fig.line("x", "y", source=self.points_src, line_color=color, line_width=3)
+        points = fig.scatter("x", "y", source=self.points_src, size=7, fill_color="white", line_color=color,
                              line_width=2)
         fig.scatter("x", "y", source=self.start_src, size=13, marker="circle", fill_color="#2ca02c",
-                    line_color="white", line_width=2)
-        freehand = FreehandDrawTool(renderers=[stroke], num_objects=1, description="draw the path (drag)")
-        point = PointDrawTool(renderers=[points], add=True, description="add / drag / delete (backspace) points")
-        fig.add_tools(freehand, point)
-        fig.toolbar.active_drag = freehand
-        fig.toolbar.active_tap = None
+                    line_color=color, line_width=2)
+        self.freehand = FreehandDrawTool(renderers=[stroke], num_objects=1, description=f"draw the {label} (drag)")
+        self.point = PointDrawTool(renderers=[points], add=True,
+                                   description=f"{label}: add / drag / delete (backspace) points")
+        fig.add_tools(self.freehand, self.point)
         self.stroke_src.on_change("data", self._on_stroke)
         self.points_src.on_change("data", self._on_points)
-        settings.param.watch(self._redraw, f"{self.kind}_points")
-        self.view = pn.pane.Bokeh(fig, margin=(0, 10), css_classes=[f"control-{self.kind}-canvas"])
+        settings.param.watch(self._redraw, f"{kind}_points")
         self._redraw()
 
     @property
@@ -104,6 +100,38 @@ class PathCanvas:
         self._sync(apply)
 
 
+class PathCanvas:
+    """A figure holding one :class:`PathLayer` per path it draws; the active layer's freehand tool takes the drags."""
+
+    kinds: tuple[str, ...] = ("root",)
+    css = "root"  # the view's CSS class: control-<css>-canvas
+
+    def __init__(self, *, settings: ControlSettings, fig):
+        self.settings = settings
+        self.fig = fig
+        self.layers = {kind: PathLayer(settings=settings, fig=fig, kind=kind) for kind in self.kinds}
+        fig.toolbar.active_tap = None
+        self.activate(self.kinds[0])
+        self.view = pn.pane.Bokeh(fig, margin=(0, 10), css_classes=[f"control-{self.css}-canvas"])
+
+    def activate(self, kind: str) -> None:
+        """Drags draw ``kind``'s path."""
+        self.fig.toolbar.active_drag = self.layers[kind].freehand
+
+    # the first layer's sources (the root canvas has one layer)
+    @property
+    def stroke_src(self):
+        return self.layers[self.kinds[0]].stroke_src
+
+    @property
+    def points_src(self):
+        return self.layers[self.kinds[0]].points_src
+
+    @property
+    def start_src(self):
+        return self.layers[self.kinds[0]].start_src
+
+
 def _grid(fig) -> None:
     for axis in (fig.xaxis, fig.yaxis):
         axis.ticker = SingleIntervalTicker(interval=1.0, num_minor_ticks=2)
@@ -114,7 +142,7 @@ def _grid(fig) -> None:
 
 
 class TopDownCanvas(PathCanvas):
-    kind, color = "root", ROOT_COLOR
+    kinds = ("root",)
 
     def __init__(self, *, settings: ControlSettings):
         fig = figure(width=400, height=400, x_range=Range1d(3.5, -3.5), y_range=Range1d(-1.5, 5.5),
@@ -131,14 +159,17 @@ class TopDownCanvas(PathCanvas):
 
 
 class FrontCanvas(PathCanvas):
-    kind, color = "wrist", WRIST_COLOR
+    """Both wrists' paths on one front view (purple: left, pink: right); ``settings.drawing`` picks which one the
+    drags draw (the toolbar's tools name their wrist too)."""
+
+    kinds, css = WRISTS, "wrist"
 
     def __init__(self, *, settings: ControlSettings):
         from engine.skeleton import PARENTS, Skeleton
 
         fig = figure(width=400, height=360, x_range=Range1d(-1.2, 1.2), y_range=Range1d(0.0, 2.2),
                      tools="reset", toolbar_location="right", match_aspect=True,
-                     title="Front view (m): the person's left (+x) to the right",
+                     title="Front view (m), +x = the person's left; purple: left wrist, pink: right",
                      x_axis_label="x (m)", y_axis_label="height (m)", css_classes=["control-front"])
         fig.background_fill_color = "#f7f4fa"
         rest = Skeleton().rest_pose()
@@ -148,3 +179,10 @@ class FrontCanvas(PathCanvas):
                        line_color="#9aa3b0", line_width=4, alpha=0.7)
         _grid(fig)
         super().__init__(settings=settings, fig=fig)
+        self.activate(settings.drawing)
+        settings.param.watch(lambda e: self.activate(e.new), "drawing")
+
+    def example(self) -> None:
+        """Both wrists write their example letter (engine.methods.drawn_paths), and both are turned on."""
+        self.settings.param.update(**{f"{w}_points": example_wrist(w) for w in WRISTS},
+                                   **{f"use_{w}": True for w in WRISTS})

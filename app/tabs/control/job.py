@@ -3,8 +3,9 @@
 
 Nothing here touches Panel widgets. The engine does the work (``engine.methods.paths`` turns paths into control
 features, ``engine.methods.control.controlled`` samples; the same functions ``moattn control`` calls); this
-module adds what only the studio needs: the drawn paths and blend weights of ``ControlSettings`` as controls,
-and the result placed in the path's world with its error measured.
+module adds what only the studio needs: the drawn paths (the root and both wrists, any of them at once) and blend
+weights of ``ControlSettings`` as controls, and the result placed in the path's world with its errors measured.
+The blend weights go through the engine's rule (``control_options.blend_shares``): a refusal is its message.
 """
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ from app.generation import Cancelled, checked_frames, sampling_slot
 from app.session.items import MotionItem
 from app.session.jobs import JobDescription, Worker
 from app.tabs.control.models import control_setup
-from app.tabs.control.paths import LABELS, ROOT_COLOR, WRIST_COLOR
+from app.tabs.control.paths import COLORS, LABELS, ROOT_COLOR, WRISTS
 from app.tabs.control.settings import ControlSettings
 
 
@@ -30,10 +31,10 @@ class ControlPlan:
     prompt: str
     controls: list  # engine Controls
     frame: dict | None  # the root path's world frame (None: no root control)
-    wrist_target: np.ndarray | None  # (T, 3) body-frame values of the controlled wrist
+    wrist_targets: dict[str, np.ndarray]  # controlled wrist -> (T, 3) body-frame values
     models: dict | None  # None: plain inpainting
     base: object  # the LoadedModel that runs it: the session's, or the control models' own base (issue #32)
-    weights: list[float]
+    weights: dict[str, float] | None  # control -> its share of the blend (the engine's rule); None: inpainting
     sample: object
     seconds: float
     method: str
@@ -46,9 +47,9 @@ class ControlSummary:
     name: str  # the session motion
     method: str
     controls: list[str]
-    weights: dict[str, float]
+    weights: dict[str, float]  # the blend's shares ({} for inpainting)
     root_error: dict | None  # path_error: mean_m, max_m, off_0_5m
-    wrist_error: dict | None  # mean_m, max_m of the wrist in the body frame
+    wrist_errors: dict[str, dict]  # controlled wrist -> mean_m, max_m in the body frame
     seconds_taken: float
     guides: list[tuple[str, np.ndarray]] = field(default_factory=list)  # colour, (N, 3) world points
     joints: np.ndarray | None = None  # (T, 22, 3) in the path's world
@@ -73,35 +74,36 @@ def prepare(state, settings: ControlSettings) -> ControlPlan:
     names = settings.active
     if not names:
         raise ValueError("turn on at least one control: the root path or a wrist")
-    controls, frame, wrist_target = [], None, None
-    if "root" in names:
-        if len(settings.root_points) < 2:
-            raise ValueError("root path: draw it on the top-down canvas (at least 2 points)")
-        values, frame = root_controls(RootPath(points=tuple(map(tuple, settings.root_points))), seconds)
-        controls.append(Control("root", values))
-    if settings.wrist != "none":
-        label = LABELS[settings.wrist]
-        if len(settings.wrist_points) < 2:
-            raise ValueError(f"{label} path: draw it on the front-view canvas (at least 2 points)")
-        pts = tuple((float(x), float(y), float(settings.wrist_depth)) for x, y in settings.wrist_points)
-        try:
-            wrist_target = WristPath(points=pts).controls(seconds)
-        except ValueError as exc:
-            raise ValueError(f"{label}: {exc}") from None
-        controls.append(Control(settings.wrist, wrist_target))
-    models = None
+    models, shares = None, None
     if settings.method == "blending":
+        shares = settings.shares()  # the engine's blend-weight rule: its one-line message if refused
         found = run.models
         missing = [n for n in names if n not in found]
         if missing:
             raise ValueError(f"no fine-tuned model for the {', '.join(LABELS[n] for n in missing)}: "
                              f"{problem or 'choose inpainting'}")
         models = {n: found[n] for n in names}
-    shares = settings.normalized_weights()
+    controls, frame, wrist_targets = [], None, {}
+    if "root" in names:
+        if len(settings.root_points) < 2:
+            raise ValueError("root path: draw it on the top-down canvas (at least 2 points)")
+        values, frame = root_controls(RootPath(points=tuple(map(tuple, settings.root_points))), seconds)
+        controls.append(Control("root", values))
+    for name in (n for n in WRISTS if n in names):
+        label = LABELS[name]
+        points = settings.wrist_points(name)
+        if len(points) < 2:
+            raise ValueError(f"{label} path: draw it on the front-view canvas (at least 2 points)")
+        pts = tuple((float(x), float(y), float(settings.wrist_depth)) for x, y in points)
+        try:
+            wrist_targets[name] = WristPath(points=pts).controls(seconds)
+        except ValueError as exc:
+            raise ValueError(f"{label}: {exc}") from None
+        controls.append(Control(name, wrist_targets[name]))
     sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
     what = " + ".join(LABELS[n] for n in names)
-    return ControlPlan(prompt=settings.prompt.strip(), controls=controls, frame=frame, wrist_target=wrist_target,
-                      models=models, weights=[shares[n] for n in names], sample=sample, seconds=seconds,
+    return ControlPlan(prompt=settings.prompt.strip(), controls=controls, frame=frame, wrist_targets=wrist_targets,
+                      models=models, weights=shares, sample=sample, seconds=seconds,
                       method=settings.method, description=f"{what} by {settings.method}", base=loaded,
                       base_note=run.note)
 
@@ -139,7 +141,7 @@ def _world(joints: np.ndarray, frame: dict) -> np.ndarray:
 
 
 def measure(job: ControlPlan, joints: np.ndarray, *, features: np.ndarray) -> ControlSummary:
-    """Root error on the floor (path_error, world frame), wrist error in the body frame, and the 3-D guides."""
+    """Root error on the floor (path_error, world frame), each wrist's error in the body frame, and the 3-D guides."""
     from engine.methods.control import control_dims
     from engine.methods.paths import path_error
     from engine.representation import features_to_joints, joints_to_features
@@ -147,27 +149,27 @@ def measure(job: ControlPlan, joints: np.ndarray, *, features: np.ndarray) -> Co
 
     names = [c.name for c in job.controls]
     world = joints if job.frame is None else _world(joints, job.frame)
-    guides, root_error, wrist_error = [], None, None
+    guides, root_error, wrist_errors = [], None, {}
     if job.frame is not None:
         root_error = path_error(world, job.frame["target"])
         xz = np.asarray(job.frame["target"], dtype=np.float64)
         guides.append((ROOT_COLOR, np.stack([xz[:, 0], np.full(len(xz), 0.012), xz[:, 1]], -1)))
-    if job.wrist_target is not None:
-        name = names[-1]
+    measured_all = joints_to_features(joints) if job.wrist_targets else None
+    for name, wanted in job.wrist_targets.items():
         dims = control_dims(name)
-        measured = joints_to_features(joints)[:, dims]
-        n = min(len(measured), len(job.wrist_target))
-        d = np.linalg.norm(measured[:n] - job.wrist_target[:n], axis=1)
-        wrist_error = {"mean_m": float(d.mean()), "max_m": float(d.max())}
+        measured = measured_all[:, dims]
+        n = min(len(measured), len(wanted))
+        d = np.linalg.norm(measured[:n] - wanted[:n], axis=1)
+        wrist_errors[name] = {"mean_m": float(d.mean()), "max_m": float(d.max())}
         # the target in the world: the generated body carrying the target wrist instead of its own
-        feats = np.array(features[: len(job.wrist_target)], dtype=np.float64)
-        feats[:, dims] = job.wrist_target[: len(feats)]
+        feats = np.array(features[: len(wanted)], dtype=np.float64)
+        feats[:, dims] = wanted[: len(feats)]
         target = features_to_joints(feats)[:, JOINT_INDEX[name]]
         if job.frame is not None:
             target = _world(target[:, None], job.frame)[:, 0]
-        guides.append((WRIST_COLOR, np.asarray(target, dtype=np.float64)))
-    return ControlSummary(name="", method=job.method, controls=names, weights=dict(zip(names, job.weights)),
-                          root_error=root_error, wrist_error=wrist_error, seconds_taken=0.0, guides=guides)
+        guides.append((COLORS[name], np.asarray(target, dtype=np.float64)))
+    return ControlSummary(name="", method=job.method, controls=names, weights=dict(job.weights or {}),
+                          root_error=root_error, wrist_errors=wrist_errors, seconds_taken=0.0, guides=guides)
 
 
 @dataclass
@@ -214,7 +216,9 @@ def describe(summary: ControlSummary) -> list[tuple[str, str]]:
         e = summary.root_error
         rows += [("root error, mean", f"{e['mean_m']:.3f} m"), ("root error, max", f"{e['max_m']:.3f} m"),
                  ("frames > 0.5 m off", f"{100 * e['off_0_5m']:.0f} %")]
-    if summary.wrist_error is not None:
-        e = summary.wrist_error
-        rows += [("wrist error, mean", f"{e['mean_m']:.3f} m"), ("wrist error, max", f"{e['max_m']:.3f} m")]
+    for name, e in summary.wrist_errors.items():
+        rows += [(f"{LABELS[name]} error, mean", f"{e['mean_m']:.3f} m"),
+                 (f"{LABELS[name]} error, max", f"{e['max_m']:.3f} m")]
+    if summary.weights:
+        rows.append(("blend", " + ".join(f"{s:.2f} × {LABELS[n]}" for n, s in summary.weights.items())))
     return rows

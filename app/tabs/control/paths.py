@@ -1,15 +1,29 @@
-"""Paths as the Control tab draws them: the controls' names, a freehand stroke thinned to points, its length."""
+"""Paths as the Control tab draws them: the controls' names and colours, a freehand stroke thinned to points, its
+length, and the example paths (an S on the floor; a letter per wrist, from engine.methods.drawn_paths)."""
 from __future__ import annotations
 
 import numpy as np
 
-LABELS = {"root": "root path", "left_wrist": "left wrist", "right_wrist": "right wrist"}
-WRISTS = ("none", "left_wrist", "right_wrist")
-WRIST_DEPTH = 0.35  # m in front of the body: the front-view canvas draws on this plane
+from engine.methods.control_options import CONTROLS, LABELS  # noqa: F401 (the engine's names, re-exported)
+from engine.methods.drawn_paths import LETTER_DEPTH
+
+WRISTS = ("left_wrist", "right_wrist")
+WRIST_DEPTH = LETTER_DEPTH  # m in front of the body: the front-view canvas draws on this plane
 MIN_SPACING = 0.15  # m between kept points of a freehand stroke
 MAX_POINTS = 80
-ROOT_COLOR, WRIST_COLOR = "#d62728", "#9467bd"
+COLORS = {"root": "#d62728", "left_wrist": "#9467bd", "right_wrist": "#e377c2"}  # red, purple, pink
+ROOT_COLOR = COLORS["root"]
+COLOR_NAMES = {"root": "red", "left_wrist": "purple", "right_wrist": "pink"}
 DEFAULT_ROOT = ((0.0, 0.0), (0.8, 1.5), (0.0, 3.0), (-0.8, 4.5))  # an S on the floor, 4.5 m ahead
+EXAMPLE_LETTERS = {"left_wrist": "L", "right_wrist": "O"}  # the front view's example: a letter per hand
+
+
+def example_wrist(name: str) -> list[tuple[float, float]]:
+    """The example path of a wrist in the front view: its letter, as engine.methods.drawn_paths writes it."""
+    from engine.methods.drawn_paths import letter_outline
+
+    xy = letter_outline(EXAMPLE_LETTERS[name], side=name.split("_")[0])
+    return [(round(float(x), 4), round(float(y), 4)) for x, y in xy]
 
 
 def thin(points, *, spacing: float = MIN_SPACING, limit: int = MAX_POINTS) -> list[tuple[float, ...]]:

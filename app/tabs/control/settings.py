@@ -1,19 +1,25 @@
-"""The Control tab's settings (PriorMDM control, DiffusionBlending): the prompt and length, the drawn paths, the
-method and the blend weights; which methods this server offers."""
+"""The Control tab's settings (PriorMDM control, DiffusionBlending): the prompt and length, the drawn paths (the root
+and both wrists, any of them at once), the method and the blend weights; which methods this server offers and which
+one the control bench has ahead.
+
+The method and the weights are the engine's options (:class:`engine.methods.control_options.ControlOptions`): the
+blend-weight rule is the engine's (:func:`~engine.methods.control_options.blend_shares`); this class neither clamps
+nor re-normalises, it shows the engine's message.
+"""
 from __future__ import annotations
 
 from collections.abc import Callable
 
-import numpy as np
 import param
 
 from app.generation import PromptReading, prompt_analysis
 from app.tabs.control.models import control_models, control_setup
 from app.tabs.control.paths import DEFAULT_ROOT, LABELS, WRIST_DEPTH, WRISTS, thin
+from engine.methods.control_options import BenchVerdict, ControlOptions, bench_verdict, blend_shares, option_info
 from engine.paths import CONTROL_DIR
-from engine.units import MAX_SECONDS, MIN_SECONDS
 
 METHOD_LABELS = {"blending (fine-tuned models)": "blending", "inpainting (base model)": "inpainting"}
+_SECONDS = option_info(ControlOptions, "seconds")
 
 
 class ControlSettings(param.Parameterized):
@@ -21,18 +27,24 @@ class ControlSettings(param.Parameterized):
 
     prompt = param.String(default="a person walks", label="Prompt",
                           doc="what the person does while following the paths")
-    seconds = param.Number(default=6.0, softbounds=(MIN_SECONDS, MAX_SECONDS), step=0.5,
-                           label="Seconds", doc=f"duration ({MIN_SECONDS:g} to {MAX_SECONDS:g} s)")
+    seconds = param.Number(default=_SECONDS.default, softbounds=_SECONDS.bounds, step=_SECONDS.step, label="Seconds",
+                           doc=f"{_SECONDS.help} ({_SECONDS.bounds[0]:g} to {_SECONDS.bounds[1]:g} s)")
     use_root = param.Boolean(default=True, label="follow the root path", doc="follow the root path drawn top-down")
     root_points = param.List(default=list(DEFAULT_ROOT), doc="(x, z) metres on the floor; the motion starts at "
                                                             "the first point, facing the direction of travel")
-    wrist = param.Selector(default="none", objects={"no wrist" if w == "none" else LABELS[w]: w for w in WRISTS},
-                           label="Wrist", doc="which wrist follows the front-view path")
-    wrist_points = param.List(default=[], doc="(x, y) metres in the body frame: x the person's left, y height")
+    use_left_wrist = param.Boolean(default=False, label="follow the left wrist path",
+                                   doc="the left wrist follows its path drawn in front view")
+    use_right_wrist = param.Boolean(default=False, label="follow the right wrist path",
+                                    doc="the right wrist follows its path drawn in front view")
+    left_wrist_points = param.List(default=[], doc="(x, y) metres in the body frame: x the person's left, y height")
+    right_wrist_points = param.List(default=[], doc="(x, y) metres in the body frame: x the person's left, y height")
+    drawing = param.Selector(default="left_wrist", objects={LABELS[w]: w for w in WRISTS}, label="Draw",
+                             doc="which wrist's path the front view draws and edits")
     wrist_depth = param.Number(default=WRIST_DEPTH, bounds=(-0.9, 0.9), softbounds=(0.0, 0.8), step=0.05,
-                               label="Wrist plane, forward of the body (m)", doc="z (forward) of the wrist path")
-    weights = param.Dict(default={"root": 1.0, "left_wrist": 1.0, "right_wrist": 1.0},
-                         doc="raw blend weight per control (scaled to sum 1 over the active ones)")
+                               label="Wrist plane, forward of the body (m)", doc="z (forward) of the wrist paths")
+    weights = param.Dict(default=ControlOptions().weights(),
+                         doc="raw blend weight per control; the engine scales those in use to sum 1 and refuses "
+                             "negative or all-zero weights")
     method = param.Selector(default="inpainting", objects=METHOD_LABELS, label="Method",
                             doc="blending: fine-tuned control models (DiffusionBlending); inpainting: the base model")
     controls_dir = param.Parameter(default=CONTROL_DIR, doc="folder of the fine-tuned control models")
@@ -40,6 +52,8 @@ class ControlSettings(param.Parameterized):
     problem = param.String(default="", doc="why blending is not offered ('' when it is)")
     base_note = param.String(default="", doc="one line when control runs on the control models' own base model "
                                              "(not the loaded one); '' otherwise")
+    verdict = param.ClassSelector(class_=BenchVerdict, default=None, allow_None=True,
+                                  doc="which method the control bench has ahead (read from controls_dir/bench.json)")
     reading = param.ClassSelector(class_=PromptReading, default=PromptReading(),
                                   doc="the prompt as the engine control runs on will read it (notes, or a refusal)")
     result = param.Parameter(default=None, doc="ControlSummary of the last controlled generation")
@@ -51,7 +65,7 @@ class ControlSettings(param.Parameterized):
         self._base = base or (lambda: None)  # the loaded base model (None: none loaded)
         self.run_base = None  # ControlBase: the base control runs on and its control models (None: no model loaded)
         self.param.watch(self._analyse, "prompt")
-        self.discover()
+        self.discover(opening=True)
 
     @classmethod
     def for_session(cls, session, *, controls_dir=None) -> "ControlSettings":
@@ -67,33 +81,35 @@ class ControlSettings(param.Parameterized):
     def _analyse(self, *_) -> None:
         self.reading = prompt_analysis(self.prompt_tokenizer(), self.prompt)
 
-    def discover(self) -> None:
-        """Which methods this server offers (blending only where fine-tuned models exist) and on which base model."""
+    def discover(self, *, opening: bool = False) -> None:
+        """Which methods this server offers (blending only where fine-tuned models exist), on which base model, and
+        which one the control bench has ahead. ``opening``: also choose the method the tab opens on, blending only
+        when the bench has it ahead of inpainting (:meth:`BenchVerdict.opening_method`)."""
         run, problem = control_setup(self.controls_dir, base=self._base())
         self.run_base = run
         models = control_models(self.controls_dir)[0] if run is None else run.models  # no base: all found
+        verdict = bench_verdict(self.controls_dir)
+        method = (verdict.opening_method(blending_offered=bool(models)) if opening
+                  else self.method if models else "inpainting")
         self.param.update(available=sorted(models), problem=problem, base_note="" if run is None else run.note,
-                          method=self.method if models else "inpainting")
+                          verdict=verdict, method=method)
         self._analyse()
 
     @property
     def active(self) -> list[str]:
-        """The controls in use, in the order root, wrist."""
-        return (["root"] if self.use_root else []) + ([self.wrist] if self.wrist != "none" else [])
+        """The controls in use, in the order root, left wrist, right wrist."""
+        on = {"root": self.use_root, "left_wrist": self.use_left_wrist, "right_wrist": self.use_right_wrist}
+        return [n for n, used in on.items() if used]
 
-    def normalized_weights(self) -> dict[str, float]:
-        """Active control -> its share of the blend (sums to 1; equal when all are 0)."""
+    def wrist_points(self, name: str) -> list:
+        return getattr(self, f"{name}_points")
+
+    def shares(self) -> dict[str, float]:
+        """Active control -> its share of the blend, by the engine's rule (a ValueError with the engine's one-line
+        message for negative or all-zero weights; nothing is clamped here)."""
         names = self.active
-        raw = np.array([max(0.0, float(self.weights.get(n, 1.0))) for n in names], dtype=np.float64)
-        if not names:
-            return {}
-        raw = raw if raw.sum() > 0 else np.ones(len(names))
-        return dict(zip(names, (raw / raw.sum()).tolist()))
+        return dict(zip(names, blend_shares(self.weights, names))) if names else {}
 
     def set_stroke(self, kind: str, xs, ys) -> None:
-        """A stroke drawn on a canvas (root: x, z; wrist: x, y) becomes that path's points."""
-        pts = thin(list(zip(xs, ys)))
-        if kind == "root":
-            self.root_points = pts
-        else:
-            self.wrist_points = pts
+        """A stroke drawn on a canvas (root: x, z; a wrist: x, y) becomes that path's points."""
+        setattr(self, f"{kind}_points", thin(list(zip(xs, ys))))

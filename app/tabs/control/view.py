@@ -1,6 +1,7 @@
-"""The Control tab (PriorMDM control, DiffusionBlending): draw a root path top-down and / or a wrist path in front
-view, set the prompt, the duration and the blend weights, pick the method, Generate; the motion in the viewer with
-the target paths drawn in 3-D, and the measured error.
+"""The Control tab (PriorMDM control, DiffusionBlending): draw a root path top-down and / or both wrists' paths in
+front view (any of them at once), set the prompt, the duration and a blend weight per control, pick the method,
+Generate; the motion in the viewer with the target paths drawn in 3-D, and the measured errors. The tab opens on
+blending only when the control bench has it ahead of inpainting, and says which one the bench has ahead.
 
 The settings live on the session (``state.control``, a ``ControlSettings``); the widgets are made from them and the
 canvases (``app.tabs.control.canvas``) draw them.
@@ -18,14 +19,16 @@ from app.components.number_box import FloatBox
 from app.session.state import StudioState
 from app.tabs.control.canvas import FrontCanvas, TopDownCanvas
 from app.tabs.control.job import ControlJob, describe
-from app.tabs.control.paths import LABELS, path_length
+from app.tabs.control.paths import COLOR_NAMES, LABELS, WRISTS, path_length
 from app.tabs.control.settings import METHOD_LABELS
+from engine.methods.control_options import ControlOptions, option_info
 from engine.methods.paths import MAX_ROOT_SPEED
 
 HELP = ("Draw the **root path** on the floor (top-down, metres; drag to draw, or pick the point tool to add and "
-        "drag points): the person starts at its first point (green) and walks along it at constant speed. A "
-        "**wrist path** is drawn in front view on a plane in front of the body. Seed, steps and guidance come "
-        "from the sidebar.")
+        "drag points): the person starts at its first point (green) and walks along it at constant speed. The "
+        "**left and right wrist paths** are drawn in front view on a plane in front of the body (pick which wrist "
+        "you draw). Any of the three can be followed at once; blending mixes their control models with the "
+        "weights. Seed, steps and guidance come from the sidebar.")
 
 
 class ControlTab(pn.viewable.Viewer):
@@ -44,48 +47,79 @@ class ControlTab(pn.viewable.Viewer):
         self.root_info = pn.pane.HTML("", css_classes=["control-root-info"], margin=(0, 10), stylesheets=[_CSS])
         self.clear_root = pn.widgets.Button(label="Clear path", width=100, css_classes=["control-clear-root"])
         self.example_root = pn.widgets.Button(label="Example S", width=100, css_classes=["control-example-root"])
-        self.wrist = pn.widgets.RadioButtonGroup.from_param(k.param.wrist, color="primary", variant="outline",
-                                                            css_classes=["control-wrist"])
+        self.use_wrists = {w: pn.widgets.Checkbox.from_param(getattr(k.param, f"use_{w}"),
+                                                             css_classes=[f"control-use-{w.replace('_', '-')}"])
+                           for w in WRISTS}
+        self.drawing = pn.widgets.RadioButtonGroup.from_param(k.param.drawing, color="primary", variant="outline",
+                                                              css_classes=["control-drawing"])
         self.front = FrontCanvas(settings=k)
-        self.clear_wrist = pn.widgets.Button(label="Clear wrist path", width=130, css_classes=["control-clear-wrist"])
+        self.wrist_info = pn.pane.HTML("", css_classes=["control-wrist-info"], margin=(0, 10), stylesheets=[_CSS])
+        self.clear_wrist = pn.widgets.Button(label="Clear this wrist's path", width=170,
+                                             css_classes=["control-clear-wrist"])
+        self.example_wrists = pn.widgets.Button(label="Example letters", width=130,
+                                                css_classes=["control-example-wrists"])
         self.depth = pn.widgets.FloatSlider.from_param(k.param.wrist_depth, css_classes=["control-depth"],
                                                        sizing_mode="stretch_width")
         self.method = pn.widgets.RadioButtonGroup.from_param(k.param.method, color="primary", variant="outline",
                                                              css_classes=["control-method"])
         self.method_note = pn.pane.HTML("", css_classes=["control-method-note"], margin=(0, 10), stylesheets=[_CSS])
-        self.weights = {n: pn.widgets.FloatSlider(label=f"weight: {LABELS[n]}", start=0.0, end=1.0, step=0.05,
-                                                  value=float(k.weights.get(n, 1.0)), css_classes=[f"control-weight-{n}"],
-                                                  sizing_mode="stretch_width") for n in LABELS}
+        # which method the control bench has ahead (what the tab opened on, and why)
+        self.bench_note = pn.pane.HTML("", css_classes=["control-bench-note"], margin=(0, 10), stylesheets=[_CSS])
+        self.weights = {n: self._weight_slider(n) for n in LABELS}
         self.shares = pn.pane.HTML("", css_classes=["control-shares"], margin=(0, 10), stylesheets=[_CSS])
         self.bar = JobBar(state=self.state, jobs=["controlled generation"], label="Generate with control",
                           prefix="control", on_run=self.generate,
                           blocked=lambda: self.settings.reading.blocked)
         self.readout = pn.pane.HTML("", css_classes=["control-readout"], margin=(0, 10), stylesheets=[_CSS])
-        self.wrist_box = pn.Column(self.front.view, pn.Row(self.clear_wrist, self.depth, sizing_mode="stretch_width"),
+        self.wrist_box = pn.Column(self.drawing, self.front.view, self.wrist_info,
+                                   pn.Row(self.clear_wrist, self.example_wrists, self.depth, sizing_mode="stretch_width"),
                                    sizing_mode="stretch_width")
 
         self.clear_root.on_click(lambda _: setattr(k, "root_points", []))
         self.example_root.on_click(lambda _: self.top.example())
-        self.clear_wrist.on_click(lambda _: setattr(k, "wrist_points", []))
+        self.clear_wrist.on_click(lambda _: setattr(k, f"{k.drawing}_points", []))
+        self.example_wrists.on_click(lambda _: self.front.example())
         for name, slider in self.weights.items():
             slider.param.watch(lambda e, name=name: self._set_weight(name, e.new), "value")
         k.param.watch(self._on_reading, "reading")
         k.param.watch(self._on_root_info, ["root_points", "seconds", "use_root"])
-        k.param.watch(self._on_active, ["use_root", "wrist", "method", "weights", "available"])
+        k.param.watch(self._on_wrist_info, ["left_wrist_points", "right_wrist_points", "use_left_wrist",
+                                            "use_right_wrist", "drawing"])
+        k.param.watch(self._on_active, ["use_root", "use_left_wrist", "use_right_wrist", "method", "weights",
+                                        "available", "verdict"])
+        k.param.watch(self._on_weights, "weights")
         k.param.watch(self._on_result, "result")
         k.param.watch(self._on_base_note, "base_note")
         self._on_base_note()
         self._on_reading()
         self._on_root_info()
+        self._on_wrist_info()
         self._on_active()
         self._on_result()
+
+    def _weight_slider(self, name: str) -> pn.widgets.FloatSlider:
+        """A blend weight's slider, its range and step as the engine's ControlOptions declares them."""
+        info = option_info(ControlOptions, ControlOptions.weight_field(name))
+        start, end = info.soft
+        return pn.widgets.FloatSlider(label=f"weight: {LABELS[name]}", start=start, end=end, step=info.step,
+                                      value=float(self.settings.weights.get(name, info.default)),
+                                      css_classes=[f"control-weight-{name}"], sizing_mode="stretch_width")
 
     # ------------------------------------------------------------------ widgets -> settings
     def generate(self) -> bool:
         return self.state.launch(ControlJob(session=self.state, settings=self.settings))
 
     def _set_weight(self, name: str, value: float) -> None:
-        self.settings.weights = {**self.settings.weights, name: float(value)}
+        if self.settings.weights.get(name) != value:
+            self.settings.weights = {**self.settings.weights, name: float(value)}
+
+    def _on_weights(self, *_):
+        """A weight set elsewhere (not by its slider) moves the slider when the slider can show it; the value itself
+        is never clamped here (the engine judges it)."""
+        for name, slider in self.weights.items():
+            value = self.settings.weights.get(name)
+            if isinstance(value, (int, float)) and slider.start <= value <= slider.end and slider.value != value:
+                slider.value = float(value)
 
     # ------------------------------------------------------------------ settings -> widgets
     def _on_reading(self, *_):
@@ -114,6 +148,18 @@ class ControlTab(pn.viewable.Viewer):
                                  f'({x0:.1f}, {z0:.1f}) to ({x1:.1f}, {z1:.1f}), {speed:.1f} m/s over '
                                  f'{k.seconds:g} s{note}</span>')
 
+    def _on_wrist_info(self, *_):
+        k = self.settings
+        parts = []
+        for name in WRISTS:
+            pts = k.wrist_points(name)
+            state = "on" if name in k.active else "off"
+            drawn = f"{len(pts)} points, {path_length(pts):.2f} m" if len(pts) >= 2 else "not drawn"
+            cls = "bad" if state == "on" and len(pts) < 2 else "ok" if state == "on" else "note"
+            mark = " (drawing)" if name == k.drawing else ""
+            parts.append(f'<span class="{cls}">{LABELS[name]} ({COLOR_NAMES[name]}){mark}: {drawn}, {state}</span>')
+        self.wrist_info.object = "<br>".join(parts)
+
     def _on_active(self, *_):
         k = self.settings
         blending_ok = bool(k.available)
@@ -131,19 +177,37 @@ class ControlTab(pn.viewable.Viewer):
                     "with the weights below (DiffusionBlending); inpainting overwrites the controls on the base "
                     "model's predictions.")
         self.method_note.object = f'<span class="note">{note}</span>'
+        self._on_bench()
         active = k.active
         blending = k.method == "blending"
         for name, slider in self.weights.items():
             slider.visible = blending and name in active
-        self.wrist_box.visible = k.wrist != "none"
-        shares = k.normalized_weights()
         if not active:
-            text = '<span class="bad">no control is on: follow the root path or pick a wrist</span>'
+            text = '<span class="bad">no control is on: follow the root path or a wrist path</span>'
         elif not blending:
             text = '<span class="note">blend weights apply to fine-tuned models only (not to inpainting)</span>'
         else:
-            text = "blend: " + " + ".join(f"{shares[n]:.2f} × {LABELS[n]}" for n in active) + " (normalised to 1)"
+            try:
+                shares = k.shares()  # the engine's rule
+            except ValueError as exc:  # its one-line message, as Generate would give it
+                text = f'<span class="bad">{html.escape(str(exc))}</span>'
+            else:
+                text = ("blend: " + " + ".join(f"{shares[n]:.2f} × {LABELS[n]}" for n in active)
+                        + " (scaled to sum 1)")
         self.shares.object = text
+
+    def _on_bench(self) -> None:
+        """Which method the control bench has ahead, and so which one the tab opened on."""
+        k = self.settings
+        verdict = k.verdict
+        if verdict is None:
+            self.bench_note.object = ""
+            return
+        opened = verdict.opening_method(blending_offered=bool(k.available))
+        why = ("the bench has blending ahead" if opened == "blending" else
+               "the bench does not have blending ahead of inpainting" if k.available else "no control models to blend")
+        self.bench_note.object = (f'<span class="note">{html.escape(verdict.message)} The tab opens on '
+                                  f'{html.escape(opened)}: {html.escape(why)}.</span>')
 
     def _on_result(self, *_):
         r = self.settings.result
@@ -153,7 +217,7 @@ class ControlTab(pn.viewable.Viewer):
         rows = table_rows(describe(r))
         guides = "; ".join(filter(None, [
             "red tube: the root path" if r.root_error is not None else "",
-            "purple tube: the wrist target" if r.wrist_error is not None else ""]))
+            *(f"{COLOR_NAMES[n]} tube: the {LABELS[n]} target" for n in r.wrist_errors)]))
         self.readout.object = (
             f'<div class="control-box"><b>{html.escape(r.name)}</b><br>{html.escape(r.method)} · '
             f'{r.seconds_taken:.1f} s<table class="control-error">{rows}</table>'
@@ -163,12 +227,12 @@ class ControlTab(pn.viewable.Viewer):
     def __panel__(self):
         root = pn.Column(pn.Row(self.use_root, self.clear_root, self.example_root), self.top.view, self.root_info,
                          sizing_mode="stretch_width")
-        wrist = pn.Column(self.wrist, self.wrist_box, sizing_mode="stretch_width")
+        wrist = pn.Column(pn.Row(*self.use_wrists.values()), self.wrist_box, sizing_mode="stretch_width")
         return pn.Column(
             pn.pane.Markdown(HELP, styles={"font-size": "12px", "color": "#444"}, margin=(0, 10)),
             self.base_note, pn.Row(self.prompt, self.seconds, sizing_mode="stretch_width"), self.flag,
-            "#### Root path (top-down)", root, "#### Wrist path (front view)", wrist,
-            "#### Method", self.method, self.method_note, *self.weights.values(), self.shares,
+            "#### Root path (top-down)", root, "#### Wrist paths (front view)", wrist,
+            "#### Method", self.method, self.bench_note, self.method_note, *self.weights.values(), self.shares,
             self.bar, self.readout, css_classes=["control-tab"], sizing_mode="stretch_width")
 
 

@@ -169,7 +169,7 @@ class DuetJob:
 
 def finish(state, settings: DuetSettings, job: DuetPlan, duet, seconds_taken: float) -> None:
     """The two people become two session motions shown together in one scene."""
-    from engine.evaluation.bench_duet import face_each_other
+    from engine.analysis.duet_pose import face_each_other
     from viz.colors import ROLE_PALETTE, default_joint_colors
 
     what = job.prompt or "completion"

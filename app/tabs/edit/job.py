@@ -4,7 +4,7 @@ of an imported motion (``CountJob``), both launched on the session.
 Nothing here touches Panel widgets. The option -> config mapping is the engine's
 (``engine.methods.edit_options``, shared with ``moattn edit``); this module adds what only the
 studio needs: the picked word as (word, occurrence), sources among the session's motions,
-word-by-word alignment messages for replacement, recording the edited motions' attention into
+the replacement's word alignment shown as text (prompt-to-prompt's, see ``engine.methods.word_alignment``), recording the edited motions' attention into
 ``AttentionRecord``s, and counting a session motion (recorded maps, or inversion for an imported one).
 """
 from __future__ import annotations
@@ -33,15 +33,22 @@ def word_choice(words: list[str] | tuple[str, ...], position: int) -> tuple[str,
 
 
 def alignment(tokenizer, reference: str, edited: str) -> tuple[bool, str]:
-    """Word-by-word alignment for in-place replacement: (ok, a message for the user). Both prompts are read as the
-    engine reads them (``Tokenizer.encode``): a prompt it refuses is refused with its message, and a swapped word it
-    leaves out cannot be swapped (words it reads by meaning or as a typo can; words left out of both prompts alike
-    keep the alignment)."""
+    """How in-place replacement will align the two prompts' words: (ok, the alignment or why not, for the user).
+
+    The words are aligned as prompt-to-prompt aligns them (``engine.methods.word_alignment``): word by word when the
+    prompts have as many words, otherwise the shared words are matched, swapped words take the attention of the
+    words they replace, added words keep their own and dropped words are said. Both prompts are read as the engine
+    reads them (``Tokenizer.encode``): a prompt it refuses is refused with its message, and a swapped-in word it
+    leaves out cannot replace anything (words it reads by meaning or as a typo can; words left out of both prompts
+    alike do not matter)."""
+    from engine.methods.word_alignment import align_words
     from engine.text import PromptError, split_words
 
     ref, new = split_words(reference), split_words(edited)
     if not new:
-        return False, "type the edited prompt: the same words as the prompt with the action swapped"
+        return False, "type the edited prompt: the prompt with the action swapped (words may be added or dropped)"
+    if not ref:
+        return False, "type the prompt first: the edited prompt replaces its action"
     tokens = {}
     if tokenizer is not None:
         for role, text in (("prompt", reference), ("edited prompt", edited)):
@@ -49,29 +56,27 @@ def alignment(tokenizer, reference: str, edited: str) -> tuple[bool, str]:
                 tokens[role] = tokenizer.encode(text)
             except PromptError as exc:
                 return False, f"the {role} cannot be read: {exc}"
-    if len(ref) != len(new):
-        return False, (f"not aligned: the prompt has {len(ref)} words and the edited prompt {len(new)}; replacement "
-                       f"swaps words in place, word by word (e.g. '{' '.join(ref)}' → "
-                       f"'{' '.join(swap_example(ref))}')")
-    changed = [(a, b) for a, b in zip(ref, new) if a != b]
-    if not changed:
+    if ref == new:
         return False, "the edited prompt is the same as the prompt: change a word (e.g. the verb)"
-    if tokens:
-        gone_ref, gone_new = set(tokens["prompt"].left_out), set(tokens["edited prompt"].left_out)
-        for a, b in changed:
-            if b in gone_new:
+    typed = align_words(ref, new)
+    if not tokens:
+        return True, typed.describe()
+    gone_ref, gone_new = set(tokens["prompt"].left_out), set(tokens["edited prompt"].left_out)
+    for src, dst in typed.groups:
+        a = " ".join(ref[i] for i in src)
+        for b in (new[j] for j in dst):
+            if b in gone_new and b not in (ref[i] for i in src):
                 return False, (f"'{b}' is left out of the edited prompt (the model does not know it), so it cannot "
-                               f"replace '{a}': pick a word the model reads")
-            if a in gone_ref:
-                return False, (f"'{a}' is left out of the prompt (the model does not know it), so it cannot be "
-                               f"replaced")
-        if len(tokens["prompt"].words) != len(tokens["edited prompt"].words):  # the engine's own rule
-            return False, (f"not aligned: the model reads {len(tokens['prompt'].words)} words of the prompt and "
-                           f"{len(tokens['edited prompt'].words)} of the edited prompt (words left out: "
-                           f"{', '.join(dict.fromkeys([*gone_ref, *gone_new])) or 'none'})")
-    pairs = ", ".join(f"'{a}' → '{b}'" for a, b in changed)
+                               + (f"replace '{a}'" if src else "be added") + ": pick a word the model reads")
+        for w in (ref[i] for i in src):
+            if dst and w in gone_ref and w not in (new[j] for j in dst):
+                return False, f"'{w}' is left out of the prompt (the model does not know it), so it cannot be replaced"
+    read = align_words(tokens["prompt"].words, tokens["edited prompt"].words)  # what the engine will align
+    if not read.changed:
+        left_out = ", ".join(dict.fromkeys([*gone_ref, *gone_new])) or "none"
+        return False, f"the model reads both prompts alike (words left out: {left_out}): nothing to replace"
     notes = list(dict.fromkeys(n for t in tokens.values() for n in t.notes()))
-    return True, f"aligned word by word ({len(ref)} words): {pairs}" + (f" ({'; '.join(notes)})" if notes else "")
+    return True, read.describe() + (f" ({'; '.join(notes)})" if notes else "")
 
 
 def swap_example(words: list[str]) -> list[str]:
@@ -157,10 +162,15 @@ def prepare(state) -> EditPlan:
     span = tuple(int(f) for f in cfg.frames) if cfg.frames is not None else None
     if span is not None and kind != "erase" and span[0] <= 0 and span[1] >= frames:
         span = None  # the whole motion (erase's default is the last half, so its span stays explicit)
+    if kind == "ground":  # the spans dragged on the word's curve (none: the whole motion)
+        from engine.methods.spans import check_spans
+
+        span = check_spans([tuple(int(v) for v in s) for s in cfg.spans], frames=frames) or None
     options = EditOptions(
         kind=kind, prompt=source if kind in ("example", "style") else prompt, word=word, occurrence=cfg.occurrence,
         weight=weight, mode=cfg.mode, frames=span,
         edited=cfg.edited, fraction=float(cfg.fraction), style=style, count=int(cfg.count),
+        chunk_frames=int(cfg.chunk_frames),
         step_window=tuple(cfg.step_window) if cfg.step_window is not None else None,
         layers=tuple(cfg.layers) or None, seed=int(state.seed))
     build_config(options, frames=frames, model_config=loaded.config)  # the config's own checks (weight ranges, windows) before any work
@@ -198,19 +208,23 @@ def describe(options, *, frames: int) -> str:
         sign = "+" if o.mode == "add" and o.weight >= 0 else ""
         w = f"{sign}{o.weight:.2f}" if o.mode == "add" else f"×{o.weight:.2f}"
         what = "emphasise" if o.kind == "emphasize" else "ground"
-        span = "" if o.frames is None else f" frames {o.frames[0]}–{min(o.frames[1], frames)}"
+        spans = ", ".join(f"{a}–{min(b, frames)}" for a, b in o.spans)
+        span = "" if not spans else f" frames {spans}"
         return f"{what} '{o.word}' {w}{span}"
     if o.kind == "erase":
         return f"erase '{o.word}'"
     if o.kind == "replace":
+        from engine.methods.word_alignment import align_words
         from engine.text import split_words
 
-        pairs = [(a, b) for a, b in zip(split_words(o.prompt), split_words(o.edited)) if a != b]
-        return "replace " + ", ".join(f"'{a}' → '{b}'" for a, b in pairs)
+        return "replace " + ", ".join(align_words(split_words(o.prompt), split_words(o.edited)).changes())
     if o.kind == "shift":
         return f"shift {o.fraction:.0%}"
     if o.kind == "example":
-        return "example-based"
+        from engine.methods.edit_options import option_spec
+
+        default = option_spec("chunk_frames").default
+        return "example-based" + ("" if o.chunk_frames == default else f" ({o.chunk_frames}-frame chunks)")
     return "style transfer"
 
 
@@ -316,7 +330,8 @@ class CountJob:
 
     def run(self, loaded, worker: Worker) -> CountReadout:
         with sampling_slot(worker.cancel, worker.waiting):
-            return count_imported(loaded, self.item.joints[:196], item=self.item.name, prompt=self.item.prompt)
+            return count_imported(loaded, self.item.joints[:196], item=self.item.name, prompt=self.item.prompt,
+                                  method=self.session.count_method)
 
     def finish(self, readout: CountReadout) -> None:
         self.session.end_job(f"counted {self.item.name!r}: {readout.count:.2f} (baseline {readout.baseline})")

@@ -6,7 +6,10 @@ from dataclasses import dataclass
 import param
 
 from engine.methods.edit_kinds import REGISTRY
+from engine.methods.edit_options import option_spec
 from engine.methods.motionclr import WEIGHT_RANGES, weight_range_text
+
+_CHUNK = option_spec("chunk_frames")  # declared once, with the edit options (the CLI's --chunk-frames reads it too)
 
 #: label shown in the tab -> ``moattn edit`` kind, and each kind's help: both from the engine's registry
 KIND_LABELS = {k.label: name for name, k in REGISTRY.items()}
@@ -26,13 +29,18 @@ class EditSettings(param.Parameterized):
                                                max(hi for _, hi in WEIGHT_RANGES.values())), step=0.05,
                           label="Weight", doc=f"{weight_range_text()} (mul > 1 emphasises)")
     frames = param.Range(default=None, allow_None=True, doc="frame window [start, end) (None = the kind's default)")
+    spans = param.List(default=[], item_type=tuple,
+                       doc="ground: the frame spans [(start, end), ...] the word is grounded to, dragged on its "
+                           "attention curve or typed ([] = the whole motion)")
     step_window = param.Range(default=None, allow_None=True, doc="fractions of the sampling run (None = the method's)")
     layers = param.List(default=[], item_type=int, doc="layers the edit acts in ([] = all)")
     fraction = param.Number(default=0.5, bounds=(0.05, 0.95), step=0.05, label="Shift: part moved to the end",
                             doc="shift: the part moved to the end")
     count = param.Integer(default=3, bounds=(1, 6), label="Number of examples", doc="example-based: how many outputs")
-    edited = param.String(default="", label="Edited prompt (same words, the action swapped)",
-                          doc="replace: the edited prompt, aligned word by word")
+    chunk_frames = param.Integer(default=_CHUNK.default, bounds=_CHUNK.bounds, label=_CHUNK.label, doc=_CHUNK.help)
+    edited = param.String(default="", label="Edited prompt (the action swapped; words may be added or dropped)",
+                          doc="replace: the edited prompt, its words aligned to the prompt's as prompt-to-prompt "
+                              "aligns them")
     source = param.String(default=PROMPT_SOURCE, doc="example / content source: the prompt or a session motion")
     style_source = param.String(default=PROMPT_SOURCE, doc="style source: a prompt or a session motion")
     style_prompt = param.String(default="a person walks", label="Style prompt", doc="style source when it is a prompt")

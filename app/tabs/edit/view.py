@@ -11,7 +11,8 @@ import html
 import numpy as np
 import panel as pn
 import param
-from bokeh.models import ColumnDataSource, HoverTool, LinearColorMapper, Range1d
+from bokeh.events import SelectionGeometry
+from bokeh.models import BoxSelectTool, ColumnDataSource, HoverTool, LinearColorMapper, Range1d
 from bokeh.palettes import Viridis256
 from bokeh.plotting import figure
 
@@ -20,8 +21,10 @@ from app.components.jobbar import WRAP_BUTTONS_CSS, JobBar, text_from_param
 from app.session.state import StudioState
 from app.tabs.edit.job import alignment, count_current, run_edit, swap_example, word_choice
 from app.tabs.edit.settings import KIND_HELP, PROMPT_SOURCE
+from engine.analysis.counting import COUNTING_METHODS
 from engine.methods.edit_kinds import REGISTRY
 from engine.methods.motionclr import WEIGHT_RANGES
+from engine.methods.spans import check_spans, parse_spans, spans_text
 
 
 
@@ -55,6 +58,11 @@ class EditTab(pn.viewable.Viewer):
                                                           sizing_mode="stretch_width")
         self.count = pn.widgets.IntSlider.from_param(e.param.count, css_classes=["edit-count"],
                                                      sizing_mode="stretch_width")
+        self.chunk = pn.widgets.IntSlider.from_param(e.param.chunk_frames, css_classes=["edit-chunk"],
+                                                     sizing_mode="stretch_width")
+        self.chunk_help = pn.pane.Markdown(e.param.chunk_frames.doc, margin=(0, 10),
+                                           styles={"font-size": "11px", "color": "#555"})
+        self._build_spans()
         self.edited = text_from_param(e.param.edited, placeholder="a person kicks twice", css_classes=["edit-edited"],
                                       sizing_mode="stretch_width")
         self.alignment = pn.pane.HTML("", css_classes=["edit-alignment"], margin=(0, 10), stylesheets=[_CSS])
@@ -70,6 +78,8 @@ class EditTab(pn.viewable.Viewer):
         self.result = pn.pane.Markdown("", css_classes=["edit-result"], margin=(0, 10))
         self.readout = pn.pane.HTML("", css_classes=["count-readout"], margin=(0, 10), stylesheets=[_CSS])
         self.count_button = pn.widgets.Button(label="Count this motion", css_classes=["count-button"], width=160)
+        self.count_method = pn.widgets.Select.from_param(s.param.count_method, css_classes=["count-method"],
+                                                         width=230)
         self._build_count_map()
         self.count_pane = pn.pane.Bokeh(self.count_map, margin=(0, 10))
 
@@ -81,6 +91,11 @@ class EditTab(pn.viewable.Viewer):
         self.style_source.param.watch(lambda ev: self._set("style_source", ev.new), "value")
         self.count_button.on_click(lambda _: count_current(self.state))
 
+        self.spans_text.param.watch(lambda ev: self._on_spans_typed(ev.new), "value")
+        self.clear_spans.on_click(lambda _: self.set_spans([]))
+        e.param.watch(self._on_spans, "spans")
+        e.param.watch(lambda *_: self._write_span_curve(), ["word", "occurrence"])
+        s.param.watch(lambda *_: self._write_span_curve(), "current")
         e.param.watch(self._on_kind, "kind")
         e.param.watch(self._on_mode, "mode")
         e.param.watch(self._on_alignment, "edited")
@@ -99,6 +114,121 @@ class EditTab(pn.viewable.Viewer):
         self._on_alignment()
         self._on_running()
         self._on_count()
+        self._on_spans()
+        self._write_span_curve()
+
+    # ------------------------------------------------------------------ grounding spans
+    def _build_spans(self) -> None:
+        """Grounding spans: the picked word's attention curve (of the shown motion, when recorded) on which a drag
+        across frames adds a span; the spans as text (editable), listed, and a button clearing them."""
+        self.span_curve_src = ColumnDataSource(dict(x=[], y=[]))
+        self.span_src = ColumnDataSource(dict(x0=[], x1=[]))
+        select = BoxSelectTool(dimensions="width", description="Drag across frames to add a grounding span")
+        fig = figure(height=170, width=520, tools=[select], toolbar_location="right", x_range=Range1d(0, 80),
+                     y_range=Range1d(0, 1), x_axis_label="frame", y_axis_label="attention on the word",
+                     title="Drag across the frames to add a span", css_classes=["span-curve"])
+        fig.toolbar.active_drag = select
+        fig.vstrip(x0="x0", x1="x1", source=self.span_src, fill_color="#2ca02c", fill_alpha=0.25,
+                   line_color="#2ca02c", line_alpha=0.8)
+        line = fig.line("x", "y", source=self.span_curve_src, line_width=2, color="#1f77b4")
+        line.selection_glyph = line.nonselection_glyph = None  # a drag adds a span; it selects nothing
+        fig.title.text_font_size = "11px"
+        fig.on_event(SelectionGeometry, self._on_span_drawn)
+        self.span_fig = fig
+        self.span_pane = pn.pane.Bokeh(fig, margin=(0, 10))
+        self.spans_text = pn.widgets.TextInput(label="Grounding spans (START:END, comma-separated; empty = the "
+                                                    "whole motion)", placeholder="10:30,50:70,90:110,130:150",
+                                               css_classes=["edit-spans"], sizing_mode="stretch_width")
+        self.clear_spans = pn.widgets.Button(label="Clear spans", css_classes=["edit-clear-spans"], width=120,
+                                             align="end")
+        self.spans_list = pn.pane.HTML("", css_classes=["edit-span-list"], margin=(0, 10), stylesheets=[_CSS])
+        self.spans_box = pn.Column(self.span_pane, pn.Row(self.spans_text, self.clear_spans), self.spans_list,
+                                   css_classes=["edit-spans-box"], sizing_mode="stretch_width")
+
+    def set_spans(self, spans) -> bool:
+        """Replace the grounding spans (checked: whole frames inside the motion, none overlapping); False and an
+        error notification if refused."""
+        try:
+            checked = check_spans(list(spans), frames=self._frames_total())
+        except ValueError as exc:
+            self.state.error(f"grounding spans: {exc}")
+            self._on_spans()  # the text shows the spans kept
+            return False
+        self.state.edit.spans = [tuple(sp) for sp in checked]
+        return True
+
+    def add_span(self, start: float, end: float) -> bool:
+        """What a drag across the curve does: the span [start, end) (rounded outwards to whole frames, clipped to
+        the motion) joins the grounding spans; one overlapping a span already there is refused with a message."""
+        n = self._frames_total()
+        lo, hi = sorted((float(start), float(end)))
+        lo, hi = max(0, int(np.floor(lo))), min(n, int(np.ceil(hi)))
+        if hi <= lo:
+            self.state.error(f"grounding spans: the span {start:.0f}–{end:.0f} is outside the motion (0–{n})")
+            return False
+        return self.set_spans([*self.state.edit.spans, (lo, hi)])
+
+    def _on_span_drawn(self, event) -> None:
+        geometry = getattr(event, "geometry", None) or {}
+        if not getattr(event, "final", True) or geometry.get("type") != "rect":
+            return
+        self.add_span(geometry["x0"], geometry["x1"])
+
+    def _on_spans_typed(self, text: str) -> None:
+        if self._syncing:
+            return
+        text = (text or "").strip()
+        if not text:
+            self.set_spans([])
+            return
+        try:
+            spans = parse_spans(text)
+        except ValueError as exc:
+            self.state.error(f"grounding spans: {exc}")
+            return
+        self.set_spans(spans)
+
+    def _on_spans(self, *_):
+        spans = [tuple(sp) for sp in self.state.edit.spans]
+        self.span_src.data = dict(x0=[a for a, _ in spans], x1=[b for _, b in spans])
+        self._sync(lambda: setattr(self.spans_text, "value", spans_text(spans)))
+        n = self._frames_total()
+        if not spans:
+            self.spans_list.object = (f'<div class="span-none">No span: the word is grounded to the whole motion '
+                                      f"(0–{n}). Drag across the curve to add spans.</div>")
+        else:
+            items = "".join(f"<li>{a}–{b} ({(b - a) / 20:.2f} s)</li>" for a, b in spans)
+            self.spans_list.object = (f'<div class="span-count">{len(spans)} span{"s" if len(spans) > 1 else ""} in '
+                                      f"{n} frames:</div><ol>{items}</ol>")
+
+    def _span_curve(self) -> tuple[np.ndarray | None, str]:
+        """The picked word's cross-attention per frame in the shown motion (mean of the recorded steps, layers and
+        heads) and the figure's title; None when the shown motion has no recorded attention on that word."""
+        e, item = self.state.edit, self.state.item
+        if not e.word:
+            return None, "Pick a word, then drag across the frames to add a span"
+        if item is None or item.attention is None:
+            return None, f"'{e.word}': no recorded attention to show. Drag across the frames to add a span"
+        hits = [i for i, w in enumerate(item.attention.words) if w == e.word]
+        if len(hits) <= e.occurrence:
+            return None, (f"'{e.word}' is not in the shown motion's prompt (no curve). Drag across the frames to add "
+                          "a span")
+        curve = item.attention.word_curve(hits[e.occurrence])
+        return curve, f"'{e.word}' in {item.name}: drag across the frames to add a span"
+
+    def _write_span_curve(self) -> None:
+        n = self._frames_total()
+        curve, title = self._span_curve()
+        self.span_fig.x_range.start, self.span_fig.x_range.end = 0, n
+        if curve is None:
+            self.span_curve_src.data = dict(x=[], y=[])
+            self.span_fig.y_range.start, self.span_fig.y_range.end = 0, 1
+        else:
+            curve = np.asarray(curve, dtype=np.float32)
+            self.span_curve_src.data = dict(x=list(range(len(curve))), y=curve.tolist())
+            top = float(curve.max()) if len(curve) else 1.0
+            self.span_fig.y_range.start, self.span_fig.y_range.end = 0, max(top * 1.1, 1e-3)
+        self.span_fig.title.text = title
 
     # ------------------------------------------------------------------ widgets -> state
     def _set(self, name: str, value) -> None:
@@ -169,6 +299,8 @@ class EditTab(pn.viewable.Viewer):
 
     def _on_seconds(self, *_):
         self._reset_frames()
+        self._write_span_curve()
+        self._on_spans()
 
     def _reset_frames(self) -> None:
         n = self._frames_total()
@@ -219,11 +351,12 @@ class EditTab(pn.viewable.Viewer):
         self.words_label.visible = self.words.visible = "word" in reads
         self.mode.visible = "mode" in reads
         self.weight.visible = "weight" in reads
-        self.frames.visible = "frames" in reads
-        self.frames.label = "Frames (grounding mask)" if kind == "ground" else "Frames"
+        self.frames.visible = "frames" in reads and kind != "ground"
+        self.spans_box.visible = "frames" in reads and kind == "ground"  # several spans, dragged on the curve
         self.steps.visible = self.layers.visible = is_edit
         self.fraction.visible = "fraction" in reads
         self.count.visible = "count" in reads
+        self.chunk.visible = self.chunk_help.visible = "chunk_frames" in reads
         self.edited.visible = self.alignment.visible = "edited" in reads
         self.source.visible = entry.source
         self.source.label = "Example" if kind == "example" else "Content"
@@ -234,6 +367,8 @@ class EditTab(pn.viewable.Viewer):
                                               "re-generated from its prompt, an imported one is DDIM-inverted).")
         if kind == "ground" and self.weight.value < 0:
             self.weight.value = abs(self.weight.value)
+        if kind == "ground":
+            self._write_span_curve()
         if kind == "replace" and not e.edited:
             e.edited = " ".join(swap_example(list(self.state.prompt_words)))
         self.bar.refresh()  # Run waits for aligned prompts in replacement only
@@ -267,7 +402,7 @@ class EditTab(pn.viewable.Viewer):
         self.count_button.disabled = self.state.running
 
     def _misaligned(self) -> bool:
-        """Replacement needs prompts aligned word by word: Run waits until they are."""
+        """Replacement needs an edited prompt that changes something the model reads: Run waits until it does."""
         return self.state.edit.engine_kind == "replace" and not self._alignment()[0]
 
     def _on_last_edit(self, *_):
@@ -320,20 +455,24 @@ class EditTab(pn.viewable.Viewer):
         span = f"{readout.span[0]}–{readout.span[1]}" if readout.span else "–"
         self.readout.object = (
             f'<div class="count-box"><div class="count-title">Counting: {html.escape(readout.item)}</div>'
-            f'<table><tr><td>attention count</td><td class="count-attention">{readout.count:.2f}</td></tr>'
+            f'<table><tr><td>method</td><td class="count-method-used">{html.escape(readout.method)}</td></tr>'
+            f'<tr><td>attention count</td><td class="count-attention">{readout.count:.2f}</td></tr>'
             f'<tr><td>rounded</td><td class="count-rounded">{readout.rounded}</td></tr>'
             f'<tr><td>root-height baseline</td><td class="count-baseline">{readout.baseline}</td></tr>'
             f'<tr><td>period</td><td class="count-period">{period}</td></tr>'
             f'<tr><td>repeating frames</td><td class="count-span">{span}</td></tr>'
             f'<tr><td>peaks drawn</td><td class="count-peaks">{len(readout.peaks)}</td></tr></table>'
-            f'<div class="count-source">{html.escape(readout.source)}</div></div>')
+            f'<div class="count-source">{html.escape(readout.source)}</div>'
+            f'<div class="count-source">{html.escape(COUNTING_METHODS[readout.method])}</div></div>')
 
     def __panel__(self):
         settings = pn.Column(
-            self.words_label, self.words, pn.Row(self.mode), self.weight, self.frames, self.fraction, self.count,
-            self.edited, self.alignment, pn.Row(self.source, self.style_source), self.style_prompt,
-            self.steps, self.layers, sizing_mode="stretch_width")
-        counting = pn.Column("#### Counting", pn.Row(pn.Column(self.readout, self.count_button, width=250),
+            self.words_label, self.words, pn.Row(self.mode), self.weight, self.frames, self.spans_box, self.fraction,
+            self.count, self.chunk, self.chunk_help, self.edited, self.alignment,
+            pn.Row(self.source, self.style_source), self.style_prompt, self.steps, self.layers,
+            sizing_mode="stretch_width")
+        counting = pn.Column("#### Counting", pn.Row(pn.Column(self.count_method, self.readout, self.count_button,
+                                                               width=250),
                                                      self.count_pane), sizing_mode="stretch_width")
         return pn.Column(self.kind, self.help, settings, self.bar, self.result, pn.layout.Divider(), counting,
                          css_classes=["edit-tab"], sizing_mode="stretch_width")
@@ -349,4 +488,6 @@ _CSS = """
 .count-box td:last-child { font-weight: 600; font-family: monospace; }
 .count-title { font-weight: 600; }
 .count-source, .count-empty { color: #555; font-size: 12px; }
+.span-none, .span-count { color: #444; font-size: 12px; }
+.edit-span-list ol { margin: 2px 0 4px 18px; padding: 0; font-size: 12px; font-family: monospace; }
 """

@@ -8,11 +8,12 @@ import threading
 import panel as pn
 import param
 
+from app.components.number_box import FloatBox
 from app.session.items import upload_limit_text
 from app.session.state import StudioState
 from app.tabs.files import exports
 from app.tabs.files.exports import EXPORTS, export_filename
-from app.uploads import import_window
+from app.uploads import display_name, import_window
 
 
 class ImportPanel(pn.viewable.Viewer):
@@ -30,14 +31,16 @@ class ImportPanel(pn.viewable.Viewer):
         self.limit_s = seconds_of(self.max_frames)
         self._input = pn.widgets.FileInput(accept=".bvh,.npy", multiple=False, css_classes=["import-input"],
                                            sizing_mode="stretch_width")
-        self.start = pn.widgets.FloatInput(label="Start (s)", value=0.0, start=0.0, step=0.5, width=100,
-                                           css_classes=["import-start"])
-        self.seconds = pn.widgets.FloatInput(label="Seconds", value=None, start=2 / FPS, end=self.limit_s, step=0.5,
-                                             placeholder="to the end", width=100, css_classes=["import-seconds"])
+        # number boxes that never show "NaN": an emptied Start is the beginning, an emptied Seconds the whole file
+        self.start = FloatBox(label="Start (s)", value=0.0, start=0.0, step=0.5, width=100, empty=0.0,
+                              placeholder="0 (the beginning)", css_classes=["import-start"])
+        self.seconds = FloatBox(label="Seconds", value=None, start=2 / FPS, end=self.limit_s, step=0.5,
+                                placeholder="to the end", width=100, css_classes=["import-seconds"])
         self.again = pn.widgets.Button(label="Import window", disabled=True, sizing_mode="stretch_width",
                                        css_classes=["import-again"])
         self._upload: tuple[bytes, str] | None = None
-        self._input.param.watch(self._on_upload, "value")
+        # the file and its name: an empty file arrives as a name with no content (Panel reads its "" as None)
+        self._input.param.watch(self._on_upload, ["value", "filename"])
         self.again.on_click(lambda *_: self.import_upload())
 
     def _max_frames(self) -> int:
@@ -48,14 +51,23 @@ class ImportPanel(pn.viewable.Viewer):
 
         return ModelConfig().max_frames
 
-    def _on_upload(self, event):
-        if event.new is None:
-            return
-        if not event.new:  # an empty file is bytes too: say so (it used to pass without a word)
-            self.state.error(f"Could not import {self._input.filename or 'the file'}: it is empty")
+    def _on_upload(self, *events):
+        """A file was picked: import it, or say why not, by the user's file name. An empty file comes as its name
+        and no content; it is refused by name, and "Import window" does not go back to an earlier upload."""
+        changed = {e.name for e in events}
+        data, filename = self._input.value, self._input.filename
+        if filename is None and data is None:
+            return  # the field was cleared
+        if not data:
+            name = display_name(filename)
+            self._upload = None  # "Import window" must not go back to an earlier file
+            self.again.disabled = True
+            self.state.error(f"Could not import {name}: it is empty (0 bytes)")
             self._input.clear()
             return
-        self._upload = (event.new, self._input.filename or "upload")
+        if "value" not in changed:
+            return  # a new name only: its content follows (or is the same bytes: nothing new to import)
+        self._upload = (data, display_name(filename) if filename else "the upload")
         self.again.disabled = False
         self.import_upload()
 

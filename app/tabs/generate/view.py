@@ -35,8 +35,10 @@ class GenerateControls(pn.viewable.Viewer):
                                    stylesheets=[WORD_CSS])
         # the session's sampling settings (every tab samples with them), linked both ways: settings the session
         # changes itself (Re-record) show in the boxes
-        self.seconds = pn.widgets.FloatInput.from_param(s.param.seconds, width=90, placeholder="auto",
-                                                        css_classes=["seconds-input"])
+        # number boxes never show "NaN": an emptied Seconds is auto (its placeholder says the length, "auto 2.3"),
+        # any other emptied box shows its default again (app.components.number_box)
+        self.seconds = FloatBox.from_param(s.param.seconds, width=90, placeholder="auto",
+                                           css_classes=["seconds-input"])
         self.seed = IntBox.from_param(s.param.seed, width=90, css_classes=["seed-input"])
         self.steps = IntBox.from_param(s.param.steps, width=90, css_classes=["steps-input"])
         self.guidance = FloatBox.from_param(s.param.guidance, width=90, css_classes=["guidance-input"])

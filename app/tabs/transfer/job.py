@@ -109,7 +109,7 @@ def _source(state, settings: SourceSettings, loaded):
 def prepare(state) -> TransferPlan:
     """Check the tab's settings against the session and the model; raises ValueError with a message."""
     from engine.generate import SampleConfig
-    from engine.methods.momo import TransferConfig
+    from engine.methods.momo import MAX_FOLLOWER_STREAMS, TransferConfig
 
     cfg: TransferSettings = state.transfer
     loaded = state.model
@@ -118,14 +118,19 @@ def prepare(state) -> TransferPlan:
     extra = more_followers(cfg.more_followers, seconds=cfg.follower.seconds, loaded=loaded)
     layers = None if cfg.layers is None else tuple(range(int(cfg.layers[0]), int(cfg.layers[1]) + 1))
     config = TransferConfig(start=float(cfg.steps[0]), end=float(cfg.steps[1]), layers=layers, root=cfg.root,
-                            feet=bool(cfg.feet))
+                            feet=bool(cfg.feet), directions=int(cfg.directions))
     window = config.window(loaded.model.config.layers)  # layers outside the model fail here, with the range
+    streams = (1 + len(extra)) * config.directions
+    if streams > MAX_FOLLOWER_STREAMS:
+        raise ValueError(f"{1 + len(extra)} followers x {config.directions} directions make {streams} follower "
+                         f"streams, at most {MAX_FOLLOWER_STREAMS}: use fewer followers or directions")
     sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
     lay = window.layers
     more = f" + {len(extra)} more" if extra else ""
     feet = ", leader's footwork" if config.feet else ""
+    directions = f", {config.directions} directions" if config.directions > 1 else ""
     description = (f"{_short(leader_label)} → {_short(follower_label)}{more} (layers {lay[0]}–{lay[-1]}, steps "
-                   f"{config.start:.0%}–{config.end:.0%}{feet})")
+                   f"{config.start:.0%}–{config.end:.0%}, root: {config.root}{directions}{feet})")
     labels = {"leader": leader_label, "follower": follower_label}
     labels.update({f"follower {k}": src.prompt for k, src in enumerate(extra, start=2)})
     return TransferPlan(leader=leader, follower=follower, extra=tuple(extra), config=config, sample=sample,

@@ -23,6 +23,9 @@ from viz.geometry import BONE_CHILDREN, BONE_PARENTS
 WIDTH = 580
 ROW_NAMES = {"follower": 2, "leader": 1, "replaced": 0}  # film strip rows, top to bottom
 POSES = 12  # poses drawn per film strip row
+MAP_TICKS = 3  # ticks per axis of the small attention maps
+QUERY_HINT = ("**Per-query maps**: pick a frame (click any plot above, or scrub the viewer) to see where that "
+              "leader frame attends: over the leader's own frames and over the follower's.")
 
 
 def pose_strokes(joints: np.ndarray, frames: np.ndarray, *, centers: np.ndarray, base: float, sx: float,
@@ -110,6 +113,10 @@ class TransferPlots(pn.viewable.Viewer):
                          y_axis_label="query frame" if name == "mixed" else None, css_classes=[f"map-{name}"])
             fig.image(image="image", x=0, y=0, dw="dw", dh="dh", source=src, color_mapper=mapper)
             fig.title.text_font_size = "11px"
+            # a third of the width: three ticks an axis, so their labels never run together ("80100120140")
+            for axis in (fig.xaxis, fig.yaxis):
+                axis.ticker.desired_num_ticks = MAP_TICKS
+                axis.major_label_text_font_size = "9px"
             self.map_rows[name] = Span(location=0, dimension="width", line_color="#ff2d2d", line_width=1.5)
             fig.add_layout(self.map_rows[name])
             self.map_srcs[name], self.maps[name] = (src, mapper), fig
@@ -129,10 +136,17 @@ class TransferPlots(pn.viewable.Viewer):
                                  line_dash="dashed", level="overlay")
         fig.add_layout(self.query_cursor)
         self.query = fig
+        # until a frame is picked the plot has nothing to show: a hint stands in for it (not an empty box)
+        self.query_hint = pn.pane.Markdown(QUERY_HINT, css_classes=["per-query-hint"], margin=(0, 10),
+                                           styles={"font-size": "12px", "color": "#555"})
+        self.query_box = pn.Column(pn.pane.Bokeh(self.query, margin=(0, 10)), visible=False, margin=0)
 
     # ------------------------------------------------------------------ state -> views
     def _on_result(self, *_):
         view = focused(self.state.transfer)
+        self._show_query(False)  # the rows of another transfer's frame are gone; a picked frame brings them back
+        for src in self.query_src.values():
+            src.data = dict(x=[], y=[])
         if view is None:
             self.sites.object = "Run a transfer to see the clusters, correspondences and maps."
             return
@@ -228,6 +242,14 @@ class TransferPlots(pn.viewable.Viewer):
         self.map_rows["mixed"].location = self.map_rows["leader"].location = query + 0.5
         self.map_rows["follower"].location = min(frame, view.frames["follower"] - 1) + 0.5
         self.query.title.text = f"Per-query maps: leader frame {query} as the query"
+        self._show_query(True)
+
+    def _show_query(self, shown: bool) -> None:
+        """The per-query plot once it has a frame's rows, the hint until then."""
+        if self.query_box.visible != shown:
+            self.query_box.visible = shown
+        if self.query_hint.visible == shown:
+            self.query_hint.visible = not shown
 
     # ------------------------------------------------------------------ views -> state
     def _on_tap(self, fig, event) -> None:
@@ -252,6 +274,6 @@ class TransferPlots(pn.viewable.Viewer):
             "#### Q vs K clusters", self.legend, pn.pane.Bokeh(self.strips, margin=(0, 10)),
             "#### Correspondences", pn.pane.Bokeh(self.film, margin=(0, 10)),
             "#### Attention maps", pn.Row(*(pn.pane.Bokeh(f, margin=(0, 2)) for f in self.maps.values())),
-            pn.pane.Bokeh(self.query, margin=(0, 10)), self.sites,
+            self.query_hint, self.query_box, self.sites,
             css_classes=["transfer-plots"], sizing_mode="stretch_width")
 

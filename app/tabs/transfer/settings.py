@@ -8,10 +8,10 @@ import param
 
 from app.generation import PromptReading, prompt_analysis
 from app.tabs.transfer.colors import paint_clusters
-from engine.methods.momo import TransferConfig
+from engine.methods.transfer_config import ROOT_CHOICES, TransferConfig, option_info
 
 SOURCE_KINDS = {"prompt": "prompt", "imported motion": "motion"}  # label -> kind
-ROOT_LABELS = {"leader's path": "trajectory", "leader's heading (paper)": "rotation", "its own": "none"}
+ROOT_LABELS = {label: mode for mode, (label, _) in ROOT_CHOICES.items()}  # label -> mode, declared with the config
 COLOR_BY = ("roles", "Q cluster", "K cluster")
 _ENGINE = TransferConfig()  # the engine's defaults (``moattn transfer`` runs the same)
 
@@ -52,16 +52,16 @@ class TransferSettings(param.Parameterized):
     follower = param.ClassSelector(class_=SourceSettings)
     layers = param.Range(default=None, allow_None=True, doc="first and last 0-based layer that mix (None = all but "
                                                              "the first)")
-    steps = param.Range(default=(_ENGINE.start, _ENGINE.end), bounds=(0.0, 1.0), step=0.05,
+    steps = param.Range(default=(_ENGINE.start, _ENGINE.end), bounds=option_info("start").bounds, step=0.05,
                         label="Steps that mix (fraction of the run)",
-                        doc="fractions of the sampling run that mix (paper: 0.1-0.9)")
-    root = param.Selector(default=_ENGINE.root, objects=ROOT_LABELS, label="Root of the out",
-                          doc="what the out takes from the leader's root")
+                        doc=f"{option_info('start').help}; {option_info('end').help}")
+    root = param.Selector(default=_ENGINE.root, objects=ROOT_LABELS, label=option_info("root").label,
+                          doc=option_info("root").help)
+    directions = param.Integer(default=_ENGINE.directions, bounds=option_info("directions").bounds,
+                               label=option_info("directions").label, doc=option_info("directions").help)
     color_by = param.Selector(default="roles", objects=list(COLOR_BY), label="Skeleton colours",
                               doc="skeleton colours in the viewer")
-    feet = param.Boolean(default=_ENGINE.feet, label="keep the leader's footwork (feet and contacts; not in the paper)",
-                         doc="the out also keeps the leader's footwork (foot contacts, feet and ankles; not in the "
-                             "paper)")
+    feet = param.Boolean(default=_ENGINE.feet, label=option_info("feet").label, doc=option_info("feet").help)
     more_followers = param.String(default="", label="More followers (optional): one prompt per line, each gets its "
                                                     "own out",
                                   doc="more follower prompts, one per line: the leader drives each of them too (one "

@@ -127,6 +127,11 @@ class TransferTab(pn.viewable.Viewer):
         self.root = pn.widgets.RadioButtonGroup.from_param(t.param.root, color="primary", variant="outline",
                                                            css_classes=["transfer-root"])
         self.feet = pn.widgets.Checkbox.from_param(t.param.feet, css_classes=["transfer-feet"])
+        self.directions = pn.widgets.IntSlider.from_param(t.param.directions, css_classes=["transfer-directions"],
+                                                          sizing_mode="stretch_width")
+        self.root_help = pn.pane.Markdown(self._root_help(), css_classes=["transfer-root-help"], margin=(0, 10),
+                                          styles={"font-size": "12px", "color": "#444"})
+        t.param.watch(lambda *_: setattr(self.root_help, "object", self._root_help()), ["root", "directions"])
         self.bar = JobBar(state=s, jobs=["transfer"], label="Run transfer", busy_label="Running…", prefix="transfer",
                           on_run=lambda: self.state.launch(TransferJob(session=self.state)), blocked=self._refused)
         self.run, self.cancel, self.progress, self.status = self.bar.run, self.bar.cancel, self.bar.progress, self.bar.status
@@ -147,6 +152,17 @@ class TransferTab(pn.viewable.Viewer):
             src.param.watch(self.bar.refresh, ["reading", "kind"])
         t.param.watch(self._on_result, "result")
         self._on_result()
+
+    def _root_help(self) -> str:
+        """What the chosen root mode and direction count do (their declared help)."""
+        from engine.methods.transfer_config import ROOT_CHOICES
+
+        t = self.state.transfer
+        text = ROOT_CHOICES[t.root][1]
+        if t.directions > 1:
+            text += (f". Each out reads {t.directions} copies of its follower (a prompt: other seeds; an imported "
+                     "motion: turned copies, each inverted)")
+        return text[0].upper() + text[1:] + "."
 
     def _n_layers(self) -> int:
         try:
@@ -185,7 +201,7 @@ class TransferTab(pn.viewable.Viewer):
     def __panel__(self):
         sources = pn.Row(self.leader, self.follower)
         settings = pn.Column(self.more, self.layers, self.steps, pn.pane.Markdown("Root of the out", margin=(0, 10)),
-                             self.root, self.feet, sizing_mode="stretch_width")
+                             self.root, self.root_help, self.directions, self.feet, sizing_mode="stretch_width")
         colours = pn.Row(pn.pane.Markdown("Skeleton colours", margin=(8, 10)), self.color)
         return pn.Column(sources, settings, self.bar, self.result, pn.Row(self.show), colours, self.analysed_row,
                          pn.layout.Divider(), self.plots, css_classes=["transfer-tab"], sizing_mode="stretch_width")
