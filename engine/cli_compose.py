@@ -55,8 +55,8 @@ def config_from_args(args: argparse.Namespace, intervals: int | None = None):
     given = {info.name: getattr(args, _dest(info)) for info in options(SecondTake)
              if getattr(args, _dest(info)) is not None}
     if args.first_take_only and (given or args.second_take_text):
-        flags = [f"--{option_info(SecondTake, n).flag}" for n in given] + (["--second-take-text"] if args.second_take_text
-                                                                           else [])
+        flags = [f"--{option_info(SecondTake, n).flag}" for n in given]
+        flags += ["--second-take-text"] if args.second_take_text else []
         raise ValueError(f"{', '.join(flags)} set the second take: leave out --first-take-only")
     for name, value in given.items():  # each against its declared bounds, named by its flag
         check_option(SecondTake, name, value, what=f"--{option_info(SecondTake, name).flag}")

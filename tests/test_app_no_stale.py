@@ -223,8 +223,8 @@ def test_the_transfer_maps_have_few_ticks_and_the_per_query_plot_is_a_hint_until
 
 # ------------------------------------------------------------------------------------------ the viewer's legends
 def test_every_colour_mode_of_the_viewer_has_a_legend():
-    from app.tabs.compose.job import INTERVAL_COLORS, TRANSITION_COLOR
-    from app.tabs.transfer.colors import cluster_palette, hex_rgb
+    from app.tabs.compose.job import COLOR_NAMES, INTERVAL_COLORS, TRANSITION_COLOR
+    from app.tabs.transfer.colors import cluster_names, cluster_palette, hex_rgb
     from app.viewer.legend import scene_legend
     from app.viewer.view import SkeletonViewer
     from viz.colors import ROLE_PALETTE, default_joint_colors
@@ -244,7 +244,7 @@ def test_every_colour_mode_of_the_viewer_has_a_legend():
     palette = cluster_palette(10)
     labels = np.array([0, 0, 3, 3, 3, 7])
     colors = hex_rgb([palette[k] for k in labels])
-    legend = scene_legend(roles=["out"], role_colors=(("out", colors),),
+    legend = scene_legend(roles=["out"], role_colors=(("out", colors),), names=cluster_names("Q", 10),
                           note="colour: Q cluster (legend in the Transfer tab)")
     assert legend["title"] == "Q cluster"
     assert [i["label"] for i in legend["items"]] == ["Q cluster 0", "Q cluster 3", "Q cluster 7"]
@@ -252,7 +252,7 @@ def test_every_colour_mode_of_the_viewer_has_a_legend():
     rgb = np.zeros((30, 22, 3), np.uint8)
     rgb[:10], rgb[10:15], rgb[15:] = (default_joint_colors(c) for c in (INTERVAL_COLORS[0], TRANSITION_COLOR,
                                                                          INTERVAL_COLORS[1]))
-    legend = scene_legend(roles=["long"], role_colors=(("long", rgb),))
+    legend = scene_legend(roles=["long"], role_colors=(("long", rgb),), names=COLOR_NAMES)
     assert [i["label"] for i in legend["items"]] == ["interval", "handshake (transition)", "interval"]
     # colours nobody named: by the frames they cover
     rgb = np.zeros((20, 3), np.uint8)

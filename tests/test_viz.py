@@ -24,7 +24,8 @@ from viz.render import (  # noqa: E402
     render_mp4,
     render_png,
 )
-from viz.scene import SkeletonScene, side_by_side_offsets  # noqa: E402
+from viz.layout import side_by_side_offsets  # noqa: E402
+from viz.scene import SkeletonScene  # noqa: E402
 
 SMALL = (200, 160)
 

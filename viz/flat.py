@@ -27,6 +27,7 @@ from PIL import Image, ImageDraw, ImageFont
 from engine.skeleton import JOINT_NAMES, PARENTS
 from viz.camera import UP, facing_azimuth, fit_points, view_direction
 from viz.colors import ROLE_PALETTE, ColorLike, color_to_rgb, default_joint_colors, mix
+from viz.layout import place_roles
 
 N_JOINTS = len(JOINT_NAMES)
 HEAD = JOINT_NAMES.index("head")
@@ -231,22 +232,7 @@ class FlatRenderer:
                  floor: bool = True, path: bool = True, tile: float = 0.5, title: str | None = None,
                  frame_label: bool = False, legend: bool | None = None) -> None:
         data = as_motion_dict(motions)
-        if offsets is None:
-            if len(data) > 1:
-                from viz.scene import side_by_side_offsets  # pyvista, only for side-by-side layouts
-
-                shifts = side_by_side_offsets(data, spacing=spacing)
-            else:
-                shifts = {r: np.zeros(3) for r in data}
-        else:
-            missing = set(data) - set(offsets)
-            if missing:
-                raise ValueError(f"offsets missing for roles {sorted(missing)}")
-            shifts = {r: np.asarray(offsets[r], dtype=np.float64).reshape(3) for r in data}
-        colors = dict(colors or {})
-        unknown = set(colors) - set(data)
-        if unknown:
-            raise ValueError(f"colours given for unknown roles {sorted(unknown)}")
+        shifts, colors = place_roles(data, offsets=offsets, colors=colors, spacing=spacing)
         self.size = (int(size[0]), int(size[1]))
         if min(self.size) < 16:
             raise ValueError(f"size {self.size} is too small to draw")

@@ -39,6 +39,7 @@ from viz.geometry import (
     tube_points,
     tube_template,
 )
+from viz.layout import place_roles
 
 N_JOINTS = len(JOINT_NAMES)
 HEAD = JOINT_NAMES.index("head")
@@ -67,30 +68,6 @@ def as_motions(motions: object) -> dict[str, np.ndarray]:
             raise ValueError("no motions given")
         return {str(role): as_motion(m, name=f"motion {role!r}") for role, m in motions.items()}
     return {DEFAULT_ROLE: as_motion(motions)}
-
-
-def side_by_side_offsets(motions: Mapping[str, np.ndarray], *, spacing: float) -> dict[str, np.ndarray]:
-    """X offsets that keep skeletons apart: at every frame, each one is at least ``spacing``
-    metres to the +X side of the previous one (a motion past its end holds its last pose).
-
-    Paths may cross (at different times); bodies never overlap. The group is centred on the
-    mean X centre of the original motions; a single motion gets no offset.
-    """
-    roles = list(motions)
-    if len(roles) == 1:
-        return {roles[0]: np.zeros(3)}
-    n = max(m.shape[0] for m in motions.values())
-    frame = np.arange(n)
-    low = {r: m[np.minimum(frame, len(m) - 1), :, 0].min(axis=1) for r, m in motions.items()}
-    high = {r: m[np.minimum(frame, len(m) - 1), :, 0].max(axis=1) for r, m in motions.items()}
-    shift = {roles[0]: 0.0}
-    for prev, cur in zip(roles, roles[1:]):
-        shift[cur] = shift[prev] + float(np.max(high[prev] - low[cur])) + spacing
-    lows = [float(low[r].min()) + shift[r] for r in roles]
-    highs = [float(high[r].max()) + shift[r] for r in roles]
-    group_centre = 0.5 * (min(lows) + max(highs))
-    centre = float(np.mean([0.5 * (m[..., 0].min() + m[..., 0].max()) for m in motions.values()]))
-    return {r: np.array([shift[r] - group_centre + centre, 0.0, 0.0]) for r in roles}
 
 
 @dataclass
@@ -164,17 +141,7 @@ class SkeletonScene:
         off_screen: bool = True,
     ) -> None:
         data = as_motions(motions)
-        if offsets is None:
-            shifts = side_by_side_offsets(data, spacing=spacing)
-        else:
-            missing = set(data) - set(offsets)
-            if missing:
-                raise ValueError(f"offsets missing for roles {sorted(missing)}")
-            shifts = {r: np.asarray(offsets[r], dtype=np.float64).reshape(3) for r in data}
-        colors = dict(colors or {})
-        unknown = set(colors) - set(data)
-        if unknown:
-            raise ValueError(f"colours given for unknown roles {sorted(unknown)}")
+        shifts, colors = place_roles(data, offsets=offsets, colors=colors, spacing=spacing)
 
         self._follow_enabled = bool(follow)
         self.elevation = float(np.clip(elevation, -85.0, 85.0))

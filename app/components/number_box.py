@@ -23,19 +23,22 @@ class _NumberBox:
     """What an emptied box (the browser's null) becomes, and None (not NaN) towards the browser."""
 
     def __init__(self, *, empty=_NONE, **params):
-        self._empty = None if empty is _NONE else empty
+        self._empty = None
         self._repaint = False
         super().__init__(**params)
-        if self._empty is not None and not self.placeholder:
-            self.placeholder = f"default {self._empty:g}"
+        self.set_empty_value(None if empty is _NONE else empty)
 
     @classmethod
     def from_param(cls, parameter, **params):
         widget = super().from_param(parameter, **params)
-        widget._empty = None if parameter.allow_None else parameter.default
-        if widget._empty is not None and not widget.placeholder:
-            widget.placeholder = f"default {widget._empty:g}"
+        widget.set_empty_value(None if parameter.allow_None else parameter.default)
         return widget
+
+    def set_empty_value(self, value) -> None:
+        """What an emptied box sets from now on (None: the parameter's "auto" or "none"); shown as the placeholder."""
+        self._empty = value
+        if value is not None and not self.placeholder:
+            self.placeholder = f"default {value:g}"
 
     @property
     def empty_value(self):

@@ -85,6 +85,8 @@ class StudioState(param.Parameterized):
     frame_colors = param.Dict(default={}, doc="motion name -> (T, 3) uint8 colour per frame (e.g. Q/K clusters)")
     color_notes = param.Dict(default={}, doc="motion name -> what its frame colours mean (the viewer's title while "
                                              "it is shown with them)")
+    color_names = param.Dict(default={}, doc="'#rrggbb' -> what that frame colour stands for, set by the tab that "
+                                             "paints it (the viewer's legend names its swatches by it)")
     preview = param.ClassSelector(class_=Preview, default=None, allow_None=True,
                                   doc="the running generation's x̂0 motion (None: no live preview)")
     frame = param.Integer(default=0, bounds=(0, None), doc="the playhead")

@@ -28,33 +28,6 @@ def _short(text: str, n: int = 30) -> str:
     return text if len(text) <= n else text[: n - 1] + "…"
 
 
-def _known_colors(note: str) -> dict[str, str]:
-    """Hex colour -> what it stands for, for the tabs' own per-frame colours (looked up, never guessed)."""
-    known: dict[str, str] = {}
-    if "cluster" in note.lower():  # Transfer's Q or K clusters: the cluster ids
-        from app.tabs.transfer.colors import cluster_palette
-
-        which = "Q" if re.search(r"\bQ\b", note) else "K" if re.search(r"\bK\b", note) else ""
-        for n in (10, 20):
-            for k, c in enumerate(cluster_palette(n)):
-                known.setdefault(c.lower(), f"{which} cluster {k}".strip())
-        return known
-    try:
-        from app.tabs.compose.job import INTERVAL_COLORS, TRANSITION_COLOR
-
-        known.update({c.lower(): "interval" for c in INTERVAL_COLORS})
-        known[TRANSITION_COLOR.lower()] = "handshake (transition)"
-    except Exception:  # a tab that is not there: its colours fall back to frame ranges
-        pass
-    try:
-        from app.tabs.duet.job import PREFIX_COLOR
-
-        known[PREFIX_COLOR.lower()] = "given prefix"
-    except Exception:
-        pass
-    return known
-
-
 def _ranges(frames: np.ndarray) -> str:
     """'frames 0–39, 80–99' for the sorted frame indices (two ranges at most, then '…')."""
     if not len(frames):
@@ -66,10 +39,12 @@ def _ranges(frames: np.ndarray) -> str:
     return "frames " + ", ".join(parts[:2]) + (", …" if len(parts) > 2 else "")
 
 
-def frame_color_swatches(role_colors, note: str = "") -> list[dict]:
+def frame_color_swatches(role_colors, names: dict[str, str] | None = None) -> list[dict]:
     """Swatches of per-frame colours: ``role_colors`` (role, (T, 3) or (T, 22, 3) uint8) -> [{label, color}]; a
-    skeleton's colour is its pelvis joint's (the base colour, limbs shaded)."""
-    known = _known_colors(note)
+    skeleton's colour is its pelvis joint's (the base colour, limbs shaded). ``names``: '#rrggbb' -> what the colour
+    stands for, as the tab that painted it says (the session's ``color_names``); other colours are named by the
+    frames they cover."""
+    known = {k.lower(): v for k, v in (names or {}).items()}
     seen: dict[str, dict] = {}
     for role, colors in role_colors:
         rgb = np.asarray(colors)
@@ -85,9 +60,11 @@ def frame_color_swatches(role_colors, note: str = "") -> list[dict]:
     return list(seen.values())  # colours named alike ("interval": they alternate) keep a swatch each
 
 
-def scene_legend(*, roles: list[str], role_colors=(), note: str = "", word: str | None = None,
-                 values: np.ndarray | None = None, word_wanted: bool = False, why_no_word: str = "") -> dict:
-    """The legend of a scene: ``roles`` shown (in order), the per-frame colours and their ``note``, the word
+def scene_legend(*, roles: list[str], role_colors=(), note: str = "", names: dict[str, str] | None = None,
+                 word: str | None = None, values: np.ndarray | None = None, word_wanted: bool = False,
+                 why_no_word: str = "") -> dict:
+    """The legend of a scene: ``roles`` shown (in order), the per-frame colours, their ``note`` and the ``names``
+    of their colours (see :func:`frame_color_swatches`), the word
     attention ``values`` of ``word`` (first role) when the viewer colours by them; ``word_wanted`` with no values:
     the legend says why not (``why_no_word``)."""
     from viz.colors import ROLE_PALETTE, values_to_rgb
@@ -100,7 +77,7 @@ def scene_legend(*, roles: list[str], role_colors=(), note: str = "", word: str 
                 "stops": [_hex(c) for c in stops], "low": "0", "high": f"{hi:.2f}", "note": LEFT_RIGHT}
     items: list[dict] = []
     if role_colors:
-        items += frame_color_swatches(list(role_colors), note)
+        items += frame_color_swatches(list(role_colors), names)
     plain = [r for r in roles if r not in coloured]
     items += [{"label": _short(r), "color": ROLE_PALETTE[roles.index(r) % len(ROLE_PALETTE)]} for r in plain]
     title = re.sub(r"\s*\(legend in the [^)]*\)", "", note).removeprefix("colour: ").strip() if role_colors else ""

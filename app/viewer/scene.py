@@ -62,7 +62,7 @@ def b64(array: np.ndarray, dtype: str) -> str:
 
 def offsets(spec: SceneSpec) -> dict[str, np.ndarray]:
     """Role -> (3,) shift: none in a shared space (a duet), else side by side along X."""
-    from viz.scene import side_by_side_offsets
+    from viz.layout import side_by_side_offsets
 
     if spec.together:
         return {r: np.zeros(3) for r in spec.roles}

@@ -107,6 +107,7 @@ class SkeletonViewer(pn.viewable.Viewer):
         elif s.color_by_word:
             why = "no recorded attention" if item.attention is None else "pick a word (Attention tab)"
         return scene_legend(roles=[r for r, _ in motions], role_colors=tuple(colors), note=notes[0] if notes else "",
+                            names=s.color_names,
                             word=word, values=values if word is not None else None, word_wanted=s.color_by_word,
                             why_no_word=why)
 

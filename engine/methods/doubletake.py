@@ -138,7 +138,7 @@ class Composed:
     joints: np.ndarray  # (total, 22, 3)
     intervals: list[Interval]
     starts: list[int]  # first frame of each interval on the timeline
-    transitions: list[tuple[int, int]]  # [start, end) frames of each handshake on the timeline
+    transitions: list[tuple[int, int]]  # [start, end) frames of each handshake on the timeline (empty: a cut)
     first_take: np.ndarray  # (total, 263) de-normalised features before the second take
     seconds: float  # wall time
 
@@ -173,7 +173,8 @@ def compose(loaded: LoadedModel, intervals: Sequence[Interval], config: DoubleTa
     limit = loaded.model.config.max_frames
     for i, n in enumerate(lengths):
         if n > limit:
-            raise ValueError(f"interval {i + 1} lasts {n} frames: this model handles at most {limit} ({limit / FPS:.1f} s)")
+            raise ValueError(f"interval {i + 1} lasts {n} frames: this model handles at most {limit} "
+                             f"({limit / FPS:.1f} s)")
     request = Request(prompts=[iv.prompt for iv in intervals], frames=lengths)
     states, *_ = sample_states(loaded, request, sample, hooks=[Handshake(lengths, hs)])
     last = None
@@ -268,7 +269,8 @@ def unfold_weights(windows: Sequence[Sandwich], ramp: int, total: int) -> torch.
     return out / torch.clamp(out.sum(0, keepdim=True), min=1.0)
 
 
-def unfold_sandwiches(first: torch.Tensor, windows: Sequence[Sandwich], refined: torch.Tensor, ramp: int) -> torch.Tensor:
+def unfold_sandwiches(first: torch.Tensor, windows: Sequence[Sandwich], refined: torch.Tensor,
+                      ramp: int) -> torch.Tensor:
     """The refined sandwiches back on the timeline: per frame (1 - Σw)·first take + Σ w_k·sandwich k, with the
     weights of :func:`unfold_weights` (the sum never exceeds 1)."""
     weights = unfold_weights(windows, ramp, first.shape[0])

@@ -24,9 +24,10 @@ ROOT_CHOICES: dict[str, tuple[str, str]] = {
 }
 ROOT_MODES = tuple(ROOT_CHOICES)
 # Chosen by `moattn bench --transfer` (its "the bench picks root=..." line: the lower root speed error over every
-# pair). Quick bench, shipped model: trajectory 0.17 vs rotation 1.1 of the truth's speed. "rotation" wins the
-# walk <-> run speed pairs (output / truth speed 0.99 and 0.92 vs 0.68 and 1.47) but, taking the follower's way of
-# travelling, misses the path on the other pairs (gt_mpjpe 1.9 m vs 0.12 m); the pose error is the same.
+# pair). `bench --transfer --quick`, shipped model: trajectory 0.17 vs rotation 1.11 of the truth's speed over all
+# 22 pairs. "rotation" wins the 6 walk <-> run pairs (output / truth speed 0.99 and 0.92 vs 0.68 and 1.47) but,
+# travelling as its follower does, misses the path on the 16 others (gt_mpjpe 1.89 m vs 0.12 m, speed error 1.75
+# vs 0.11); the pose error is the same (gt_mpjpe_local 0.096 vs 0.095 m).
 ROOT_DEFAULT = "trajectory"
 MAX_DIRECTIONS = 8
 

@@ -284,3 +284,4 @@ def test_the_transfer_maps_are_readable_and_the_per_query_plot_waits_with_a_hint
     expect(hint).to_be_hidden()
     page.wait_for_function(f"({PLOT_STATE_JS})('per-query').points > 0", timeout=30000)
     page.locator(".map-mixed").screenshot(path=str(screens / "no_stale_transfer_map_ticks.png"))
+    query.screenshot(path=str(screens / "no_stale_transfer_per_query.png"))

@@ -23,6 +23,7 @@ from engine.units import FPS
 
 INTERVAL_COLORS = ("#3a6fd8", "#2f9e5a")  # intervals alternate between these
 TRANSITION_COLOR = "#e8552e"  # handshake frames (where DoubleTake joins two intervals)
+COLOR_NAMES = {**{c: "interval" for c in INTERVAL_COLORS}, TRANSITION_COLOR: "handshake (transition)"}  # legend
 
 
 @dataclass
@@ -144,6 +145,7 @@ def finish(state, settings: ComposeSettings, job: ComposePlan, result) -> None:
     summary.name = item.name
     state.end_job(f"{job.description}: {n} frames ({n / FPS:.1f} s of motion) in {result.seconds:.1f} s")
     state.add_item(item, show=False)
+    state.color_names = {**state.color_names, **COLOR_NAMES}
     state.frame_colors = {**{k: v for k, v in state.frame_colors.items() if k in state.items},
                           item.name: frame_colors(summary)}
     state.show(item.name)

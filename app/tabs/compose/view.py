@@ -1,6 +1,7 @@
 """The Compose tab (DoubleTake): a timeline of intervals (prompt + seconds, add / remove / move) with a handshake
-length between each two (one widget per transition), the second take, Generate with progress and cancel; the long motion in the viewer, coloured per interval with the
-transitions highlighted, and a timeline strip of the result (click it to move the viewer there).
+length between each two (one widget per transition), the second take, Generate with progress and cancel; the long
+motion in the viewer, coloured per interval with the transitions highlighted, and a timeline strip of the result
+(click it to move the viewer there).
 
 The settings live on the session (``state.compose``, a ``ComposeSettings``); the widgets are made from them.
 """

@@ -194,6 +194,8 @@ def finish(state, settings: DuetSettings, job: DuetPlan, duet, seconds_taken: fl
             rgb = np.broadcast_to(default_joint_colors(ROLE_PALETTE[k]), (duet.frames, 22, 3)).copy()
             rgb[:given] = default_joint_colors(PREFIX_COLOR)
             colors[it.name] = rgb
+    if colors:
+        state.color_names = {**state.color_names, PREFIX_COLOR.lower(): "given prefix"}
     state.frame_colors = {**{k: v for k, v in state.frame_colors.items() if k in state.items}, **colors}
     state.show(first)
     state.also = [second]

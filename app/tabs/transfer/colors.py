@@ -12,6 +12,11 @@ def cluster_palette(n: int) -> list[str]:
     return list(Category10_10 if n <= 10 else Category20_20)
 
 
+def cluster_names(which: str, n: int) -> dict[str, str]:
+    """'#rrggbb' -> "Q cluster k" (``which``: "Q" or "K") for the palette of ``n`` clusters: the viewer's legend."""
+    return {c.lower(): f"{which} cluster {k}" for k, c in enumerate(cluster_palette(n))}
+
+
 def cluster_colors(labels: np.ndarray, n_clusters: int) -> list[str]:
     palette = cluster_palette(n_clusters)
     return [palette[int(k) % len(palette)] for k in labels]
@@ -38,7 +43,9 @@ def paint_clusters(state, cfg) -> None:
         colors = {view.names[r]: hex_rgb(cluster_colors(labels[r], n)) for r in ROLES if r in view.names}
     if colors or state.frame_colors:
         note = f"colour: {cfg.color_by} (legend in the Transfer tab)"
-        state.param.update(frame_colors=colors, color_notes={name: note for name in colors})
+        names = cluster_names("Q" if cfg.color_by == "Q cluster" else "K", n_clusters(view)) if colors else {}
+        state.param.update(frame_colors=colors, color_notes={name: note for name in colors},
+                           color_names={**state.color_names, **names})
 
 
 def focused(settings):
