@@ -360,8 +360,9 @@ def test_counting_readout_shows_count_baseline_and_peaks(studio):
     s.show_motion(joints, title="imported: hops")
     assert s.count_result is None and "no recorded attention" in tab.readout.object
     assert ex.peak_src.data["x"] == []
+    assert tab.count_button.visible  # the counting section's button, while another kind is picked
     tab.kind.value = "count"
-    assert tab.run.label == "Count this motion"
+    assert tab.run.label == "Count this motion" and not tab.count_button.visible  # never two such buttons
     assert run_edit(s) and s.wait(120)
     readout = s.count_result
     assert readout.item == "imported: hops" and readout.baseline == 4 and "inverted" in readout.source

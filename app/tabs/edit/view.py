@@ -362,6 +362,7 @@ class EditTab(pn.viewable.Viewer):
         self.source.label = "Example" if kind == "example" else "Content"
         self.style_source.visible = self.style_prompt.visible = "style" in reads
         self.run.label = "Count this motion" if not is_edit else f"Run {e.kind}"
+        self.count_button.visible = is_edit  # one "Count this motion" button at a time: the Run button in count mode
         self.help.object = KIND_HELP[kind] + ("" if not entry.source else
                                               " Sources: the prompt, or a session motion (a generated one is "
                                               "re-generated from its prompt, an imported one is DDIM-inverted).")
