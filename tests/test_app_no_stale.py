@@ -270,3 +270,4 @@ def test_every_colour_mode_of_the_viewer_has_a_legend():
     assert viewer.player.scene["legend"]["title"] == 'attention on "jumps"'
     state.show_motion(_motion(20), title="imported: x.npy")
     assert viewer.player.scene["legend"]["title"] == "no word colours: no recorded attention"
+

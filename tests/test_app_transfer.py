@@ -276,3 +276,21 @@ def test_cancel_stops_the_transfer_and_keeps_the_session(studio):
     assert s.notices[-1] == ("info", "transfer cancelled")
     assert len(s.items) == n_items and s.transfer.result is last  # nothing half-made was added
     assert not tab.run.disabled and tab.cancel.disabled
+
+
+def test_the_leaders_own_upload_refuses_an_empty_file_by_name_and_imports_a_motion(studio):
+    import base64
+    import io
+
+    from engine.synth import Corpus
+
+    s, picker = studio.state, studio.transfer.leader
+    picker.upload._process_events({"filename": "empty.npy", "value": "", "mime_type": ""})  # Panel reads None
+    assert s.notices[-1] == ("error", "Could not import empty.npy: it is empty (0 bytes)")
+    buf = io.BytesIO()
+    np.save(buf, Corpus("test").sample(5).joints[:40].astype(np.float32))
+    errors = sum(kind == "error" for kind, _ in s.notices)
+    picker.upload._process_events({"filename": "walk.npy", "value": base64.b64encode(buf.getvalue()).decode(),
+                                   "mime_type": ""})
+    assert sum(kind == "error" for kind, _ in s.notices) == errors and s.transfer.leader.kind == "motion"
+    assert s.transfer.leader.motion == "imported: walk.npy" and "imported: walk.npy" in s.items

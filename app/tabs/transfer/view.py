@@ -46,7 +46,7 @@ class SourcePicker(pn.viewable.Viewer):
         self.info = pn.pane.Markdown("", css_classes=["source-info"], margin=(0, 10),
                                      styles={"font-size": "12px", "color": "#444"})
         self.motion.param.watch(lambda e: setattr(src, "motion", "" if e.new == NO_MOTION else e.new), "value")
-        self.upload.param.watch(self._on_upload, "value")
+        self.upload.param.watch(self._on_upload, ["value", "filename"])
         src.param.watch(self._on_kind, ["kind", "motion"])
         src.param.watch(self._on_words, ["reading", "kind"])
         self.state.param.watch(self._on_items, "items")
@@ -55,14 +55,22 @@ class SourcePicker(pn.viewable.Viewer):
         self._on_kind()
         self._on_words()
 
-    def _on_upload(self, event) -> None:
-        from app.uploads import import_bytes
+    def _on_upload(self, *events) -> None:
+        """A picked file becomes this role's imported motion, or a one-line message about it by the user's file
+        name; an empty file (the browser sends its name and no content) is refused by name, never ignored."""
+        from app.uploads import display_name, import_bytes
 
-        if not event.new:
+        data, filename = self.upload.value, self.upload.filename
+        if not filename and data is None:
+            return  # the field was cleared
+        name = display_name(filename)
+        if not data:
+            self.state.error(f"Could not import {name}: it is empty (0 bytes)")
             return
-        name = self.upload.filename or "upload"
+        if "value" not in {e.name for e in events}:
+            return  # a new name only: its content follows
         try:
-            item = self.state.show_motion(import_bytes(event.new, name), title=f"imported: {name}")
+            item = self.state.show_motion(import_bytes(data, name), title=f"imported: {name}")
         except Exception as exc:  # the user's file, not a crash
             self.state.error(f"Could not import {name}: {exc}")
             return
