@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from engine.paths import PROJECT_ROOT, REAL_DATA_DIR
+from engine.skeleton import JOINT_NAMES
 
 # The motion library (engine.library) keeps every motion the CLI and the studio make in the workspace, by default the
 # user's data folder: the test run never writes there. Set before any test (and any subprocess it starts) runs;
@@ -151,3 +152,24 @@ def run_coroutine():
         return out["value"]
 
     return run
+
+
+# a standing figure (22 joints, metres) and one that walks: shared by the drawing tests (test_viz, test_viz_flat)
+_STAND = np.array([
+    [0.00, 0.95, 0.00], [0.09, 0.88, 0.00], [-0.09, 0.88, 0.00], [0.00, 1.07, -0.01], [0.10, 0.50, 0.01],
+    [-0.10, 0.50, 0.01], [0.00, 1.20, 0.00], [0.10, 0.08, -0.02], [-0.10, 0.08, -0.02], [0.00, 1.26, 0.01],
+    [0.11, 0.02, 0.12], [-0.11, 0.02, 0.12], [0.00, 1.48, 0.02], [0.07, 1.40, 0.01], [-0.07, 1.40, 0.01],
+    [0.00, 1.60, 0.05], [0.18, 1.42, 0.00], [-0.18, 1.42, 0.00], [0.22, 1.16, 0.00], [-0.22, 1.16, 0.00],
+    [0.24, 0.90, 0.03], [-0.24, 0.90, 0.03],
+])
+
+
+def walker(n_frames: int = 12, *, speed: float = 0.05) -> np.ndarray:
+    """A figure walking forward (+Z) and swinging its arms, (T, 22, 3): every frame differs from the last."""
+    t = np.arange(n_frames)
+    motion = np.repeat(_STAND[None], n_frames, axis=0)
+    motion[:, :, 2] += speed * t[:, None]
+    swing = 0.15 * np.sin(t / 2.0)
+    for joint, sign in (("left_wrist", 1), ("left_elbow", 0.5), ("right_wrist", -1), ("right_elbow", -0.5)):
+        motion[:, JOINT_NAMES.index(joint), 2] += sign * swing
+    return motion

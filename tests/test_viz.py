@@ -14,6 +14,7 @@ import pytest
 pv = pytest.importorskip("pyvista")
 
 from engine.skeleton import JOINT_NAMES, PARENTS  # noqa: E402
+from tests.conftest import walker  # noqa: E402
 from viz.camera import facing_azimuth  # noqa: E402
 from viz.geometry import BONE_CHILDREN, BONE_PARENTS  # noqa: E402
 from viz.render import (  # noqa: E402
@@ -30,27 +31,6 @@ from viz.scene import SkeletonScene  # noqa: E402
 SMALL = (200, 160)
 
 # A standing pose facing +Z (left = +X), metres, feet on the floor.
-_STAND = np.array(
-    [
-        [0.00, 0.95, 0.00], [0.09, 0.88, 0.00], [-0.09, 0.88, 0.00], [0.00, 1.07, -0.01],
-        [0.10, 0.50, 0.01], [-0.10, 0.50, 0.01], [0.00, 1.20, 0.00], [0.10, 0.08, -0.02],
-        [-0.10, 0.08, -0.02], [0.00, 1.26, 0.01], [0.11, 0.02, 0.12], [-0.11, 0.02, 0.12],
-        [0.00, 1.48, 0.02], [0.07, 1.40, 0.01], [-0.07, 1.40, 0.01], [0.00, 1.60, 0.05],
-        [0.18, 1.42, 0.00], [-0.18, 1.42, 0.00], [0.22, 1.16, 0.00], [-0.22, 1.16, 0.00],
-        [0.24, 0.90, 0.03], [-0.24, 0.90, 0.03],
-    ]
-)
-
-
-def walker(n_frames: int = 12, *, speed: float = 0.06) -> np.ndarray:
-    """A synthetic figure moving forward (+Z) and swinging its arms: (T, 22, 3)."""
-    t = np.arange(n_frames)
-    motion = np.repeat(_STAND[None], n_frames, axis=0)
-    motion[:, :, 2] += speed * t[:, None]
-    swing = 0.15 * np.sin(t / 2.0)
-    for joint, sign in (("left_wrist", 1), ("left_elbow", 0.5), ("right_wrist", -1), ("right_elbow", -0.5)):
-        motion[:, JOINT_NAMES.index(joint), 2] += sign * swing
-    return motion
 
 
 def skeleton_mask(with_skeleton: np.ndarray, without: np.ndarray, *, threshold: int = 40) -> np.ndarray:

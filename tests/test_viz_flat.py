@@ -13,30 +13,13 @@ from PIL import Image
 from app.session.items import MotionItem
 from app.tabs.files.exports import VIDEO_SIZE, export_bytes
 from engine.skeleton import JOINT_NAMES
+from tests.conftest import walker
 from viz.flat import FLOOR_SHADED, TEXT_COLOR, FlatRenderer, fit_title, font, wrap_text, write_gif, write_mp4
 
 LONG_TITLE = ("a person walks forward slowly, stops to look around, then turns left and runs in a wide circle "
               "before jumping twice and waving with both hands · seed 12345")
 
 # a standing pose facing +Z (left = +X), metres, feet on the floor
-_STAND = np.array([
-    [0.00, 0.95, 0.00], [0.09, 0.88, 0.00], [-0.09, 0.88, 0.00], [0.00, 1.07, -0.01], [0.10, 0.50, 0.01],
-    [-0.10, 0.50, 0.01], [0.00, 1.20, 0.00], [0.10, 0.08, -0.02], [-0.10, 0.08, -0.02], [0.00, 1.26, 0.01],
-    [0.11, 0.02, 0.12], [-0.11, 0.02, 0.12], [0.00, 1.48, 0.02], [0.07, 1.40, 0.01], [-0.07, 1.40, 0.01],
-    [0.00, 1.60, 0.05], [0.18, 1.42, 0.00], [-0.18, 1.42, 0.00], [0.22, 1.16, 0.00], [-0.22, 1.16, 0.00],
-    [0.24, 0.90, 0.03], [-0.24, 0.90, 0.03],
-])
-
-
-def walker(n_frames: int, *, speed: float = 0.05) -> np.ndarray:
-    """A figure walking forward (+Z) and swinging its arms: every frame differs from the last."""
-    t = np.arange(n_frames)
-    motion = np.repeat(_STAND[None], n_frames, axis=0)
-    motion[:, :, 2] += speed * t[:, None]
-    swing = 0.15 * np.sin(t / 2.0)
-    for joint, sign in (("left_wrist", 1), ("left_elbow", 0.5), ("right_wrist", -1), ("right_elbow", -0.5)):
-        motion[:, JOINT_NAMES.index(joint), 2] += sign * swing
-    return motion
 
 
 def dark(image: np.ndarray) -> np.ndarray:

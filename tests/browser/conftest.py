@@ -43,3 +43,14 @@ def browser(playwright_instance):
     b = br.launch(playwright_instance)
     yield b
     b.close()
+
+
+@pytest.fixture(scope="module")
+def quick_page(browser, server_url):
+    """One studio page per test module, sampling with 10 steps (quick on the tiny model)."""
+    page = br.open_studio(browser, server_url)
+    steps = page.locator(".steps-input input")
+    steps.fill("10")
+    steps.press("Enter")
+    yield page
+    page.close()

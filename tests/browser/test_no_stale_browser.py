@@ -57,13 +57,8 @@ def _stats(page) -> dict:
 
 
 @pytest.fixture(scope="module")
-def page(browser, server_url):
-    page = br.open_studio(browser, server_url)
-    steps = page.locator(".steps-input input")
-    steps.fill("10")
-    steps.press("Enter")
-    yield page
-    page.close()
+def page(quick_page):
+    return quick_page
 
 
 @pytest.fixture(scope="module")
