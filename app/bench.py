@@ -10,7 +10,7 @@ port, drives Debian's Chromium with Playwright and measures
 - layer switch: from choosing another layer / head / step until the heatmap canvas is redrawn
   (median and max over several switches; target <= 200 ms).
 
-The command line lives in ``engine/cli_bench.py``; this module measures and prints.
+The command line lives in ``engine/cli/bench.py``; this module measures and prints.
 """
 from __future__ import annotations
 

@@ -23,7 +23,7 @@ server); cross-talk (a session listing a motion of another prompt); failures (a 
 timed out); page errors in the browser. ``ok``: no server error, no cross-talk, no failure, no page error, and
 every session finished a cycle.
 
-The command line lives in ``engine/cli_bench.py``; this module drives the browsers and prints.
+The command line lives in ``engine/cli/bench.py``; this module drives the browsers and prints.
 """
 from __future__ import annotations
 

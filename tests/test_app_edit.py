@@ -456,7 +456,7 @@ def test_layers_that_do_not_exist_are_refused(tiny_model_dir, tmp_path, capsys):
 
 
 def test_cli_and_tab_share_the_option_mapping():
-    from engine.cli_edit import add_parser, options_from_args
+    from engine.cli.edit import add_parser, options_from_args
 
     parser = argparse.ArgumentParser()
     add_parser(parser.add_subparsers())

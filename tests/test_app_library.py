@@ -209,7 +209,7 @@ def test_without_a_library_the_session_keeps_everything_in_memory(tiny_model_dir
 def test_serve_takes_the_library_flags(flag, tmp_path):
     from engine.cli import _Parser
 
-    import app.cli_serve as serve
+    import engine.cli.serve as serve
 
     parser = _Parser(prog="moattn")
     serve.add_parser(parser.add_subparsers(dest="command"))

@@ -84,8 +84,8 @@ def test_every_tab_is_a_package_with_a_view():
 
 
 # the one exception: Panel's design classes carry their resources in a class attribute that a design subclass
-# overrides (the offline theme drops the web-font link); argparse has no public name for its subparsers type
-ALLOWED = {"app.theme": {"_PanelFast._resources"}, "app.cli_serve": {"argparse._SubParsersAction"}}
+# overrides (the offline theme drops the web-font link)
+ALLOWED = {"app.theme": {"_PanelFast._resources"}}
 
 
 def test_no_module_reaches_into_private_names():

@@ -97,7 +97,7 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
 
 
 def test_bench_presets_take_the_steps_flag():
-    from engine.cli_bench import preset
+    from engine.cli.bench import preset
     from engine.evaluation.bench_transfer import TransferBenchConfig
 
     def args(**kw):

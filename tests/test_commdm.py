@@ -355,7 +355,7 @@ def test_moattn_duet_writes_both_people(tmp_path, tiny_model_dir, tiny_duet_dir)
     more = np.load(tmp_path / "more.npy")
     assert more.shape == (2, 30, 22, 3)
     np.testing.assert_allclose(more[:, :10], joints[:, :10], atol=2e-3)  # the given half second, both people
-    from engine.cli_duet import write_duet
+    from engine.cli.duet import write_duet
     from engine.io import load_motion
 
     a_path, b_path = write_duet(joints, tmp_path / "pair.bvh")

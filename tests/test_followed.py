@@ -152,7 +152,7 @@ def test_moattn_generate_prints_what_was_followed(tiny_model_dir, tmp_path, caps
 
 
 def test_printable_spells_the_marks_out_where_the_terminal_cannot():
-    from engine.cli_generate import printable
+    from engine.cli.generate import printable
 
     class Latin1:
         encoding = "latin-1"

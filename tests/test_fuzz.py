@@ -9,7 +9,7 @@ reader                     entry points                                        t
 BVH                        engine.io.read_bvh, load_motion (.bvh)              MotionIOError (BVHError)
 .npy                       engine.io.load_npy, load_duet_npy, load_motion      MotionIOError
 model folder               engine.checkpoint.load_model                        ModelFolderError (ValueError)
-control path JSON          engine.cli_control.read_path + engine.methods.paths  ValueError (read_path's own:
+control path JSON          engine.cli.control.read_path + engine.methods.paths  ValueError (read_path's own:
                                                                                MotionIOError)
 =========================  ==================================================  ==============================
 
@@ -468,7 +468,7 @@ def test_model_folder_pickle_never_runs(tiny_folder, capsys):
 
 # ============================================================================================ control path JSON
 def _read_path_bytes(data: bytes, dims: int) -> None:
-    from engine.cli_control import read_path
+    from engine.cli.control import read_path
     from engine.methods.paths import RootPath, WristPath, root_controls
 
     def run():

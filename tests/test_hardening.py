@@ -485,7 +485,7 @@ def test_generate_with_the_tiny_model_writes_every_output(tiny, tmp_path):
     ("[[0, 0], [1, " + "1" * 5000 + "]]", "not a JSON path"),
 ])
 def test_control_path_json_is_checked(tmp_path, text, expected):
-    from engine.cli_control import read_path
+    from engine.cli.control import read_path
 
     path = tmp_path / "p.json"
     path.write_text(text)
@@ -495,7 +495,7 @@ def test_control_path_json_is_checked(tmp_path, text, expected):
 
 
 def test_control_path_json_reads_points_and_times(tmp_path):
-    from engine.cli_control import read_path
+    from engine.cli.control import read_path
 
     path = tmp_path / "p.json"
     path.write_text('{"points": [[0, 0], [1, 2.5]], "times": [0, 1]}')

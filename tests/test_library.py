@@ -383,7 +383,7 @@ def test_the_test_suite_never_uses_the_users_data_folder(workspace):
 def test_the_library_is_torch_free():
     import subprocess
 
-    code = ("import sys, engine.library, engine.library.cli_support, engine.cli_library; "
+    code = ("import sys, engine.library, engine.library.cli_support, engine.cli.library; "
             "print('torch' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                          cwd=Path(__file__).resolve().parents[1])

@@ -104,7 +104,7 @@ def test_grounding_to_two_spans_raises_inside_both_and_lowers_between():
 
 # ---------------------------------------------------------------------------------------------- the CLI
 def _parse(*argv):
-    from engine.cli_edit import add_parser, options_from_args
+    from engine.cli.edit import add_parser, options_from_args
 
     parser = argparse.ArgumentParser()
     add_parser(parser.add_subparsers())

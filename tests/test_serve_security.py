@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from app.browser import free_port
-from app.cli_serve import is_loopback
+from engine.cli.serve import is_loopback
 from app.main import MAX_MESSAGE_BYTES
 from app.session.items import MAX_UPLOAD_BYTES
 

@@ -155,7 +155,7 @@ def test_torchrun_two_processes_and_resume_under_another_world_size(tmp_path):
 
 
 def test_continue_from_a_shipped_model_folder(tmp_path):
-    from engine.cli_export import export_model
+    from engine.cli.export import export_model
 
     train(config(tmp_path, steps=20), source=ToySource(), progress=False)
     shipped = export_model(tmp_path / "run", tmp_path / "shipped", command="test", reports=[])
@@ -171,7 +171,7 @@ def test_continue_from_a_shipped_model_folder(tmp_path):
 
 
 def test_a_continued_run_says_which_flags_it_does_not_apply(tmp_path, capsys):
-    from engine.cli_export import export_model
+    from engine.cli.export import export_model
     from engine.train import kept_from_checkpoint
 
     assert kept_from_checkpoint({"lr": 1e-4, "steps": 30, "seed": 0}, {"lr": 2e-4, "steps": 20, "seed": 0}) == {

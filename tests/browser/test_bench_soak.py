@@ -56,7 +56,7 @@ def test_one_short_soak_cycle(tiny_model_dir, tmp_path):
 
 
 def test_soak_flags_go_with_soak_only():
-    from engine.cli_bench import add_parser, run
+    from engine.cli.bench import add_parser, run
 
     parser = argparse.ArgumentParser()
     add_parser(parser.add_subparsers())

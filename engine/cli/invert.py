@@ -6,7 +6,7 @@ import json
 from pathlib import Path
 
 from engine.cli import check_outputs
-from engine.cli_io import add_window_args, load_window
+from engine.cli.convert import add_window_args, load_window
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 

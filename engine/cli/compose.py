@@ -1,4 +1,4 @@
-"""`moattn compose` (DoubleTake): PriorMDM's long motions (`moattn control` is engine/cli_control.py)."""
+"""`moattn compose` (DoubleTake): PriorMDM's long motions (`moattn control` is engine/cli/control.py)."""
 from __future__ import annotations
 
 import argparse

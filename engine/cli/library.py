@@ -210,7 +210,7 @@ def _pin(library, args) -> int:
 
 
 def _import(library, args) -> int:
-    from engine.cli_io import keep_import, load_window
+    from engine.cli.convert import keep_import, load_window
 
     joints = load_window(args.input, args)
     return 0 if keep_import(args, joints, args.input, title=args.title, library=library) is not None else 2

@@ -1,7 +1,9 @@
 """`moattn` command line: one parser, each subcommand's work lives in the library.
 
-Subcommands register themselves through (name, add_parser, run) entries below; their modules are
-imported lazily so `moattn --help` stays fast and a broken optional piece cannot break the rest.
+Subcommands register themselves through (name, add_parser, run) entries below, one module per command in this
+package (engine/cli/generate.py, engine/cli/edit.py, ...); their modules are imported lazily so `moattn --help`
+stays fast and a broken optional piece cannot break the rest. This package is the one place where the engine,
+viz/ and app/ meet: the engine's library code imports neither (tests/test_layers.py).
 
 Every user error is one line on stderr, ``moattn <command>: error: ...``, and exit status 2: argparse's
 own (a bad flag, a seed out of range: :func:`seed_argument`), and those raised by the work (``CLIError``,
@@ -19,24 +21,24 @@ from pathlib import Path
 
 # name -> module providing `add_parser(subparsers)` and `run(args) -> int`
 SUBCOMMANDS: dict[str, str] = {
-    "convert": "engine.cli_io",
-    "render": "engine.cli_io",
-    "corpus": "engine.cli_corpus",
-    "train": "engine.cli_train",
-    "eval": "engine.cli_eval",
-    "export-model": "engine.cli_export",
-    "evaluator": "engine.cli_eval",
-    "generate": "engine.cli_generate",
-    "edit": "engine.cli_edit",
-    "invert": "engine.cli_invert",
-    "transfer": "engine.cli_transfer",
-    "analyze-qk": "engine.cli_transfer",
-    "compose": "engine.cli_compose",
-    "control": "engine.cli_control",
-    "duet": "engine.cli_duet",
-    "serve": "app.cli_serve",
-    "bench": "engine.cli_bench",
-    "library": "engine.cli_library",
+    "convert": "engine.cli.convert",
+    "render": "engine.cli.convert",
+    "corpus": "engine.cli.corpus",
+    "train": "engine.cli.train",
+    "eval": "engine.cli.eval",
+    "export-model": "engine.cli.export",
+    "evaluator": "engine.cli.eval",
+    "generate": "engine.cli.generate",
+    "edit": "engine.cli.edit",
+    "invert": "engine.cli.invert",
+    "transfer": "engine.cli.transfer",
+    "analyze-qk": "engine.cli.transfer",
+    "compose": "engine.cli.compose",
+    "control": "engine.cli.control",
+    "duet": "engine.cli.duet",
+    "serve": "engine.cli.serve",
+    "bench": "engine.cli.bench",
+    "library": "engine.cli.library",
 }
 
 SEED_LIMIT = 2**32  # seeds are 0 <= seed < 2**32: derived seeds (seed * 7919 + step, seed * 1009 + slot, seed + 17)
@@ -139,7 +141,7 @@ def _one_line(text: object) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from engine.cli_train import legacy_argv
+    from engine.cli.train import legacy_argv
 
     parser = build_parser()
     args, extra = parser.parse_known_args(legacy_argv(list(sys.argv[1:] if argv is None else argv)))
@@ -169,6 +171,3 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"moattn {args.command}: interrupted", file=sys.stderr)
         return 130
 
-
-if __name__ == "__main__":
-    sys.exit(main())
