@@ -3,7 +3,6 @@ check, the counting readout (peaks on the counting map and on the attention heat
 config mapping shared with `moattn edit`."""
 from __future__ import annotations
 
-import argparse
 import html
 
 import numpy as np
@@ -457,8 +456,9 @@ def test_layers_that_do_not_exist_are_refused(tiny_model_dir, tmp_path, capsys):
 
 def test_cli_and_tab_share_the_option_mapping():
     from engine.cli.edit import add_parser, options_from_args
+    from engine.cli.common import Parser
 
-    parser = argparse.ArgumentParser()
+    parser = Parser(prog="moattn")  # the CLI's own: no abbreviated flags
     add_parser(parser.add_subparsers())
     args = parser.parse_args(["edit", "emphasize", "a person jumps twice", "--word", "jumps", "--weight", "0.5",
                               "--from-frame", "10", "--to-frame", "30", "--step-window", "0.2", "0.8",

@@ -207,11 +207,10 @@ def test_without_a_library_the_session_keeps_everything_in_memory(tiny_model_dir
 
 @pytest.mark.parametrize("flag", ["--no-library"])
 def test_serve_takes_the_library_flags(flag, tmp_path):
-    from engine.cli import _Parser
-
     import engine.cli.serve as serve
+    from engine.cli.common import Parser
 
-    parser = _Parser(prog="moattn")
+    parser = Parser(prog="moattn")
     serve.add_parser(parser.add_subparsers(dest="command"))
     args = parser.parse_args(["serve", "--workspace", str(tmp_path), "--library-mb", "64"])
     assert args.workspace == tmp_path and args.library_mb == 64 and not args.no_library

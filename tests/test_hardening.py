@@ -17,7 +17,8 @@ import pytest
 import torch
 
 from engine.checkpoint import ModelFolderError, load_model, read_config
-from engine.cli import SEED_LIMIT, main
+from engine.cli import main
+from engine.cli.common import SEED_LIMIT
 from engine.io import BVHError, MotionIOError, format_bvh, load_motion, read_bvh
 from engine.io.errors import (
     MAX_DECLARED_FRAMES,
@@ -358,7 +359,7 @@ def test_seed_out_of_range_is_one_line(command, capsys):
 
 
 def test_seed_limit_is_accepted():
-    from engine.cli import seed_argument
+    from engine.cli.common import seed_argument
 
     assert seed_argument(str(SEED_LIMIT - 1)) == SEED_LIMIT - 1 and seed_argument("0") == 0
     torch.Generator().manual_seed((SEED_LIMIT - 1) * 7919 + 10**6)  # the largest derived seeds still fit
@@ -454,7 +455,7 @@ def test_several_outputs_are_all_checked_before_the_first_is_written(tmp_path, c
 
 
 def test_render_suffixes_match_viz():
-    from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES
+    from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES
     from engine.io import SUPPORTED_SUFFIXES
     from viz.render import SUPPORTED_EXTENSIONS
 

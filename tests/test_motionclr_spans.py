@@ -3,8 +3,6 @@ chunk size as an option, and replacement between prompts of different word count
 aligns them (on tiny seeded models)."""
 from __future__ import annotations
 
-import argparse
-
 import numpy as np
 import pytest
 import torch
@@ -105,8 +103,9 @@ def test_grounding_to_two_spans_raises_inside_both_and_lowers_between():
 # ---------------------------------------------------------------------------------------------- the CLI
 def _parse(*argv):
     from engine.cli.edit import add_parser, options_from_args
+    from engine.cli.common import Parser
 
-    parser = argparse.ArgumentParser()
+    parser = Parser(prog="moattn")  # the CLI's own: no abbreviated flags
     add_parser(parser.add_subparsers())
     return options_from_args(parser.parse_args(["edit", *argv]))
 

@@ -5,19 +5,20 @@ package (engine/cli/generate.py, engine/cli/edit.py, ...); their modules are imp
 stays fast and a broken optional piece cannot break the rest. This package is the one place where the engine,
 viz/ and app/ meet: the engine's library code imports neither (tests/test_layers.py).
 
-Every user error is one line on stderr, ``moattn <command>: error: ...``, and exit status 2: argparse's
-own (a bad flag, a seed out of range: :func:`seed_argument`), and those raised by the work (``CLIError``,
-``ValueError`` -- the readers' MotionIOError, a model folder's ModelFolderError, ... -- and ``OSError``).
-Output paths are checked before any model loads or sampling starts (:func:`check_outputs`).
+Every user error is one line on stderr, ``moattn <command>: error: ...``, and exit status 2: argparse's own (a bad
+flag, an abbreviated one, a seed out of range: :func:`engine.cli.common.seed_argument`), and those raised by the work
+(``CLIError``, ``ValueError`` -- the readers' MotionIOError, a model folder's ModelFolderError, ... -- and
+``OSError``). Output paths are checked before any model loads or sampling starts
+(:func:`engine.cli.common.check_outputs`). What the subcommands share lives in :mod:`engine.cli.common`.
 """
 from __future__ import annotations
 
 import argparse
 import importlib
-import os
 import sys
-from collections.abc import Iterable, Sequence
-from pathlib import Path
+from collections.abc import Sequence
+
+from engine.cli.common import CLIError, Parser, one_line
 
 # name -> module providing `add_parser(subparsers)` and `run(args) -> int`
 SUBCOMMANDS: dict[str, str] = {
@@ -41,81 +42,9 @@ SUBCOMMANDS: dict[str, str] = {
     "library": "engine.cli.library",
 }
 
-SEED_LIMIT = 2**32  # seeds are 0 <= seed < 2**32: derived seeds (seed * 7919 + step, seed * 1009 + slot, seed + 17)
-#                     must stay within torch.manual_seed's 64-bit range; numpy's default_rng takes them too
-MOTION_SUFFIXES: tuple[str, ...] = (".npy", ".bvh")  # engine.io.SUPPORTED_SUFFIXES
-RENDER_SUFFIXES: tuple[str, ...] = (".png", ".gif", ".mp4")  # viz.render.SUPPORTED_EXTENSIONS (not imported: slow)
-
-
-class CLIError(Exception):
-    """A user-facing error: printed as one line, exit status 2."""
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (``moattn generate: error: ...``, exit 2) that point at --help."""
-
-    def error(self, message: str):  # noqa: D401 - argparse's hook
-        self.exit(2, f"{self.prog}: error: {_one_line(message)} (see {self.prog} --help)\n")
-
-
-def seed_argument(text: str) -> int:
-    """argparse type of every ``--seed``: a whole number 0 <= seed < 2**32 (SEED_LIMIT)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"a seed is a whole number, got {text[:40]!r}") from None
-    if not 0 <= value < SEED_LIMIT:
-        raise argparse.ArgumentTypeError(
-            f"seed {text[:40]} is out of range: a seed is a whole number from 0 to {SEED_LIMIT - 1}")
-    return value
-
-
-def check_outputs(paths: Iterable[Path | str | None], suffixes: Sequence[str], *, flag: str = "--out",
-                  make_parents: bool = False) -> None:
-    """Refuse output files before any work: each path (None skipped) must end in one of ``suffixes``, must not
-    be a folder, and must go into an existing writable folder (with ``make_parents``: the folders missing
-    would be created, so the nearest existing one must be writable). Raises CLIError naming ``flag``."""
-    for path in paths:
-        if path is None:
-            continue
-        path = Path(path)
-        if path.is_dir():
-            raise CLIError(f"{flag} {path} is a folder; give a file name ending in {', '.join(suffixes)}")
-        if path.suffix.lower() not in suffixes:
-            raise CLIError(f"{flag} {path}: unsupported file type {path.suffix or '(no extension)'!r}; "
-                           f"use {', '.join(suffixes)}")
-        if path.exists() and not os.access(path, os.W_OK):
-            raise CLIError(f"{flag} {path}: the file exists and cannot be overwritten (no permission)")
-        _check_folder(path.parent, flag=flag, what=path, make=make_parents)
-
-
-def check_output_folder(path: Path | str | None, *, flag: str = "--out") -> None:
-    """Refuse an output folder before any work: it must be a folder if it exists, else creatable (the nearest
-    existing folder above it writable, no file in the way)."""
-    if path is None:
-        return
-    path = Path(path)
-    if path.exists() and not path.is_dir():
-        raise CLIError(f"{flag} {path} is a file, not a folder")
-    _check_folder(path, flag=flag, what=path, make=True)
-
-
-def _check_folder(folder: Path, *, flag: str, what: Path, make: bool) -> None:
-    folder = Path(folder) if str(folder) else Path(".")
-    probe = folder
-    if make:
-        while not probe.exists() and probe != probe.parent:
-            probe = probe.parent
-    if not probe.exists():
-        raise CLIError(f"{flag} {what}: the folder {folder} does not exist")
-    if not probe.is_dir():
-        raise CLIError(f"{flag} {what}: {probe} is a file, not a folder")
-    if not os.access(probe, os.W_OK | os.X_OK):
-        raise CLIError(f"{flag} {what}: the folder {probe} is not writable")
-
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(
+    parser = Parser(
         prog="moattn",
         description="Motion Attention Studio: train, drive and edit a motion diffusion model's attention.",
     )
@@ -136,10 +65,6 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _one_line(text: object) -> str:
-    return " ".join(line.strip() for line in str(text).splitlines() if line.strip())
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     from engine.cli.train import legacy_argv
 
@@ -156,7 +81,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             runtime_from_args(args)
         return int(args.run(args) or 0)
     except (CLIError, ValueError, OSError) as exc:
-        message = _one_line(exc) or type(exc).__name__
+        message = one_line(exc) or type(exc).__name__
         if isinstance(exc, OSError) and exc.filename is not None and exc.strerror:
             message = f"{exc.strerror}: {exc.filename}"
         print(f"moattn {args.command}: error: {message}", file=sys.stderr)

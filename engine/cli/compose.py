@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
+from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
 from engine.methods.doubletake_config import (DoubleTakeConfig, SecondTake, check_option, option_info, options,
                                               parse_handshakes)
 from engine.paths import MODEL_DIR

@@ -11,7 +11,7 @@ import json
 import sys
 from pathlib import Path
 
-from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
+from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
 from engine.methods.control_options import (CONTROLS, LABELS, ControlOptions, WRITE_COMMAND, bench_verdict,
                                             option_info)
 from engine.paths import CONTROL_DIR, MODEL_DIR

@@ -53,7 +53,7 @@ def load_window(path: Path, args: argparse.Namespace, *, max_frames: int | None 
 
 
 def run_convert(args: argparse.Namespace) -> int:
-    from engine.cli import MOTION_SUFFIXES, CLIError, check_outputs
+    from engine.cli.common import MOTION_SUFFIXES, CLIError, check_outputs
     from engine.generate import FPS
     from engine.io import save_motion
 
@@ -82,7 +82,7 @@ def keep_import(args: argparse.Namespace, joints, path: Path, *, title: str | No
 
 
 def run_render(args: argparse.Namespace) -> int:
-    from engine.cli import RENDER_SUFFIXES, check_outputs
+    from engine.cli.common import RENDER_SUFFIXES, check_outputs
     from engine.io import load_motion
 
     check_outputs([args.out], RENDER_SUFFIXES)

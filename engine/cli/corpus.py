@@ -5,7 +5,7 @@ import argparse
 import json
 import sys
 
-from engine.cli import seed_argument
+from engine.cli.common import seed_argument
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -39,7 +39,7 @@ def _bar(total: int, desc: str):
 
 
 def run(args: argparse.Namespace) -> int:
-    from engine.cli import check_output_folder
+    from engine.cli.common import check_output_folder
 
     check_output_folder(args.out)  # checked before any work
     did = False

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.cli import RENDER_SUFFIXES, check_outputs, seed_argument
+from engine.cli.common import RENDER_SUFFIXES, check_outputs, seed_argument
 from engine.paths import DUET_DIR, MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 

@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
+from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
 from engine.analysis.counting import COUNTING_METHODS, CountingConfig
 from engine.methods.edit_kinds import KINDS, REGISTRY, kinds_reading
 from engine.methods.edit_options import option_spec

@@ -12,7 +12,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from engine.cli import check_output_folder, seed_argument
+from engine.cli.common import check_output_folder, seed_argument
 from engine.paths import EVALUATOR_DIR, MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 

@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, CLIError, check_outputs, seed_argument
+from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, CLIError, check_outputs, seed_argument
 from engine.duration import AUTO, resolve_seconds, seconds_argument
 from engine.library.cli_support import add_library_arguments, keep, model_info
 from engine.paths import MODEL_DIR

@@ -5,7 +5,7 @@ import argparse
 import json
 from pathlib import Path
 
-from engine.cli import check_outputs
+from engine.cli.common import check_outputs
 from engine.cli.convert import add_window_args, load_window
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args

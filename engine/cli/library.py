@@ -151,7 +151,7 @@ def _show(library, args) -> int:
 
 
 def _export(library, args) -> int:
-    from engine.cli import CLIError, check_output_folder, check_outputs
+    from engine.cli.common import CLIError, check_output_folder, check_outputs
 
     out: Path = args.out
     entry = library.get(args.id)

@@ -5,7 +5,7 @@ import argparse
 import json
 from pathlib import Path
 
-from engine.cli import MOTION_SUFFIXES, RENDER_SUFFIXES, check_output_folder, check_outputs, seed_argument
+from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_output_folder, check_outputs, seed_argument
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 from engine.methods.transfer_config import ROOT_CHOICES, ROOT_MODES, option_info

@@ -129,7 +129,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     import argparse
     import sys
 
-    p = argparse.ArgumentParser(prog="bench_levers")
+    p = argparse.ArgumentParser(prog="bench_levers", allow_abbrev=False)
     p.add_argument("folders", nargs="+", type=Path)
     p.add_argument("--real", type=Path, default=None)
     p.add_argument("--prompts", type=Path, default=DEV_PROMPTS)

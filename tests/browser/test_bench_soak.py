@@ -2,7 +2,6 @@
 edits, plays, reloads and closes; the report says so, with finite numbers and no cross-talk."""
 from __future__ import annotations
 
-import argparse
 import json
 import math
 
@@ -57,8 +56,9 @@ def test_one_short_soak_cycle(tiny_model_dir, tmp_path):
 
 def test_soak_flags_go_with_soak_only():
     from engine.cli.bench import add_parser, run
+    from engine.cli.common import Parser
 
-    parser = argparse.ArgumentParser()
+    parser = Parser(prog="moattn")  # the CLI's own: no abbreviated flags
     add_parser(parser.add_subparsers())
     with pytest.raises(ValueError, match="go with --soak"):
         run(parser.parse_args(["bench", "--edits", "--sessions", "2"]))
