@@ -51,7 +51,7 @@ def real_vecs() -> np.ndarray:
 @pytest.fixture(scope="session")
 def tiny_model_dir(tmp_path_factory):
     """A tiny model trained once per test session on the corpus (for app tests)."""
-    from app.testing import tiny_model
+    from app.bench.testing import tiny_model
 
     return tiny_model(tmp_path_factory.getbasetemp() / "tiny-model")
 
@@ -59,7 +59,7 @@ def tiny_model_dir(tmp_path_factory):
 @pytest.fixture(scope="session")
 def tiny_duet_dir(tiny_model_dir, tmp_path_factory):
     """A ComMDM block trained a few steps on the tiny model (for app and CLI tests)."""
-    from app.testing import tiny_duet
+    from app.bench.testing import tiny_duet
 
     return tiny_duet(tmp_path_factory.getbasetemp() / "tiny-duet", tiny_model_dir)
 

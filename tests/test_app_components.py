@@ -15,7 +15,7 @@ from PIL import Image
 from app.attention_record import estimate_bytes, plan_steps
 from app.main import Studio
 from app.session.state import StudioState
-from app.testing import tiny_model
+from app.bench.testing import tiny_model
 from app.session.items import MAX_UPLOAD_BYTES
 from app.tabs.files.exports import EXPORTS, export_bytes
 from app.uploads import import_bytes

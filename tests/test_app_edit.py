@@ -11,7 +11,7 @@ import pytest
 from app.attention_record import AttentionRecord
 from app.tabs.edit.job import alignment, run_edit, word_choice
 from app.main import Studio
-from app.testing import tiny_model
+from app.bench.testing import tiny_model
 from engine.methods.edit_options import EditOptions, build_config
 from tests.conftest import cyclic_attention_map
 

@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from app.bench_exports import bench_exports, busy_processes, format_table
+from app.bench.exports import bench_exports, busy_processes, format_table
 
 
 def test_exports_are_timed_through_the_studio_path_beside_a_busy_process(tiny_model_dir):

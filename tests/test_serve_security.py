@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from app.browser import free_port
+from app.bench.browser import free_port
 from engine.cli.serve import is_loopback
 from app.main import MAX_MESSAGE_BYTES
 from app.session.items import MAX_UPLOAD_BYTES

@@ -1,8 +1,8 @@
 """`moattn bench`: benchmark commands (tables or --json), never timed tests.
 
---app        the studio in Chromium against a real server (app/bench.py)
+--app        the studio in Chromium against a real server (app/bench/studio.py)
 --soak       several browser sessions against one real server for minutes: generate, edit, play, reload, close;
-             server-log errors, memory and threads, worst time to result, cross-talk (app/bench_soak.py)
+             server-log errors, memory and threads, worst time to result, cross-talk (app/bench/soak.py)
 --edits      MotionCLR edits against corpus ground truth (engine/evaluation/bench_edits.py)
 --inversion  DDIM inversion round trip (m) and the inverted noise's std on corpus motions, the shared real
              motions (../shared/data/real/) and given files (engine/evaluation/bench_inversion.py)
@@ -161,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
     if args.soak:
         if args.control:
             raise ValueError("--soak goes alone")
-        from app.bench_soak import run_soak_bench
+        from app.bench.soak import run_soak_bench
 
         return run_soak_bench(args)
     if args.compose or args.control:
@@ -180,7 +180,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("choose a benchmark: --app, --soak, --edits, --inversion, --transfer, --compose and/or --control, "
                          "--duet, --adherence, --sampling, --train, --exports")
     if args.app:
-        from app.bench import run_app_bench
+        from app.bench.studio import run_app_bench
 
         return run_app_bench(args)
     if args.edits:
@@ -346,7 +346,7 @@ def run_inversion(args: argparse.Namespace) -> int:
 
 
 def run_exports(args: argparse.Namespace) -> int:
-    from app.bench_exports import bench_exports, format_table
+    from app.bench.exports import bench_exports, format_table
 
     result = bench_exports(_model(args), log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))

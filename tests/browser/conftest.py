@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from app import browser as br
+from app.bench import browser as br
 
 
 @pytest.fixture(scope="session", autouse=True)

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from app.bench_soak import PROMPTS, bench_soak, format_table, scan_log
+from app.bench.soak import PROMPTS, bench_soak, format_table, scan_log
 
 pytestmark = pytest.mark.timeout(300)
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from app import browser as br
+from app.bench import browser as br
 
 pytestmark = pytest.mark.timeout(300)
 

@@ -6,7 +6,7 @@ import re
 
 import pytest
 
-from app import browser as br
+from app.bench import browser as br
 
 pytestmark = pytest.mark.timeout(300)
 

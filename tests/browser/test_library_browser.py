@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from app import browser as br
+from app.bench import browser as br
 from engine.library import MotionLibrary
 
 pytestmark = pytest.mark.timeout(900)  # two servers start, three pages open: slow on 2 busy cores

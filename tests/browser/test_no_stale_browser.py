@@ -12,7 +12,7 @@ import pytest
 from PIL import Image
 from playwright.sync_api import expect
 
-from app import browser as br
+from app.bench import browser as br
 
 pytestmark = pytest.mark.timeout(400)
 

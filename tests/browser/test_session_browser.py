@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 from playwright.sync_api import expect
 
-from app import browser as br
+from app.bench import browser as br
 from app.session.items import MAX_ITEMS_WITH_ATTENTION
 
 pytestmark = pytest.mark.timeout(300)

@@ -11,7 +11,7 @@ import pytest
 from PIL import Image
 from playwright.sync_api import expect
 
-from app import browser as br
+from app.bench import browser as br
 from engine.duration import auto_seconds
 from engine.paths import MODEL_DIR
 

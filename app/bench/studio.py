@@ -30,7 +30,7 @@ def _s(x: float | None) -> float | None:
 
 def _one_run(pw, url: str, mode: str, *, prompt: str, play_seconds: float, layers: int,
              transfer: tuple[str, str]) -> dict:
-    from app import browser as br
+    from app.bench import browser as br
 
     browser = br.launch(pw, mode)
     try:
@@ -96,7 +96,7 @@ def bench_app(model_dir: Path, *, prompt: str = "a person jumps twice", play_sec
 
     from playwright.sync_api import sync_playwright
 
-    from app import browser as br
+    from app.bench import browser as br
     from engine.checkpoint import read_config
 
     if not Path(model_dir).exists():
@@ -112,7 +112,7 @@ def bench_app(model_dir: Path, *, prompt: str = "a person jumps twice", play_sec
     first = next(iter(runs.values()))
     export_times = {}
     if exports:  # the studio's own Export path (server-side pyvista), once: it does not depend on the browser
-        from app.bench_exports import bench_exports
+        from app.bench.exports import bench_exports
         from engine.checkpoint import load_model
 
         rows = bench_exports(load_model(Path(model_dir)), formats=("gif", "mp4"))["rows"]

@@ -97,7 +97,7 @@ def sample_process(pid: int) -> dict:
 
 
 def _server_pid(port: int) -> int:
-    """The pid of our child ``moattn serve --port port`` (started by ``app.browser.studio_server``)."""
+    """The pid of our child ``moattn serve --port port`` (started by ``app.bench.browser.studio_server``)."""
     for p in _children(os.getpid()):
         try:
             cmd = Path(f"/proc/{p}/cmdline").read_bytes().split(b"\0")
@@ -210,7 +210,7 @@ _NEW_DRAWN = ("window.moattnPlayer && window.moattnPlayer.motion_key !== {key} &
 
 def _ready(page, timeout_s: float):
     """After a goto or reload: the player is mounted, the helpers are installed, the opening motion is drawn."""
-    from app import browser as br
+    from app.bench import browser as br
 
     yield from _until(page, "window.moattnPlayer !== undefined", timeout_s, "the player to mount")
     page.evaluate(br.PAGE_HELPERS)
@@ -218,7 +218,7 @@ def _ready(page, timeout_s: float):
 
 
 def _open(session: Session, browser, url: str, timeout_s: float):
-    from app import browser as br
+    from app.bench import browser as br
 
     page = browser.new_page(viewport=br.VIEWPORT)
     page.set_default_timeout(timeout_s * 1000)
@@ -366,6 +366,81 @@ def page_load_burst(url: str, n: int) -> dict:
             "each_s": [round(x, 2) for x in each]}
 
 
+@dataclass
+class ServerMemory:
+    """The server's resident memory and threads: ``before`` the pages, once every session finished its first cycle
+    (``warm``), ``after`` the closed sessions had time to be discarded, and the ``peak`` over every sample."""
+    pid: int
+    before: dict
+    peak: dict
+    warm: dict | None = None
+    after: dict | None = None
+
+    @classmethod
+    def start(cls, pid: int) -> ServerMemory:
+        before = sample_process(pid)
+        return cls(pid, before, dict(before))
+
+    def sample(self) -> dict:
+        current = sample_process(self.pid)
+        self.peak = {k: max(self.peak[k], current[k]) for k in self.peak}
+        return current
+
+
+def _check_soak(model_dir: Path, sessions: int, minutes: float, br) -> None:
+    if not 1 <= sessions <= MAX_SESSIONS:
+        raise ValueError(f"--sessions must be between 1 and {MAX_SESSIONS}, got {sessions}")
+    if not minutes > 0:
+        raise ValueError(f"--minutes must be more than 0, got {minutes}")
+    if not Path(model_dir).exists():
+        raise FileNotFoundError(f"no model at {model_dir}")
+    if not br.chromium_available():
+        raise FileNotFoundError(f"{br.CHROMIUM} not found: apt-get install chromium")
+
+
+def _drive(group: list[Session], browser, url: str, memory: ServerMemory, *, deadline: float, t_start: float,
+           say, **session_options) -> None:
+    """Run the sessions round-robin until each is done, sampling the server about once a second (and once when
+    every session finished its first cycle: ``warm``)."""
+    def keep_going(s: Session) -> bool:
+        return s.cycles == 0 or time.monotonic() < deadline
+
+    running = {s.index: run_session(s, browser, url, keep_going=keep_going, **session_options) for s in group}
+    last_sample = last_say = 0.0
+    while running:
+        for s in group:
+            gen = running.get(s.index)
+            if gen is None:
+                continue
+            try:
+                next(gen)
+            except StopIteration:
+                del running[s.index]
+        now = time.monotonic()
+        first_cycles_done = memory.warm is None and all(s.cycles for s in group)
+        if now - last_sample > 1.0 or first_cycles_done:
+            last_sample = now
+            cur = memory.sample()
+            if first_cycles_done:
+                memory.warm = cur
+            if now - last_say > 30:
+                last_say = now
+                say(f"{now - t_start:5.0f} s: {cur['rss_mb']} MB, {cur['threads']} threads; cycles "
+                    + ", ".join(str(s.cycles) for s in group))
+        time.sleep(0.05)
+
+
+def _settle(memory: ServerMemory, settle_s: float, say) -> None:
+    """Wait ``settle_s`` for the server to discard the closed sessions (sampling the peak), then sample ``after``."""
+    if settle_s > 0:
+        say(f"pages closed; {settle_s:.0f} s for the server to discard the sessions")
+        end = time.monotonic() + settle_s
+        while time.monotonic() < end:
+            memory.sample()
+            time.sleep(1.0)
+    memory.after = memory.sample()
+
+
 def bench_soak(model_dir: Path, *, sessions: int = 5, minutes: float = 10.0, log_path: Path | None = None,
                steps: int = 10, close_every: int = 1, settle_s: float = 40.0, timeout_s: float = 300.0,
                log=None) -> dict:
@@ -376,80 +451,45 @@ def bench_soak(model_dir: Path, *, sessions: int = 5, minutes: float = 10.0, log
     """
     from playwright.sync_api import sync_playwright
 
-    from app import browser as br
+    from app.bench import browser as br
 
-    if not 1 <= sessions <= MAX_SESSIONS:
-        raise ValueError(f"--sessions must be between 1 and {MAX_SESSIONS}, got {sessions}")
-    if not minutes > 0:
-        raise ValueError(f"--minutes must be more than 0, got {minutes}")
-    if not Path(model_dir).exists():
-        raise FileNotFoundError(f"no model at {model_dir}")
-    if not br.chromium_available():
-        raise FileNotFoundError(f"{br.CHROMIUM} not found: apt-get install chromium")
+    _check_soak(model_dir, sessions, minutes, br)
     say = log or (lambda line: None)
     if log_path is None:
         log_path = Path(tempfile.mkdtemp(prefix="moattn-soak-")) / "serve.log"
     log_path = Path(log_path)
     group = [Session(i, *PROMPTS[i]) for i in range(sessions)]
-    prompts = [s.prompt for s in group]
 
     port = br.free_port()
     t_start = time.monotonic()
     with br.studio_server(model_dir, port=port, log_path=log_path) as url, sync_playwright() as pw:
         pid = _server_pid(port)
-        before = sample_process(pid)
-        peak = dict(before)
-        warm = None
-        say(f"server {url} (pid {pid}): {before['rss_mb']} MB, {before['threads']} threads; "
+        memory = ServerMemory.start(pid)
+        say(f"server {url} (pid {pid}): {memory.before['rss_mb']} MB, {memory.before['threads']} threads; "
             f"{sessions} sessions for {minutes:g} min")
         burst = page_load_burst(url, sessions)
         say(f"{sessions} concurrent GET /: all served in {burst['all_s']} s (slowest {burst['slowest_s']} s)")
         deadline = time.monotonic() + minutes * 60
         browser = br.launch(pw)
         try:
-            def keep_going(s: Session) -> bool:
-                return s.cycles == 0 or time.monotonic() < deadline
-
-            running = {s.index: run_session(s, browser, url, keep_going=keep_going,
-                                            steps=steps,
-                                            close_every=close_every, timeout_s=timeout_s) for s in group}
-            last_sample = last_say = 0.0
-            while running:
-                for s in group:
-                    gen = running.get(s.index)
-                    if gen is None:
-                        continue
-                    try:
-                        next(gen)
-                    except StopIteration:
-                        del running[s.index]
-                now = time.monotonic()
-                first_cycles_done = warm is None and all(s.cycles for s in group)
-                if now - last_sample > 1.0 or first_cycles_done:
-                    last_sample = now
-                    cur = sample_process(pid)
-                    peak = {k: max(peak[k], cur[k]) for k in peak}
-                    if first_cycles_done:
-                        warm = cur
-                    if now - last_say > 30:
-                        last_say = now
-                        say(f"{now - t_start:5.0f} s: {cur['rss_mb']} MB, {cur['threads']} threads; cycles "
-                            + ", ".join(str(s.cycles) for s in group))
-                time.sleep(0.05)
+            _drive(group, browser, url, memory, deadline=deadline, t_start=t_start, say=say, steps=steps,
+                   close_every=close_every, timeout_s=timeout_s)
         finally:
             for s in group:
                 _close(s)
             browser.close()
         soak_s = time.monotonic() - t_start
-        if settle_s > 0:
-            say(f"pages closed; {settle_s:.0f} s for the server to discard the sessions")
-            end = time.monotonic() + settle_s
-            while time.monotonic() < end:
-                cur = sample_process(pid)
-                peak = {k: max(peak[k], cur[k]) for k in peak}
-                time.sleep(1.0)
-        after = sample_process(pid)
-        peak = {k: max(peak[k], after[k]) for k in peak}
+        _settle(memory, settle_s, say)
+    settings = {"sessions": sessions, "minutes": minutes, "model": str(model_dir), "steps": steps}
+    return _soak_report(group, memory, burst, log_path, settings, soak_s=soak_s, settle_s=settle_s)
+
+
+def _soak_report(group: list[Session], memory: ServerMemory, burst: dict, log_path: Path, settings: dict, *,
+                 soak_s: float, settle_s: float) -> dict:
+    """The result of :func:`bench_soak`: the server log's errors and warnings, memory, each session's counts and
+    worst times, cross-talk, failures and page errors, and ``ok``."""
+    sessions = len(group)
+    before, warm, after, peak = memory.before, memory.warm, memory.after, memory.peak
     log_text = log_path.read_text(errors="replace")
     server_errors, server_warnings = scan_log(log_text), scan_log(log_text, warnings=True)
 
@@ -467,7 +507,7 @@ def bench_soak(model_dir: Path, *, sessions: int = 5, minutes: float = 10.0, log
     loads = sum(s.reloads + s.closes for s in group) + sessions  # every page opened or reloaded
     growth = None if warm is None else round((after["rss_mb"] - warm["rss_mb"]) / max(1, loads - sessions), 3)
     result = {
-        "sessions": sessions, "minutes": minutes, "model": str(model_dir), "steps": steps,
+        **settings,
         "page_loads": loads, "rss_growth_per_load_mb": growth, "burst_get_s": burst,
         "cycles": sum(s.cycles for s in group),
         "soak_s": round(soak_s, 1), "settle_s": settle_s,

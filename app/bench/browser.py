@@ -16,6 +16,8 @@ import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 
+ROOT = Path(__file__).resolve().parents[2]  # the project: where `python -m engine.cli` runs
+
 CHROMIUM = os.environ.get("MOATTN_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = [
     "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--disable-background-networking",
@@ -157,7 +159,7 @@ def studio_server(model_dir: str | os.PathLike, *, port: int | None = None, log_
     log = open(log_path, "w") if log_path else subprocess.DEVNULL
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env,
-                            cwd=Path(__file__).resolve().parents[1])
+                            cwd=ROOT)
     url = f"http://localhost:{port}/"
     try:
         end = time.monotonic() + timeout
