@@ -137,3 +137,27 @@ def test_a_bad_library_bound_is_refused_before_any_work(capsys, value):
         main(["generate", "a person walks", "--library-mb", value])
     err = capsys.readouterr().err
     assert exit_.value.code == 2 and "--library-mb" in err and err.count("\n") == 1
+
+
+def test_edit_and_compose_keep_what_they_make_with_their_recipe(capsys, tiny_model_dir, tmp_path, workspace):
+    code, out, err = run(capsys, "edit", "emphasize", "a person jumps", "--word", "jumps", "--weight", 0.5,
+                         "--model", tiny_model_dir, "--steps", 2, "--seconds", 1, "--seed", 3,
+                         "--out", tmp_path / "edited.npy")
+    assert code == 0, err
+    code, out2, err = run(capsys, "compose", "a person walks:2", "a person jumps:2", "--model", tiny_model_dir,
+                          "--steps", 2, "--out", tmp_path / "long.npy")
+    assert code == 0, err
+    lib = MotionLibrary(workspace=workspace)
+    kept = {e.kind: e for e in lib.entries()}
+    assert set(kept) == {"edit", "compose"} and lib.count() == 2
+    assert KEPT.search(out).group(1) == kept["edit"].id and KEPT.search(out2).group(1) == kept["compose"].id
+    np.testing.assert_array_equal(lib.joints(kept["edit"].id), np.load(tmp_path / "edited.npy"))
+    np.testing.assert_array_equal(lib.joints(kept["compose"].id), np.load(tmp_path / "long.npy"))
+    code, shown, _ = run(capsys, "library", "show", kept["edit"].id, "--json")
+    recipe = json.loads(shown)
+    assert (recipe["prompt"], recipe["seed"], recipe["steps"]) == ("a person jumps", 3, 2)
+    assert recipe["operation"]["edit"] == "emphasize" and recipe["operation"]["made_by"] == "moattn edit"
+    code, shown, _ = run(capsys, "library", "show", kept["compose"].id, "--json")
+    recipe = json.loads(shown)
+    assert recipe["operation"]["compose"] == ["a person walks:2", "a person jumps:2"]
+    assert "a person walks" in kept["compose"].title and "a person jumps" in kept["compose"].title

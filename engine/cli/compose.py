@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
+from engine.library.cli_support import add_library_arguments, keep, model_info
 from engine.methods.doubletake_config import (DoubleTakeConfig, SecondTake, check_option, option_info, options,
                                               parse_handshakes)
 from engine.paths import MODEL_DIR
@@ -42,6 +43,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, required=True, help="the long motion (.npy or .bvh)")
     p.add_argument("--render", type=Path, default=None, help="a render (.gif, .mp4 or .png)")
     add_runtime_arguments(p)
+    add_library_arguments(p)
     p.set_defaults(run=run)
 
 
@@ -96,6 +98,11 @@ def run(args: argparse.Namespace) -> int:
     result = compose(loaded, intervals, config, sample=SampleConfig(steps=args.steps, guidance=args.guidance,
                                                                     seed=args.seed))
     save_motion(result.joints, args.out)
+    keep(args, result.joints, kind="compose", title=" → ".join(iv.prompt for iv in intervals)[:200],
+         recipe={"prompt": " / ".join(iv.prompt for iv in intervals), "seed": args.seed, "steps": args.steps,
+                 "guidance": args.guidance, "seconds": len(result.joints) / 20, "model": model_info(args.model),
+                 "operation": {"compose": list(args.intervals), "transitions": result.transitions,
+                               "made_by": "moattn compose"}})
     report = {"out": str(args.out), "frames": int(len(result.joints)), "seconds_of_motion": len(result.joints) / 20,
               "intervals": [{"prompt": iv.prompt, "start_frame": s} for iv, s in zip(intervals, result.starts)],
               "transitions": result.transitions, "handshakes": [b - a for a, b in result.transitions],

@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
+from engine.library.cli_support import add_library_arguments, keep, model_info
 from engine.methods.control_options import (CONTROLS, LABELS, ControlOptions, WRITE_COMMAND, bench_verdict,
                                             option_info)
 from engine.paths import CONTROL_DIR, MODEL_DIR
@@ -54,6 +55,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, required=True, help="the motion (.npy or .bvh), in the path's world frame")
     p.add_argument("--render", type=Path, default=None, help="a render (.gif, .mp4 or .png)")
     add_runtime_arguments(p)
+    add_library_arguments(p)
     p.set_defaults(run=run)
 
 
@@ -228,6 +230,11 @@ def run(args: argparse.Namespace) -> int:
         joints = to_world(joints, frame)
         report["root_error"] = path_error(joints, frame["target"])
     save_motion(joints, args.out)
+    keep(args, joints, kind="control", title=f"{args.prompt} · {options.method} ({', '.join(report['controls'])})"[:200],
+         recipe={"prompt": args.prompt, "seed": args.seed, "steps": args.steps, "guidance": args.guidance,
+                 "seconds": args.seconds, "model": model_info(report["base"]),
+                 "operation": {"control": {"method": options.method, "controls": report["controls"],
+                                           "weights": report.get("weights")}, "made_by": "moattn control"}})
     if args.render is not None:
         from viz.render import render_file
 

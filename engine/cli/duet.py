@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from engine.cli.common import RENDER_SUFFIXES, check_outputs, seed_argument
+from engine.library.cli_support import add_library_arguments, keep, model_info
 from engine.paths import DUET_DIR, MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 
@@ -38,6 +39,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duet-model", type=Path, default=DUET_DIR, help="the ComMDM block trained on that prior")
     p.add_argument("--render", type=Path, default=None, help="a render of both people (.gif, .mp4 or .png)")
     add_runtime_arguments(p)
+    add_library_arguments(p)
     p.set_defaults(run=run)
 
 
@@ -116,6 +118,13 @@ def run(args: argparse.Namespace) -> int:
         duet = text_to_duet(model, args.prompt, seconds=args.seconds or TEXT_SECONDS, sample=sample, communicate=communicate,
                             contact=None if args.no_contact else ContactConfig())
     written = write_duet(duet.joints, args.out)
+    recipe = {"prompt": args.prompt, "seed": args.seed, "steps": args.steps, "guidance": guidance,
+              "seconds": duet.frames / 20, "model": model_info(args.model)}
+    first = keep(args, duet.joints[0], kind="duet", title=f"{args.prompt or 'completed duet'} · person a"[:200],
+                 recipe={**recipe, "operation": {"duet": {"person": "a"}, "made_by": "moattn duet"}})
+    keep(args, duet.joints[1], kind="duet", title=f"{args.prompt or 'completed duet'} · person b"[:200],
+         parents=[first.entry.id] if first is not None else (),
+         recipe={**recipe, "operation": {"duet": {"person": "b"}, "made_by": "moattn duet"}})
     p = duet.placement
     report = {"out": [str(w) for w in written], "frames": duet.frames, "seconds": duet.frames / 20,
               "communication": communicate,

@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_output_folder, check_outputs, seed_argument
+from engine.library.cli_support import add_library_arguments, keep, model_info
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 from engine.methods.transfer_config import ROOT_CHOICES, ROOT_MODES, option_info
@@ -56,6 +57,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, required=True,
                    help="output motion (.npy or .bvh); several followers write NAME_1.npy, NAME_2.npy, ...")
     p.add_argument("--render", type=Path, default=None, help="leader | follower | out render (.gif, .mp4 or .png)")
+    add_library_arguments(p)
     p.set_defaults(run=run_transfer)
     a = sub.add_parser("analyze-qk", help="MoMo's analysis: Q/K clusters, correspondences, attention maps",
                        description="Run a transfer with Q and K recorded and write the figures: clusters.png (PCA + "
@@ -148,6 +150,12 @@ def run_transfer(args: argparse.Namespace) -> int:
     for i, path in enumerate(out_paths(args.out, len(result.followers))):
         save_motion(result.out(i), path)
         outs.append(str(path))
+        keep(args, result.out(i), kind="transfer", title=f"{report['leader']} ← {report['followers'][i]}"[:200],
+             recipe={"prompt": None, "seed": args.seed, "steps": args.steps, "guidance": args.guidance,
+                     "model": model_info(args.model),
+                     "operation": {"transfer": {"leader": report["leader"], "follower": report["followers"][i],
+                                                "root": report["root"], "directions": report["directions"]},
+                                   "made_by": "moattn transfer"}})
     report["out"] = outs
     if args.render is not None:
         from viz.render import render_file
