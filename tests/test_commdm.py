@@ -204,13 +204,32 @@ def test_text_to_duet(duet_model):
     np.testing.assert_allclose(d.joints[0, 0, 0, [0, 2]], 0.0, atol=1e-5)
     np.testing.assert_allclose(d.joints[1, 0, 0, [0, 2]], [d.placement.x, d.placement.z], atol=1e-4)
     base = text_to_duet(duet_model, "two people shake hands", seconds=2.0, sample=SampleConfig(steps=4),
-                        communicate=False, contact=None)  # (contact guidance may move the placement)
+                        communicate=False, contact=None, spacing=False)  # (guidance and spacing may move b)
     mean = duet_model.mean_place
     assert (base.placement.x, base.placement.z) == pytest.approx((mean.x, mean.z), abs=1e-4)
+    assert base.spacing is None
     with pytest.raises(PromptError, match="zzzz"):
         text_to_duet(duet_model, "two people zzzz", seconds=2.0)
     with pytest.raises(ValueError, match="between"):
         text_to_duet(duet_model, "two people hug", seconds=30.0)
+
+
+def test_a_duet_from_a_prompt_keeps_its_people_apart(duet_model):
+    from engine.analysis.duet_pose import torso_distance
+    from engine.generate import SampleConfig
+    from engine.methods.duet import text_to_duet
+    from engine.methods.duet_spacing import TRUTH
+
+    kw = dict(seconds=2.0, sample=SampleConfig(steps=4), communicate=False, contact=None)
+    raw = text_to_duet(duet_model, "two people shake hands", spacing=False, **kw)
+    d = text_to_duet(duet_model, "two people shake hands", **kw)
+    assert d.spacing.rule.interaction == "handshake"
+    assert torso_distance(d.joints)[:20].min() >= TRUTH["handshake"][0] - 1e-4
+    np.testing.assert_array_equal(d.joints[0], raw.joints[0])  # person a never moves
+    np.testing.assert_allclose(d.joints[1] - raw.joints[1], np.broadcast_to(
+        d.spacing.offset[:, None], raw.joints[1].shape), atol=1e-5)
+    # the readout's placement is where b now stands
+    np.testing.assert_allclose(d.joints[1, 0, 0, [0, 2]], [d.placement.x, d.placement.z], atol=1e-4)
 
 
 def test_prefix_completion_keeps_the_prefix(duet_model):
@@ -334,6 +353,16 @@ def test_bench_duet_runs_on_the_tiny_model(duet_model):
     layers = duet_model.denoiser.prior.num_layers  # the tiny block: after the last layer, trained with mirroring
     assert (result["block_after_layer"], result["base_layers"], result["mirrored"]) == (layers, layers, True)
     assert f"the block after base layer {layers} of {layers}, trained with mirrored duets" in table
+    from engine.evaluation.bench_duet import METHODS
+
+    spacing = result["spacing"]
+    assert list(spacing) == ["truth", *[m for method in METHODS for m in (f"{method} raw", method)]]
+    assert spacing["truth"]["inside_start"] == 0.0 and spacing["truth"]["moved"] == 0.0
+    for method in METHODS:  # as shown, no duet starts with its people inside each other
+        assert spacing[method]["inside_start"] == 0.0 and 0.0 <= spacing[method]["moved"] <= 1.0
+        assert spacing[method]["start_min_m"] >= spacing[f"{method} raw"]["start_min_m"] - 1e-6
+    assert set(result["spacing_start_by_interaction"]["hug"]) == {"truth", "raw", "spaced"}
+    assert "spacing: torso distance" in table and "commdm raw" in table
 
 
 # ----------------------------------------------------------------------------- CLI

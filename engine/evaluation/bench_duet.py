@@ -11,6 +11,13 @@ interactions). In one run:
   orders), contact-timing error (s, onset and offset of the labelled contact, a missed contact
   counts the whole clip), contact rate, and the share of face-to-face interactions whose people
   face each other.
+- **spacing** (issue #35): the torso distance between the two people (``duet_pose.torso_distance``), its
+  smallest in the first second and anywhere in the clip, and how often the torsos interpenetrate
+  (``duet_pose.interpenetrate``: they overlap seen from above), for the truth, each method as sampled
+  (``raw``) and as shown once ``duet_spacing`` has moved person b apart (what ``text_to_duet`` returns);
+  plus how often b was moved, and the start distance by interaction (truth / commdm raw / commdm).
+
+Text-to-duet's other figures are measured on the duets as shown (spaced).
 
 The baseline (``prior_twice``) is the same prior and word rows with no block; its placement is
 the training set's mean. ``commdm`` samples text-to-duet with contact guidance (``duet_contact``,
@@ -27,9 +34,10 @@ import numpy as np
 
 from engine.generate import FPS, SampleConfig
 from engine.methods.commdm import Pose, placements
-from engine.methods.duet import DuetModel, complete, text_to_duet
-from engine.methods.duet_contact import ContactConfig
-from engine.analysis.duet_pose import face_each_other
+from engine.methods.duet import DuetModel, complete, space_apart, text_to_duet
+from engine.methods.duet_contact import ContactConfig, plans_for
+from engine.methods.duet_spacing import START_SECONDS
+from engine.analysis.duet_pose import face_each_other, interpenetrate, torso_distance
 from engine.methods.duet_data import few_shot
 from engine.skeleton import JOINT_INDEX
 from engine.units import DEFAULT_GUIDANCE
@@ -124,6 +132,19 @@ def _prefix_errors(duet_joints: np.ndarray, ja: np.ndarray, jb: np.ndarray, give
     return out
 
 
+def spacing_figures(joints: np.ndarray) -> dict:
+    """Two people (2, T, 22, 3) -> their torso distance's minimum in the first second and over the clip (m), and
+    whether their torsos interpenetrate in the first second, and the share of frames they do."""
+    d, inside = torso_distance(joints), interpenetrate(joints)
+    start = int(round(START_SECONDS * FPS))
+    return {"start_min_m": float(d[:start].min()), "clip_min_m": float(d.min()),
+            "inside_start": float(inside[:start].any()), "inside_frames": float(inside.mean())}
+
+
+def _mean_figures(rows: list[dict]) -> dict:
+    return {k: float(np.mean([r[k] for r in rows])) for k in rows[0]} | {"n": len(rows)}
+
+
 def bench_duet(model: DuetModel, config: DuetBenchConfig = DuetBenchConfig(), *, log=print) -> dict:
     t0 = time.time()
     samples = few_shot("test", per_interaction=config.per_interaction, seed=config.seed)
@@ -131,9 +152,15 @@ def bench_duet(model: DuetModel, config: DuetBenchConfig = DuetBenchConfig(), *,
     result: dict = {"samples": len(samples), "interactions": sorted({s.interaction for s in samples}),
                     "steps": config.steps, "seeds": config.seeds, "prefix": {}, "text": {},
                     "block_after_layer": model.denoiser.after, "base_layers": model.denoiser.prior.num_layers,
-                    "mirrored": bool(model.config.get("mirrored", False))}
+                    "mirrored": bool(model.config.get("mirrored", False)), "spacing": {}}
+    truth_spacing = [spacing_figures(np.stack([s.joints_a, s.joints_b])) for s in samples]
+    result["spacing"]["truth"] = _mean_figures(truth_spacing) | {"moved": 0.0}
+    start_by_kind: dict[str, dict[str, list[float]]] = {}
+    for s, f in zip(samples, truth_spacing):
+        start_by_kind.setdefault(s.interaction, {}).setdefault("truth", []).append(f["start_min_m"])
     for method, (communicate, contact) in METHODS.items():
         errs, place_m, place_deg, timing, touched, facing = [], [], [], [], [], []
+        raw_spacing, spaced, moved = [], [], []
         per_kind: dict[str, list[float]] = {}
         for k, s in enumerate(samples):
             for seed in range(config.seeds):
@@ -144,7 +171,16 @@ def bench_duet(model: DuetModel, config: DuetBenchConfig = DuetBenchConfig(), *,
                     errs.append(_prefix_errors(d.joints, s.joints_a, s.joints_b, given))
                 seconds = min(MAX_SECONDS, (len(s.joints_a) - 1) / FPS)
                 d = text_to_duet(model, s.captions[0], seconds=seconds, communicate=communicate, contact=contact,
+                                 spacing=False,
                                  sample=SampleConfig(steps=config.steps, guidance=config.guidance, seed=seed_value))
+                raw_spacing.append(spacing_figures(d.joints))
+                d = space_apart(d, plans_for(model.contact_table, s.captions[0])[0])  # as text_to_duet does
+                spaced.append(spacing_figures(d.joints))
+                moved.append(float(d.spacing.moved))
+                if method == "commdm":
+                    kinds = start_by_kind[s.interaction]
+                    kinds.setdefault("raw", []).append(raw_spacing[-1]["start_min_m"])
+                    kinds.setdefault("spaced", []).append(spaced[-1]["start_min_m"])
                 dist, ang = placement_error(d.joints, s.joints_a, s.joints_b)
                 place_m.append(dist)
                 place_deg.append(ang)
@@ -164,6 +200,10 @@ def bench_duet(model: DuetModel, config: DuetBenchConfig = DuetBenchConfig(), *,
             "face_each_other": float(np.mean(facing)), "n": len(place_m),
             "placement_m_by_interaction": {k: float(np.mean(v)) for k, v in sorted(per_kind.items())},
         }
+        result["spacing"][f"{method} raw"] = _mean_figures(raw_spacing) | {"moved": 0.0}
+        result["spacing"][method] = _mean_figures(spaced) | {"moved": float(np.mean(moved))}
+    result["spacing_start_by_interaction"] = {k: {who: float(np.min(v)) for who, v in kinds.items()}
+                                              for k, kinds in sorted(start_by_kind.items())}
     lower_is_better = [("prefix", k) for k in result["prefix"]["commdm"] if k != "n"] + \
         [("text", k) for k in ("placement_m", "facing_deg", "contact_timing_s")]
     higher_is_better = [("text", k) for k in ("contact_rate", "face_each_other")]
@@ -199,6 +239,17 @@ def format_table(result: dict) -> str:
         f"{k} {result['text']['commdm']['placement_m_by_interaction'][k]:.2f}/"
         f"{result['text']['prior_twice']['placement_m_by_interaction'][k]:.2f}"
         for k in result["text"]["commdm"]["placement_m_by_interaction"]) + "  (commdm/prior_twice)"]
+    if result.get("spacing"):
+        lines += ["", "spacing: torso distance (m) between the people, the mean over duets of each one's smallest in "
+                      "the first second and anywhere; inside: the share of duets whose torsos interpenetrate in the "
+                      "first second, and of all frames; moved: the share spacing moved person b in",
+                  f"{'method':<18}{'start min':>10}{'clip min':>10}{'inside 1s':>11}{'inside all':>12}{'moved':>8}"]
+        for m, r in result["spacing"].items():
+            lines.append(f"{m:<18}{r['start_min_m']:>10.3f}{r['clip_min_m']:>10.3f}{r['inside_start']:>11.2f}"
+                         f"{r['inside_frames']:>12.2f}{r['moved']:>8.2f}")
+        lines.append("smallest start distance by interaction (m): " + ", ".join(
+            f"{k} " + "/".join(f"{v[w]:.2f}" for w in ("truth", "raw", "spaced") if w in v)
+            for k, v in result["spacing_start_by_interaction"].items()) + "  (truth/commdm raw/commdm)")
     lost = [k for k, v in result["beats_baseline"].items() if not v]
     lines.append("beats the baseline on every figure" if not lost else f"does not beat the baseline on: {', '.join(lost)}")
     return "\n".join(lines)

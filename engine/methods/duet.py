@@ -22,6 +22,7 @@ from engine.methods.commdm import (PLACE_DIMS, ComConfig, DuetDenoiser, Pose, Pr
                                    fingerprint, mean_pose, placements, unpack)
 from engine.methods.control import Inpaint, KnownLatents
 from engine.methods.duet_contact import ContactConfig, ContactGuidance, ContactPlan, plans_for
+from engine.methods.duet_spacing import Spacing, keep_apart
 from engine.model.denoiser import Condition
 from engine.representation import features_to_joints, joints_to_features
 from engine.text import TokenizedPrompt, Tokenizer
@@ -121,11 +122,12 @@ class Duet:
 
     joints: np.ndarray  # (2, T, 22, 3) metres
     placement: Pose  # person b seen from person a
-    features: np.ndarray  # (2, T, 263) each person in its own canonical frame
+    features: np.ndarray  # (2, T, 263) each person in its own canonical frame, as sampled (before any spacing)
     prompt: str | None
     communicate: bool
     interaction: str | None = None  # what contact guidance read the prompt as (None: no guidance)
     contacts: tuple[ContactPlan, ...] = ()  # the contacts it guided
+    spacing: Spacing | None = None  # how person b was moved to keep the spacing rule (None: not applied)
 
     @property
     def frames(self) -> int:
@@ -219,18 +221,33 @@ def _unit_yaw(v: np.ndarray) -> np.ndarray:
 
 
 def text_to_duet(model: DuetModel, prompt: str, *, seconds: float = 5.0, sample: SampleConfig = SampleConfig(),
-                 communicate: bool = True, contact: ContactConfig | None = ContactConfig(), on_step=None) -> Duet:
+                 communicate: bool = True, contact: ContactConfig | None = ContactConfig(), spacing: bool = True,
+                 on_step=None) -> Duet:
     """Two people from one prompt (both persons read it). With ``contact`` (and a prompt that reads
     as a training interaction with contacts) the hands are guided to touch when the examples do
-    (``duet_contact``); ``contact=None`` samples the block alone."""
+    (``duet_contact``); ``contact=None`` samples the block alone. With ``spacing`` person b is moved
+    apart where the two would start inside each other (``duet_spacing``; ``Duet.spacing`` says how)."""
     frames = frames_for(seconds)
     cond = _condition(model, prompt, frames)
-    interaction, plans = plans_for(model.contact_table, prompt) if contact is not None else (None, [])
+    interaction, plans = plans_for(model.contact_table, prompt) if contact is not None or spacing else (None, [])
+    guided = tuple(plans) if contact is not None else ()
     x0 = _sample(model, cond, frames, sample, communicate=communicate, known=None, on_step=on_step,
-                 contacts=tuple(plans), contact=contact)
+                 contacts=guided, contact=contact)
     duet = _finish(model, x0, prompt=prompt, communicate=communicate)
     if contact is not None and contact.active:
-        duet.interaction, duet.contacts = interaction, tuple(plans)
+        duet.interaction, duet.contacts = interaction, guided
+    return space_apart(duet, interaction) if spacing else duet
+
+
+def space_apart(duet: Duet, interaction: str | None) -> Duet:
+    """``duet`` with person b moved apart where the two break the spacing rule of ``interaction`` (None: a prompt
+    that reads as no interaction), its placement following b's first frame; ``features`` stay as sampled."""
+    joints, spacing = keep_apart(duet.joints, interaction)
+    duet.spacing = spacing
+    if spacing.moved:
+        dx, _, dz = spacing.offset[0]
+        p = duet.placement
+        duet.joints, duet.placement = joints, Pose(x=p.x + float(dx), z=p.z + float(dz), yaw=p.yaw)
     return duet
 
 

@@ -83,122 +83,141 @@ class DuetSample:
         return self.joints_a, self.joints_b
 
 
-def make_duet(interaction: str, rng: np.random.Generator) -> DuetSample:
-    if interaction not in INTERACTIONS:
-        raise ValueError(f"unknown interaction {interaction!r}")
-    pa, pb = random_person(rng), random_person(rng)
-    seed = int(rng.integers(2**31))
-    contacts: list[dict] = []
-    n = int(rng.integers(80, 121))
+FACING = ("handshake", "high_five", "hug", "push", "sparring", "dance_together")  # people face each other
+# pelvis-to-pelvis distance (m) at the start of the interactions where the two face each other
+FACING_DIST = {"handshake": 0.75, "high_five": 0.8, "hug": 0.36, "push": 0.6, "sparring": 1.25, "dance_together": 1.2}
 
+
+def _starts(interaction: str, rng: np.random.Generator, pa, pb) -> tuple[State, State]:
+    """Where A and B stand: A at the origin facing +Z; B facing A, beside A or behind A."""
+    start_a = state_at(0.0, 0.0, 0.0, pa.stance)
+    if interaction in FACING:
+        return start_a, state_at(0.0, FACING_DIST[interaction], np.pi, pb.stance)
+    if interaction == "side_by_side":
+        gap = float(rng.uniform(0.55, 0.8))
+        return start_a, state_at(-gap, 0.0, 0.0, pb.stance)
+    behind = float(rng.uniform(1.2, 1.8))  # following
+    return start_a, state_at(0.0, -behind, 0.0, pb.stance)
+
+
+def _programs(interaction: str, n: int, rng: np.random.Generator, pa, pb, seed: int) -> tuple[Program, Program]:
+    """A's and B's programs of ``n`` frames."""
     def prog(segs, person, style="none"):
         return Program(segments=tuple(segs), person=person, seed=seed, style=style)
 
-    facing_dist = {"handshake": 0.75, "high_five": 0.8, "hug": 0.36, "push": 0.6, "sparring": 1.25,
-                   "dance_together": 1.2}.get(interaction)
-    if interaction in ("handshake", "high_five", "hug", "push", "sparring", "dance_together"):
-        start_a = state_at(0.0, 0.0, 0.0, pa.stance)
-        start_b = state_at(0.0, facing_dist, np.pi, pb.stance)
-    elif interaction == "side_by_side":
-        gap = float(rng.uniform(0.55, 0.8))
-        start_a = state_at(0.0, 0.0, 0.0, pa.stance)
-        start_b = state_at(-gap, 0.0, 0.0, pb.stance)
-    else:  # following
-        behind = float(rng.uniform(1.2, 1.8))
-        start_a = state_at(0.0, 0.0, 0.0, pa.stance)
-        start_b = state_at(0.0, -behind, 0.0, pb.stance)
-
     if interaction in ("handshake", "high_five", "hug"):
-        a_prog = prog([Segment("stand", n)], pa)
-        b_prog = prog([Segment("stand", n)], pb)
-    elif interaction == "push":
+        return prog([Segment("stand", n)], pa), prog([Segment("stand", n)], pb)
+    if interaction == "push":
         t_push = int(n * 0.4)
-        a_prog = prog([Segment("stand", n)], pa)
-        b_prog = prog([Segment("stand", t_push), Segment("walk_backward", n - t_push, direction="backward",
-                                                            speed=1.2)], pb)
-    elif interaction == "sparring":
+        return prog([Segment("stand", n)], pa), prog([Segment("stand", t_push), Segment(
+            "walk_backward", n - t_push, direction="backward", speed=1.2)], pb)
+    if interaction == "sparring":
         ca, cb = int(rng.integers(2, 5)), int(rng.integers(2, 5))
-        a_prog = prog([Segment("punch", n, count=ca, side="both")], pa)
-        b_prog = prog([Segment("punch", n, count=cb, side="both", lead="right")], pb)
-    elif interaction == "dance_together":
-        a_prog = prog([Segment("dance", n)], pa)
-        b_prog = prog([Segment("dance", n)], pb)
-    else:
-        lead = "left" if rng.random() < 0.5 else "right"
-        walk = Segment("walk", n, direction="forward", lead=lead, speed=float(rng.uniform(0.85, 1.15)))
-        a_prog = prog([walk], pa)
-        b_prog = prog([replace(walk, lead="right" if lead == "left" else "left")], pb)
+        return (prog([Segment("punch", n, count=ca, side="both")], pa),
+                prog([Segment("punch", n, count=cb, side="both", lead="right")], pb))
+    if interaction == "dance_together":
+        return prog([Segment("dance", n)], pa), prog([Segment("dance", n)], pb)
+    lead = "left" if rng.random() < 0.5 else "right"
+    walk = Segment("walk", n, direction="forward", lead=lead, speed=float(rng.uniform(0.85, 1.15)))
+    return prog([walk], pa), prog([replace(walk, lead="right" if lead == "left" else "left")], pb)
 
-    syn_a = synthesize(a_prog, start=start_a)
-    syn_b = synthesize(b_prog, start=start_b)
-    T = n
-    if interaction == "handshake":
-        meet = np.array([0.0, 1.08, facing_dist / 2])
-        a0, a1 = 0.25 * T, 0.75 * T
-        w = _window(T, a0, a1, 0.5 * FPS)
-        shake = 0.04 * np.sin(2 * np.pi * 2.2 * np.arange(T) / FPS) * _window(T, a0 + 10, a1 - 8, 4)
-        tgt = np.broadcast_to(meet, (T, 2, 3)).copy()
-        tgt[:, :, 1] += shake[:, None]
-        tgt_a, tgt_b = tgt.copy(), tgt.copy()
-        tgt_a[:, 1, 0] -= 0.02
-        tgt_b[:, 1, 0] += 0.02
-        wa = np.stack([np.zeros(T), w], -1)
-        syn_a = drive_hands(syn_a, tgt_a, wa)
-        syn_b = drive_hands(syn_b, tgt_b, wa)
-        contacts.append({"kind": "right_hands", "start": int(np.ceil(a0 + 10)), "end": int(a1)})
-    elif interaction == "high_five":
-        t_hit = 0.5 * T
-        meet = np.array([0.0, 1.68, facing_dist / 2])
-        w = _window(T, t_hit - 0.6 * FPS, t_hit + 0.1 * FPS, 0.55 * FPS)
-        tgt = np.broadcast_to(meet, (T, 2, 3)).copy()
-        wa = np.stack([np.zeros(T), w], -1)
-        ta = tgt.copy()
-        ta[:, 1, 2] -= 0.02
-        tb = tgt.copy()
-        tb[:, 1, 2] += 0.02
-        syn_a = drive_hands(syn_a, ta, wa)
-        syn_b = drive_hands(syn_b, tb, wa)
-        full = np.flatnonzero(w > 0.97)
-        contacts.append({"kind": "right_hands", "start": int(full[0]), "end": int(full[-1]) + 1})
-    elif interaction == "hug":
-        a0, a1 = 0.2 * T, 0.8 * T
-        w = _window(T, a0, a1, 0.6 * FPS)
-        ta = np.zeros((T, 2, 3))
-        ta[:, 0] = (0.13, 1.2, facing_dist + 0.08)  # A's hands on B's back
-        ta[:, 1] = (-0.13, 1.2, facing_dist + 0.08)
-        tb = np.zeros((T, 2, 3))
-        tb[:, 0] = (-0.13, 1.2, -0.08)  # B faces -Z: its left hand is on the -X side
-        tb[:, 1] = (0.13, 1.2, -0.08)
-        ww = np.stack([w, w], -1)
-        syn_a = drive_hands(syn_a, ta, ww)
-        syn_b = drive_hands(syn_b, tb, ww)
-        full = np.flatnonzero(w > 0.97)
-        contacts.append({"kind": "bodies", "start": int(full[0]), "end": int(full[-1]) + 1})
-    elif interaction == "push":
-        t_push = int(T * 0.4)
-        w = _window(T, t_push - 0.5 * FPS, t_push + 0.15 * FPS, 0.45 * FPS)
-        chest_b = syn_b.joints[:, 9]
-        tgt = np.stack([chest_b + np.array([0.14, -0.05, -0.12]), chest_b + np.array([-0.14, -0.05, -0.12])], 1)
-        syn_a = drive_hands(syn_a, tgt, np.stack([w, w], -1))
-        full = np.flatnonzero(w > 0.97)
-        contacts.append({"kind": "hands_on_chest", "start": int(full[0]), "end": int(full[-1]) + 1})
 
-    rot, shift = canonical_transform(syn_a.joints)
-    ja = ((syn_a.joints + shift) @ rot.T).astype(np.float32)
-    jb = ((syn_b.joints + shift) @ rot.T).astype(np.float32)
+def _handshake(syn_a: Synthesis, syn_b: Synthesis, T: int):
+    meet = np.array([0.0, 1.08, FACING_DIST["handshake"] / 2])
+    a0, a1 = 0.25 * T, 0.75 * T
+    w = _window(T, a0, a1, 0.5 * FPS)
+    shake = 0.04 * np.sin(2 * np.pi * 2.2 * np.arange(T) / FPS) * _window(T, a0 + 10, a1 - 8, 4)
+    tgt = np.broadcast_to(meet, (T, 2, 3)).copy()
+    tgt[:, :, 1] += shake[:, None]
+    tgt_a, tgt_b = tgt.copy(), tgt.copy()
+    tgt_a[:, 1, 0] -= 0.02
+    tgt_b[:, 1, 0] += 0.02
+    wa = np.stack([np.zeros(T), w], -1)
+    return (drive_hands(syn_a, tgt_a, wa), drive_hands(syn_b, tgt_b, wa),
+            {"kind": "right_hands", "start": int(np.ceil(a0 + 10)), "end": int(a1)})
+
+
+def _high_five(syn_a: Synthesis, syn_b: Synthesis, T: int):
+    t_hit = 0.5 * T
+    meet = np.array([0.0, 1.68, FACING_DIST["high_five"] / 2])
+    w = _window(T, t_hit - 0.6 * FPS, t_hit + 0.1 * FPS, 0.55 * FPS)
+    tgt = np.broadcast_to(meet, (T, 2, 3)).copy()
+    wa = np.stack([np.zeros(T), w], -1)
+    ta = tgt.copy()
+    ta[:, 1, 2] -= 0.02
+    tb = tgt.copy()
+    tb[:, 1, 2] += 0.02
+    full = np.flatnonzero(w > 0.97)
+    return (drive_hands(syn_a, ta, wa), drive_hands(syn_b, tb, wa),
+            {"kind": "right_hands", "start": int(full[0]), "end": int(full[-1]) + 1})
+
+
+def _hug(syn_a: Synthesis, syn_b: Synthesis, T: int):
+    facing_dist = FACING_DIST["hug"]
+    a0, a1 = 0.2 * T, 0.8 * T
+    w = _window(T, a0, a1, 0.6 * FPS)
+    ta = np.zeros((T, 2, 3))
+    ta[:, 0] = (0.13, 1.2, facing_dist + 0.08)  # A's hands on B's back
+    ta[:, 1] = (-0.13, 1.2, facing_dist + 0.08)
+    tb = np.zeros((T, 2, 3))
+    tb[:, 0] = (-0.13, 1.2, -0.08)  # B faces -Z: its left hand is on the -X side
+    tb[:, 1] = (0.13, 1.2, -0.08)
+    ww = np.stack([w, w], -1)
+    full = np.flatnonzero(w > 0.97)
+    return (drive_hands(syn_a, ta, ww), drive_hands(syn_b, tb, ww),
+            {"kind": "bodies", "start": int(full[0]), "end": int(full[-1]) + 1})
+
+
+def _push(syn_a: Synthesis, syn_b: Synthesis, T: int):
+    t_push = int(T * 0.4)
+    w = _window(T, t_push - 0.5 * FPS, t_push + 0.15 * FPS, 0.45 * FPS)
+    chest_b = syn_b.joints[:, 9]
+    tgt = np.stack([chest_b + np.array([0.14, -0.05, -0.12]), chest_b + np.array([-0.14, -0.05, -0.12])], 1)
+    full = np.flatnonzero(w > 0.97)
+    return (drive_hands(syn_a, tgt, np.stack([w, w], -1)), syn_b,
+            {"kind": "hands_on_chest", "start": int(full[0]), "end": int(full[-1]) + 1})
+
+
+_TOUCHES = {"handshake": _handshake, "high_five": _high_five, "hug": _hug, "push": _push}  # hands driven together
+
+
+def _labels(interaction: str, T: int, syn_a: Synthesis, syn_b: Synthesis, ja: np.ndarray, jb: np.ndarray,
+            contacts: list[dict], programs: tuple[Program, Program]) -> dict:
     yaw_a = float(syn_a.channels.heading[0])
     yaw_b = float(syn_b.channels.heading[0])
     off = jb[0, 0, [0, 2]] - ja[0, 0, [0, 2]]
-    labels = {
+    return {
         "interaction": interaction,
         "frames": T,
         "placement": {"offset_xz": [round(float(off[0]), 4), round(float(off[1]), 4)],
                       "facing": round(float((yaw_b - yaw_a + np.pi) % (2 * np.pi) - np.pi), 4)},
         "contacts": contacts,
-        "programs": [a_prog.to_json(), b_prog.to_json()],
+        "programs": [programs[0].to_json(), programs[1].to_json()],
         "events_a": [e.to_json() for e in syn_a.events],
         "events_b": [e.to_json() for e in syn_b.events],
     }
+
+
+def make_duet(interaction: str, rng: np.random.Generator) -> DuetSample:
+    """One duet: two people and their starts, both programs synthesised, touching hands driven together,
+    both put in A's canonical frame."""
+    if interaction not in INTERACTIONS:
+        raise ValueError(f"unknown interaction {interaction!r}")
+    pa, pb = random_person(rng), random_person(rng)
+    seed = int(rng.integers(2**31))
+    n = int(rng.integers(80, 121))
+    start_a, start_b = _starts(interaction, rng, pa, pb)
+    a_prog, b_prog = _programs(interaction, n, rng, pa, pb, seed)
+    syn_a = synthesize(a_prog, start=start_a)
+    syn_b = synthesize(b_prog, start=start_b)
+    contacts: list[dict] = []
+    if interaction in _TOUCHES:
+        syn_a, syn_b, contact = _TOUCHES[interaction](syn_a, syn_b, n)
+        contacts.append(contact)
+    rot, shift = canonical_transform(syn_a.joints)
+    ja = ((syn_a.joints + shift) @ rot.T).astype(np.float32)
+    jb = ((syn_b.joints + shift) @ rot.T).astype(np.float32)
+    labels = _labels(interaction, n, syn_a, syn_b, ja, jb, contacts, (a_prog, b_prog))
     caps = list(DUET_CAPTIONS[interaction])
     order = rng.permutation(len(caps))
     return DuetSample(interaction=interaction, joints_a=ja, joints_b=jb, captions=[caps[i] for i in order],

@@ -64,131 +64,155 @@ def _pelvis_takeoff_height(toes: np.ndarray, center: np.ndarray, lifted: int | N
     return a + HIP_DROP + float(min(hz))
 
 
-def ballistic_reps(ctx: Context, reps: list[Rep], *, lifted: int | None = None, free_offset=None,
-                   arms: str = "swing") -> Result:
-    seg = ctx.segment
-    n = seg.frames
-    fps = ctx.fps
-    ch = base_stand(ctx, idle=0.2)
-    heading = float(ctx.state.heading)
-    fwd = forward_vector(np.float64(heading))
-    t = np.arange(n, dtype=np.float64)
-    y_stand = STAND_PELVIS - ctx.style.crouch
-    y = np.full(n, y_stand)
-    pxz = ch.root[:, [0, 2]].copy()
-    yaw = ctx.state.feet_yaw.copy()
-    tempo = 1.0 / max(seg.speed, 0.4)
-    # durations (s)
-    c = len(reps)
-    period = n / fps / c
-    events: list[Event] = []
-    toe_plants = [np.asarray(reps[0].before)]
-    times = []
-    for k, rep in enumerate(reps):
-        v0 = takeoff_speed(rep.height)
-        tf = flight_time(rep.height)
-        center0 = feet_center(rep.before) if lifted is None else rep.before[1 - lifted, [0, 2]] + 0.0
-        center1 = feet_center(rep.after) if lifted is None else rep.after[1 - lifted, [0, 2]] + 0.0
-        if lifted is not None:
-            inward = left_vector(np.float64(heading))[[0, 2]] * SIDE_SIGN[lifted] * 0.03
-            center0 = center0 + inward
-            center1 = center1 + inward
-        y_to = _pelvis_takeoff_height(rep.before, center0, lifted)
-        y_land = _pelvis_takeoff_height(rep.after, center1, lifted)
-        y_low = y_stand - rep.crouch
-        y_low2 = y_stand - 0.7 * rep.crouch
-        dp = float(np.clip(2.0 * (y_to - y_low) / max(v0, 1e-3), 0.12, 0.4))
-        dl = float(np.clip(2.0 * (y_land - y_low2) / max(v0, 1e-3), 0.12, 0.4))
-        prep = 0.32 * tempo
-        rec = 0.28 * tempo
-        need = prep + dp + tf + dl + rec
-        if need > period:
-            squeeze = max((period - dp - tf - dl) / max(prep + rec, 1e-6), 0.05)
-            prep *= squeeze
-            rec *= squeeze
-            need = prep + dp + tf + dl + rec
-        if need > period + 1e-6:  # still too long: the phases would overlap, so the segment is invalid
-            raise ValueError(f"{seg.action}: {c} repetitions do not fit in {n} frames")
-        slack = max(period - need, 0.0)
-        t_to = (k * period + slack * 0.5 + prep + dp) * fps
-        apex = int(round(t_to + tf * fps / 2))
-        t_to = apex - tf * fps / 2
-        t_land = t_to + tf * fps
-        tA0 = t_to - (prep + dp) * fps
-        tA1 = t_to - dp * fps
-        tD1 = t_land + dl * fps
-        tE1 = tD1 + rec * fps
-        times.append((tA0, tA1, t_to, apex, t_land, tD1, tE1))
-        lean = rep.lean * fwd[[0, 2]]
-        P_to = center0 + lean
-        P_land = center1 + lean
-        vxz = (P_land - P_to) / tf  # m/s
-        # --- vertical
-        m = frame_span(n, tA0, tA1)
-        u = (t[m] - tA0) / max(tA1 - tA0, 1e-6)
-        y[m] = hermite(y_stand, 0.0, y_low, 0.0, u)
-        m = frame_span(n, tA1, t_to)
-        D = t_to - tA1
-        u = (t[m] - tA1) / D
-        y[m] = hermite(y_low, 0.0, y_to, v0 * D / fps, u)
-        air = frame_span(n, t_to, t_land, through_stop=True)
-        tau = (t[air] - t_to) / fps
-        uu = tau * fps / (t_land - t_to)
-        y[air] = y_to + (y_land - y_to) * smoothstep(uu) + v0 * tau - 0.5 * GRAVITY * tau * tau
-        m = frame_span(n, t_land, tD1, after_start=True)
-        D = tD1 - t_land
-        u = (t[m] - t_land) / D
-        y[m] = hermite(y_land, -v0 * D / fps, y_low2, 0.0, u)
-        m = frame_span(n, tD1, tE1)
-        u = (t[m] - tD1) / max(tE1 - tD1, 1e-6)
-        y[m] = hermite(y_low2, 0.0, y_stand, 0.0, u)
-        # --- horizontal
-        m = frame_span(n, tA0, t_to)
-        D = t_to - tA0
-        u = ((t[m] - tA0) / D)[:, None]
-        pxz[m] = hermite(center0, 0.0, P_to, vxz * D / fps, u)
-        u = ((t[air] - t_to) / (t_land - t_to))[:, None]
-        pxz[air] = P_to + (P_land - P_to) * u
-        m = frame_span(n, t_land, tE1, after_start=True)
-        D = tE1 - t_land
-        u = ((t[m] - t_land) / D)[:, None]
-        pxz[m] = hermite(P_land, vxz * D / fps, center1, 0.0, u)
-        pxz[frame_span(n, tE1, n)] = center1
-        events.append(Event(kind=rep.kind, frame=apex, start=int(np.floor(tA0)), end=int(np.ceil(tE1)),
-                            height=float(rep.height),
-                            extra={"takeoff": round(float(t_to), 3), "landing": round(float(t_land), 3),
-                                   "flight_s": round(float(tf), 4)}))
-        toe_plants.append(np.asarray(rep.after))
-    ch.root[:, 1] = y
-    ch.root[:, 0] = pxz[:, 0]
-    ch.root[:, 2] = pxz[:, 1]
+@dataclass
+class _Flight:
+    """One repetition planned on the frame axis: the phase times (frames) and the pelvis targets.
 
-    # --- feet
-    yaw_b = np.broadcast_to(yaw, (n, 2))
+    tA0 -> tA1 crouch, tA1 -> t_to push off, t_to -> t_land airborne (apex in between, on a whole
+    frame), t_land -> tD1 absorb, tD1 -> tE1 recover. Heights in metres, ``vxz`` in m/s."""
+
+    v0: float
+    tf: float
+    center0: np.ndarray  # feet centre (x, z) at take-off
+    center1: np.ndarray  # and after landing
+    y_to: float
+    y_land: float
+    y_low: float
+    y_low2: float
+    tA0: float
+    tA1: float
+    t_to: float
+    apex: int
+    t_land: float
+    tD1: float
+    tE1: float
+    P_to: np.ndarray  # pelvis (x, z) at take-off and landing
+    P_land: np.ndarray
+    vxz: np.ndarray
+
+    @property
+    def times(self) -> tuple:
+        return (self.tA0, self.tA1, self.t_to, self.apex, self.t_land, self.tD1, self.tE1)
+
+
+def _plan_flight(ctx: Context, rep: Rep, k: int, *, count: int, period: float, y_stand: float, tempo: float,
+                 lifted: int | None) -> _Flight:
+    """Rep ``k`` of ``count`` placed in its share (``period`` s) of the segment; ValueError when it cannot fit."""
+    seg, fps = ctx.segment, ctx.fps
+    heading = float(ctx.state.heading)
+    v0 = takeoff_speed(rep.height)
+    tf = flight_time(rep.height)
+    center0 = feet_center(rep.before) if lifted is None else rep.before[1 - lifted, [0, 2]] + 0.0
+    center1 = feet_center(rep.after) if lifted is None else rep.after[1 - lifted, [0, 2]] + 0.0
+    if lifted is not None:
+        inward = left_vector(np.float64(heading))[[0, 2]] * SIDE_SIGN[lifted] * 0.03
+        center0 = center0 + inward
+        center1 = center1 + inward
+    y_to = _pelvis_takeoff_height(rep.before, center0, lifted)
+    y_land = _pelvis_takeoff_height(rep.after, center1, lifted)
+    y_low = y_stand - rep.crouch
+    y_low2 = y_stand - 0.7 * rep.crouch
+    # durations (s)
+    dp = float(np.clip(2.0 * (y_to - y_low) / max(v0, 1e-3), 0.12, 0.4))
+    dl = float(np.clip(2.0 * (y_land - y_low2) / max(v0, 1e-3), 0.12, 0.4))
+    prep = 0.32 * tempo
+    rec = 0.28 * tempo
+    need = prep + dp + tf + dl + rec
+    if need > period:
+        squeeze = max((period - dp - tf - dl) / max(prep + rec, 1e-6), 0.05)
+        prep *= squeeze
+        rec *= squeeze
+        need = prep + dp + tf + dl + rec
+    if need > period + 1e-6:  # still too long: the phases would overlap, so the segment is invalid
+        raise ValueError(f"{seg.action}: {count} repetitions do not fit in {seg.frames} frames")
+    slack = max(period - need, 0.0)
+    t_to = (k * period + slack * 0.5 + prep + dp) * fps
+    apex = int(round(t_to + tf * fps / 2))
+    t_to = apex - tf * fps / 2
+    t_land = t_to + tf * fps
+    tD1 = t_land + dl * fps
+    lean = rep.lean * forward_vector(np.float64(heading))[[0, 2]]
+    P_to = center0 + lean
+    P_land = center1 + lean
+    return _Flight(v0=v0, tf=tf, center0=center0, center1=center1, y_to=y_to, y_land=y_land, y_low=y_low,
+                   y_low2=y_low2, tA0=t_to - (prep + dp) * fps, tA1=t_to - dp * fps, t_to=t_to, apex=apex,
+                   t_land=t_land, tD1=tD1, tE1=tD1 + rec * fps, P_to=P_to, P_land=P_land, vxz=(P_land - P_to) / tf)
+
+
+def _pelvis_height(y: np.ndarray, fl: _Flight, t: np.ndarray, fps: float, y_stand: float) -> None:
+    """Write one flight's pelvis height into ``y``: crouch, push off, ballistic arc, absorb, recover."""
+    n = len(y)
+    m = frame_span(n, fl.tA0, fl.tA1)
+    u = (t[m] - fl.tA0) / max(fl.tA1 - fl.tA0, 1e-6)
+    y[m] = hermite(y_stand, 0.0, fl.y_low, 0.0, u)
+    m = frame_span(n, fl.tA1, fl.t_to)
+    D = fl.t_to - fl.tA1
+    u = (t[m] - fl.tA1) / D
+    y[m] = hermite(fl.y_low, 0.0, fl.y_to, fl.v0 * D / fps, u)
+    air = frame_span(n, fl.t_to, fl.t_land, through_stop=True)
+    tau = (t[air] - fl.t_to) / fps
+    uu = tau * fps / (fl.t_land - fl.t_to)
+    y[air] = fl.y_to + (fl.y_land - fl.y_to) * smoothstep(uu) + fl.v0 * tau - 0.5 * GRAVITY * tau * tau
+    m = frame_span(n, fl.t_land, fl.tD1, after_start=True)
+    D = fl.tD1 - fl.t_land
+    u = (t[m] - fl.t_land) / D
+    y[m] = hermite(fl.y_land, -fl.v0 * D / fps, fl.y_low2, 0.0, u)
+    m = frame_span(n, fl.tD1, fl.tE1)
+    u = (t[m] - fl.tD1) / max(fl.tE1 - fl.tD1, 1e-6)
+    y[m] = hermite(fl.y_low2, 0.0, y_stand, 0.0, u)
+
+
+def _pelvis_travel(pxz: np.ndarray, fl: _Flight, t: np.ndarray, fps: float) -> None:
+    """Write one flight's pelvis (x, z) into ``pxz``: eased to take-off, straight in the air, eased to rest."""
+    n = len(pxz)
+    m = frame_span(n, fl.tA0, fl.t_to)
+    D = fl.t_to - fl.tA0
+    u = ((t[m] - fl.tA0) / D)[:, None]
+    pxz[m] = hermite(fl.center0, 0.0, fl.P_to, fl.vxz * D / fps, u)
+    air = frame_span(n, fl.t_to, fl.t_land, through_stop=True)
+    u = ((t[air] - fl.t_to) / (fl.t_land - fl.t_to))[:, None]
+    pxz[air] = fl.P_to + (fl.P_land - fl.P_to) * u
+    m = frame_span(n, fl.t_land, fl.tE1, after_start=True)
+    D = fl.tE1 - fl.t_land
+    u = ((t[m] - fl.t_land) / D)[:, None]
+    pxz[m] = hermite(fl.P_land, fl.vxz * D / fps, fl.center1, 0.0, u)
+    pxz[frame_span(n, fl.tE1, n)] = fl.center1
+
+
+def _flight_event(rep: Rep, fl: _Flight) -> Event:
+    return Event(kind=rep.kind, frame=fl.apex, start=int(np.floor(fl.tA0)), end=int(np.ceil(fl.tE1)),
+                 height=float(rep.height),
+                 extra={"takeoff": round(float(fl.t_to), 3), "landing": round(float(fl.t_land), 3),
+                        "flight_s": round(float(fl.tf), 4)})
+
+
+def _feet(reps: list[Rep], flights: list[_Flight], plants: np.ndarray, y: np.ndarray, yaw_b: np.ndarray,
+          t: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ankle (n, 2, 3), pitch (n, 2), contact (n, 2, 2)): on the ground each foot stands on the toe plant
+    of the last landing, heels up as far as the pelvis height needs; in the air both keep the take-off
+    pose and rise with the body. ``plants``: the toes (c + 1, 2, 3) before the first jump and after each."""
+    n = len(t)
     ankle = np.empty((n, 2, 3))
     pitch = np.zeros((n, 2))
     contact = np.ones((n, 2, 2), dtype=bool)
     # which ground interval / flight each frame is in
-    to_times = np.array([tt[2] for tt in times])
-    land_times = np.array([tt[4] for tt in times])
-    k_after = np.searchsorted(land_times, t, side="left")  # number of landings strictly before t... (<= t)
-    k_after = np.searchsorted(land_times, t, side="right")
+    to_times = np.array([fl.t_to for fl in flights])
+    land_times = np.array([fl.t_land for fl in flights])
+    k_after = np.searchsorted(land_times, t, side="right")  # landings at or before t
     in_air = np.zeros(n, dtype=bool)
     air_k = np.zeros(n, dtype=int)
-    for k in range(c):
+    for k in range(len(flights)):
         m = frame_span(n, to_times[k], land_times[k], after_start=True)
         in_air[m] = True
         air_k[m] = k
     # ground: toe plant index = number of landings at or before t
-    plants = np.stack(toe_plants, 0)  # (c+1, 2, 3)
     ground_toe = plants[k_after]  # (n, 2, 3)
     need = np.maximum(y[:, None] - HIP_DROP - LEG_EXT * np.ones((n, 2)), ANKLE_HEIGHT)
     # horizontal offset between hip and ankle reduces the available vertical reach
     g_pitch = pitch_for_ankle_height(need)
     g_pitch = np.where(need <= ANKLE_HEIGHT + 1e-6, 0.0, g_pitch)
     g_pitch = np.minimum(g_pitch, TAKEOFF_PITCH)
-    ground_ankle = ankle_from_toe(ground_toe, yaw_b, g_pitch)
-    ankle[:] = ground_ankle
+    ankle[:] = ankle_from_toe(ground_toe, yaw_b, g_pitch)
     pitch[:] = g_pitch
     if in_air.any():
         ka = air_k[in_air]
@@ -208,38 +232,41 @@ def ballistic_reps(ctx: Context, reps: list[Rep], *, lifted: int | None = None, 
         pitch[in_air] = TAKEOFF_PITCH
     contact[:, :, 1] = ~in_air[:, None]
     contact[:, :, 0] = (~in_air[:, None]) & (pitch < 1e-3)
-    if lifted is not None:
-        # the free leg: lifted behind, carried with the pelvis; lifts at the start, lands at the end
-        off = free_offset
-        carried = ch.root[:, :] + off
-        first = times[0][0]
-        last = times[-1][6]
-        t_up0, t_up1 = max(first - 0.35 * fps, 0.0), max(first - 0.05 * fps, 1.0)
-        t_dn0, t_dn1 = min(last + 0.05 * fps, n - 2.0), min(last + 0.4 * fps, n - 1.0)
-        w = smoothstep((t - t_up0) / max(t_up1 - t_up0, 1e-6)) * (1 - smoothstep((t - t_dn0) / max(t_dn1 - t_dn0, 1e-6)))
-        plant = ctx.state.feet[lifted]
-        end_plant = plant + (plants[-1][1 - lifted] - plants[0][1 - lifted])
-        end_plant[1] = ANKLE_HEIGHT
-        base = np.where((t < t_dn0)[:, None], plant, end_plant)
-        bump = np.sin(np.pi * np.clip(w, 0, 1)) * 0.0
-        ankle[:, lifted] = base + (carried - base) * w[:, None]
-        ankle[:, lifted, 1] += bump
-        pitch[:, lifted] = 0.5 * w
-        free_contact = w <= 1e-6
-        contact[:, lifted, 0] = free_contact
-        contact[:, lifted, 1] = free_contact
-        ankle[:, lifted, 1] = np.maximum(ankle[:, lifted, 1], ANKLE_HEIGHT + 0.0)
-    ch.ankle = ankle
-    ch.foot_pitch = pitch
-    ch.foot_yaw = yaw_b.copy()
-    ch.contact = contact
+    return ankle, pitch, contact
 
-    # --- trunk and arms, from the crouch depth and the airborne state
+
+def _free_leg(ctx: Context, root: np.ndarray, flights: list[_Flight], plants: np.ndarray, lifted: int, free_offset,
+              ankle: np.ndarray, pitch: np.ndarray, contact: np.ndarray, t: np.ndarray) -> None:
+    """Hops: the free leg lifted behind and carried with the pelvis (``root`` + ``free_offset``); it lifts
+    before the first hop and lands after the last. Writes the ``lifted`` side of ankle, pitch and contact."""
+    n, fps = len(t), ctx.fps
+    carried = root[:, :] + free_offset
+    first = flights[0].tA0
+    last = flights[-1].tE1
+    t_up0, t_up1 = max(first - 0.35 * fps, 0.0), max(first - 0.05 * fps, 1.0)
+    t_dn0, t_dn1 = min(last + 0.05 * fps, n - 2.0), min(last + 0.4 * fps, n - 1.0)
+    w = smoothstep((t - t_up0) / max(t_up1 - t_up0, 1e-6)) * (1 - smoothstep((t - t_dn0) / max(t_dn1 - t_dn0, 1e-6)))
+    plant = ctx.state.feet[lifted]
+    end_plant = plant + (plants[-1][1 - lifted] - plants[0][1 - lifted])
+    end_plant[1] = ANKLE_HEIGHT
+    base = np.where((t < t_dn0)[:, None], plant, end_plant)
+    ankle[:, lifted] = base + (carried - base) * w[:, None]
+    pitch[:, lifted] = 0.5 * w
+    free_contact = w <= 1e-6
+    contact[:, lifted, 0] = free_contact
+    contact[:, lifted, 1] = free_contact
+    ankle[:, lifted, 1] = np.maximum(ankle[:, lifted, 1], ANKLE_HEIGHT + 0.0)
+
+
+def _trunk_and_arms(ch, reps: list[Rep], flights: list[_Flight], *, arms: str, y: np.ndarray, y_stand: float,
+                    heading: float, t: np.ndarray) -> np.ndarray:
+    """Trunk bend from the crouch depth and arms from the rising/airborne state (``arms``: swing | jacks |
+    balance); returns the crouch (n,)."""
+    n = len(t)
     crouch = clip((y_stand - y) / 0.18, 0.0, 1.2)
     rising = np.zeros(n)
-    for (tA0, tA1, t_to, apex, t_land, tD1, tE1), rep in zip(times, reps):
-        k = np.interp(t, [tA0, tA1, t_to, apex, t_land, tD1, tE1],
-                      [0.0, -0.8, 0.9, 1.2, 0.7, 0.2, 0.0], left=0.0, right=0.0)
+    for fl, rep in zip(flights, reps):
+        k = np.interp(t, list(fl.times), [0.0, -0.8, 0.9, 1.2, 0.7, 0.2, 0.0], left=0.0, right=0.0)
         rising += k * min(1.0, 0.5 + rep.height / 0.3)
     rising = smooth5(rising)
     ch.spine[:, :, 0] += (0.35 * crouch)[:, None] * np.array([0.4, 0.35, 0.25])
@@ -250,6 +277,7 @@ def ballistic_reps(ctx: Context, reps: list[Rep], *, lifted: int | None = None, 
         hand, pole = arm_angles(swing, 0.35 + 0.2 * np.abs(swing), abduct=0.15)
         ch.hand, ch.elbow_pole = hand, pole
     elif arms == "jacks":
+        ankle = ch.ankle
         feet_lat = np.abs(((ankle[:, 0] - ankle[:, 1]) * left_vector(np.float64(heading))).sum(-1))
         spread = clip((feet_lat - 2 * STANCE_HALF) / 0.4, 0.0, 1.0)
         hand, pole = arm_angles(np.zeros((n, 2)), 0.15 + 0.25 * spread[:, None] * np.ones(2),
@@ -259,9 +287,46 @@ def ballistic_reps(ctx: Context, reps: list[Rep], *, lifted: int | None = None, 
         out_ = np.stack([np.full(n, 0.6), np.full(n, 0.6)], -1)
         hand, pole = arm_angles(0.25 + 0.3 * np.stack([rising, rising], -1), 0.6 + np.zeros((n, 2)), abduct=out_)
         ch.hand, ch.elbow_pole = hand, pole
-    st = end_state(ch)
-    return Result(channels=ch, state=st, events=events, arm_busy=np.zeros((n, 2)),
-                  gait_phase=np.arange(n) / fps * 0.8, posture=np.ones(n) - 0.5 * clip(crouch, 0, 1))
+    return crouch
+
+
+def ballistic_reps(ctx: Context, reps: list[Rep], *, lifted: int | None = None, free_offset=None,
+                   arms: str = "swing") -> Result:
+    """Airborne repetitions laid evenly over the segment: plan each flight, drive the pelvis through it,
+    then the feet (and a hop's free leg), trunk and arms."""
+    n = ctx.segment.frames
+    fps = ctx.fps
+    ch = base_stand(ctx, idle=0.2)
+    t = np.arange(n, dtype=np.float64)
+    y_stand = STAND_PELVIS - ctx.style.crouch
+    tempo = 1.0 / max(ctx.segment.speed, 0.4)
+    period = n / fps / len(reps)
+    flights = [_plan_flight(ctx, rep, k, count=len(reps), period=period, y_stand=y_stand, tempo=tempo,
+                            lifted=lifted) for k, rep in enumerate(reps)]
+    y = np.full(n, y_stand)
+    pxz = ch.root[:, [0, 2]].copy()
+    for fl in flights:
+        _pelvis_height(y, fl, t, fps, y_stand)
+        _pelvis_travel(pxz, fl, t, fps)
+    ch.root[:, 1] = y
+    ch.root[:, 0] = pxz[:, 0]
+    ch.root[:, 2] = pxz[:, 1]
+
+    yaw_b = np.broadcast_to(ctx.state.feet_yaw.copy(), (n, 2))
+    plants = np.stack([np.asarray(reps[0].before)] + [np.asarray(rep.after) for rep in reps], 0)  # (c+1, 2, 3)
+    ankle, pitch, contact = _feet(reps, flights, plants, y, yaw_b, t, fps)
+    if lifted is not None:
+        _free_leg(ctx, ch.root, flights, plants, lifted, free_offset, ankle, pitch, contact, t)
+    ch.ankle = ankle
+    ch.foot_pitch = pitch
+    ch.foot_yaw = yaw_b.copy()
+    ch.contact = contact
+
+    crouch = _trunk_and_arms(ch, reps, flights, arms=arms, y=y, y_stand=y_stand,
+                             heading=float(ctx.state.heading), t=t)
+    return Result(channels=ch, state=end_state(ch), events=[_flight_event(rep, fl) for rep, fl in zip(reps, flights)],
+                  arm_busy=np.zeros((n, 2)), gait_phase=np.arange(n) / fps * 0.8,
+                  posture=np.ones(n) - 0.5 * clip(crouch, 0, 1))
 
 
 def _toes(ctx: Context) -> np.ndarray:

@@ -107,7 +107,27 @@ def _along(pts: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return out, tangent
 
 
-def gait(ctx: Context) -> Result:
+@dataclass
+class _Stride:
+    """A gait segment's timing and path: cadence (steps/s), step length (m), step count K, the root's
+    progress profile ``s_prof`` (0 -> 1) and speed envelope ``env``, the root on the floor and heading,
+    and the stride phase ``phi`` (half a unit per step) from ``phi0`` to ``phi_end``."""
+
+    g: GaitParams
+    cadence: float
+    step_len: float
+    K: int
+    s_prof: np.ndarray
+    env: np.ndarray
+    distance: float
+    root_xz: np.ndarray  # (n, 2)
+    heading: np.ndarray  # (n,)
+    phi: np.ndarray
+    phi0: float
+    phi_end: float
+
+
+def _plan_stride(ctx: Context) -> _Stride:
     seg, style, person = ctx.segment, ctx.style, ctx.person
     n = seg.frames
     fps = ctx.fps
@@ -119,7 +139,6 @@ def gait(ctx: Context) -> Result:
     cadence = float(min(cadence, 2.9 if g.duty < 0.5 else 2.4))
     step_len = g.speed / g.cadence * np.sqrt(speed_mult) * style.stride
     K = max(2, int(round(dur * cadence)))
-    t = np.arange(n, dtype=np.float64)
     ramp_s = min(0.45, (0.55 if seg.action in ("walk", "walk_backward", "side_step", "turn") else 0.8) / dur)
     # the root settles one step before the end, so the last step closes the feet beside it
     settle = int(min(fps / cadence, n / 4)) if seg.action != "turn" else 0
@@ -129,25 +148,39 @@ def gait(ctx: Context) -> Result:
     distance = min(step_len * cadence * move_s, step_len * 0.85 * K) if seg.action != "turn" else 0.0
     env = gradient(s_prof)
     env = env / max(env.max(), 1e-9)
-    if seg.action == "turn":
-        heading = ctx.state.heading + seg.turn * s_prof
-        root_xz = np.broadcast_to(ctx.state.root_xz, (n, 2)).copy()
-        root_xz = root_xz + (feet_center(ctx.state.feet) - ctx.state.root_xz) * 1.0
-    else:
-        pts, distance, h_off = _path_points(ctx, distance, g.heading_offset)
-        root_xz, tangent = _along(pts, distance * s_prof)
-        heading = tangent - h_off
-        # same branch of the angle as the state (compose bridges any small residue)
-        heading = heading - 2 * np.pi * np.round((heading[0] - ctx.state.heading) / (2 * np.pi))
+    root_xz, heading, distance = _root_track(ctx, g, s_prof, distance)
     phi0 = 0.25
     # the phase follows the distance walked (even steps) plus a share of time (steps also
     # happen while starting, stopping and turning in place)
     time_prof = ramp_profile(n, min(0.3, 0.3 / dur))
     phi = phi0 + 0.5 * K * ((0.7 * s_prof + 0.3 * time_prof) if seg.action != "turn" else time_prof)
-    phi_end = phi0 + 0.5 * K
-    lead = 0 if seg.lead != "right" else 1
-    offsets = np.zeros(2)
-    offsets[1 - lead] = 0.5
+    return _Stride(g=g, cadence=cadence, step_len=step_len, K=K, s_prof=s_prof, env=env, distance=distance,
+                   root_xz=root_xz, heading=heading, phi=phi, phi0=phi0, phi_end=phi0 + 0.5 * K)
+
+
+def _root_track(ctx: Context, g: GaitParams, s_prof: np.ndarray, distance: float):
+    """(root (n, 2) on the floor, heading (n,), distance walked): turning in place, or along the path."""
+    n = len(s_prof)
+    if ctx.segment.action == "turn":
+        heading = ctx.state.heading + ctx.segment.turn * s_prof
+        root_xz = np.broadcast_to(ctx.state.root_xz, (n, 2)).copy()
+        root_xz = root_xz + (feet_center(ctx.state.feet) - ctx.state.root_xz) * 1.0
+        return root_xz, heading, distance
+    pts, distance, h_off = _path_points(ctx, distance, g.heading_offset)
+    root_xz, tangent = _along(pts, distance * s_prof)
+    heading = tangent - h_off
+    # same branch of the angle as the state (compose bridges any small residue)
+    heading = heading - 2 * np.pi * np.round((heading[0] - ctx.state.heading) / (2 * np.pi))
+    return root_xz, heading, distance
+
+
+def _footsteps(ctx: Context, sp: _Stride, offsets: np.ndarray):
+    """Both feet's tracks from their plants: (ankle (n, 2, 3), yaw (n, 2), pitch (n, 2), contact (n, 2, 2),
+    step events sorted by frame). ``offsets``: each foot's phase offset (the lead foot 0)."""
+    seg, style, person = ctx.segment, ctx.style, ctx.person
+    n, fps, g = seg.frames, ctx.fps, sp.g
+    t = np.arange(n, dtype=np.float64)
+    phi, env, heading, root_xz = sp.phi, sp.env, sp.heading, sp.root_xz
     half = STANCE_HALF * g.stance * style.stance * person.stance
     lift = min(g.lift * style.lift * (0.7 + 0.3 * seg.intensity), 0.26 if g.duty < 0.5 else 0.3)
     rng = np.random.default_rng(ctx.seed + 11) if style.wobble > 0 else None
@@ -156,11 +189,10 @@ def gait(ctx: Context) -> Result:
     feet_pitch = np.empty((n, 2))
     contact = np.empty((n, 2, 2), dtype=bool)
     events: list[Event] = []
-    lat_all = left_vector(heading)
     for side in (0, 1):
         o = offsets[side]
-        k0 = int(np.floor(phi0 + o + 0.5))
-        k_last = int(np.floor(phi_end + o + 0.5))
+        k0 = int(np.floor(sp.phi0 + o + 0.5))
+        k_last = int(np.floor(sp.phi_end + o + 0.5))
         ks = np.arange(k0 + 1, k_last + 1)
         t_k = np.interp(ks - o, phi, t)
         env_k = np.interp(t_k, t, env)
@@ -188,7 +220,7 @@ def gait(ctx: Context) -> Result:
             lift=lift_t, land=land_t, plant=plant, yaw=yaw, height=lift * (0.5 + 0.5 * env_k),
             toe_off=g.toe_off * float(roll_scale.sum() / len(roll_scale)) if len(ks) else g.toe_off,
             heel_strike=g.heel_strike * style.roll,
-            roll_off=max(2.0, 0.2 * fps / cadence * 2), roll_on=max(1.5, 0.1 * fps / cadence * 2),
+            roll_off=max(2.0, 0.2 * fps / sp.cadence * 2), roll_on=max(1.5, 0.1 * fps / sp.cadence * 2),
         )
         a, y, p, c = foot_track(plan, n)
         feet_ankle[:, side] = a
@@ -199,19 +231,26 @@ def gait(ctx: Context) -> Result:
             events.append(Event(kind="step", frame=round(ld), start=math.floor(lt), end=math.ceil(ld),
                                 side=("left", "right")[side]))
     events.sort(key=lambda e: e.frame)
+    return feet_ankle, feet_yaw, feet_pitch, contact, events
 
-    # pelvis
-    cyc = 2 * np.pi * (phi + offsets[0])
-    root = np.empty((n, 3))
+
+def _pelvis_root(ctx: Context, sp: _Stride, cyc: np.ndarray, lat_all: np.ndarray) -> np.ndarray:
+    """The root (n, 3): the path plus a lateral sway, lowered for bent knees, bobbing twice a stride."""
+    seg, style, g, env = ctx.segment, ctx.style, sp.g, sp.env
+    root = np.empty((seg.frames, 3))
     sway = (0.018 if g.duty > 0.5 else 0.008) * np.cos(cyc) * env
-    root[:, 0] = root_xz[:, 0] + lat_all[:, 0] * sway
-    root[:, 2] = root_xz[:, 1] + lat_all[:, 2] * sway
+    root[:, 0] = sp.root_xz[:, 0] + lat_all[:, 0] * sway
+    root[:, 2] = sp.root_xz[:, 1] + lat_all[:, 2] * sway
     bob = g.bob * style.bounce * (0.5 + 0.5 * seg.intensity)
     root[:, 1] = STAND_PELVIS - g.knee * env - style.crouch + bob * np.cos(2 * cyc) * env - abs(bob) * env * 0.5
+    return root
 
-    fwd = forward_vector(heading)
-    sep = ((feet_ankle[:, 0] - feet_ankle[:, 1]) * fwd).sum(-1)
-    lifted = feet_ankle[:, :, 1] - ANKLE_HEIGHT
+
+def _trunk(ctx: Context, sp: _Stride, sep: np.ndarray, lifted: np.ndarray):
+    """(pelvis (n, 3), spine (n, 3, 3), neck (n, 3)): counter-rotation against the feet's separation
+    ``sep`` along the heading, pelvis list with the lifted foot, the gait's lean."""
+    style, person, g, env = ctx.style, ctx.person, sp.g, sp.env
+    n = len(sep)
     pelvis = np.zeros((n, 3))
     cr = style.counter_rotation
     pelvis[:, 1] = -0.22 * sep * cr
@@ -223,7 +262,13 @@ def gait(ctx: Context) -> Result:
     neck = np.zeros((n, 3))
     neck[:, 0] = -0.6 * g.lean * env + person.head
     neck[:, 1] = -0.5 * spine[:, :, 1].sum(1) - pelvis[:, 1]
+    return pelvis, spine, neck
 
+
+def _arm_swing(ctx: Context, sp: _Stride, sep: np.ndarray):
+    """(hand, elbow pole): arms swing against the legs (saturating for long strides), elbows bent by the gait."""
+    seg, style, person, g, env = ctx.segment, ctx.style, ctx.person, sp.g, sp.env
+    n = len(sep)
     gain = g.arm_gain * style.swing * person.arm_swing * (0.8 + 0.2 * seg.intensity)
     limit = 0.35 + 0.25 * (g.duty < 0.5)  # saturate the swing (rad) for long strides
     sat = limit * np.tanh(gain * sep / limit)
@@ -232,16 +277,32 @@ def gait(ctx: Context) -> Result:
         swing = np.zeros((n, 2))
     flex_base = g.elbow * env + 0.25 * (1 - env) + style.elbow * env + person.elbow
     flex = flex_base[:, None] + 0.35 * np.maximum(swing, 0.0) + np.zeros((n, 2))
-    hand_g, pole_g = arm_angles(swing, np.minimum(np.maximum(flex, 0.05), 2.3), abduct=0.12 + 0.05 * env[:, None])
-    hand, pole = hand_g, pole_g
+    return arm_angles(swing, np.minimum(np.maximum(flex, 0.05), 2.3), abduct=0.12 + 0.05 * env[:, None])
+
+
+def gait(ctx: Context) -> Result:
+    """Plan the stride (timing, path, phase), place and track the feet, then the pelvis, trunk and arms."""
+    seg = ctx.segment
+    n = seg.frames
+    sp = _plan_stride(ctx)
+    lead = 0 if seg.lead != "right" else 1
+    offsets = np.zeros(2)
+    offsets[1 - lead] = 0.5
+    lat_all = left_vector(sp.heading)
+    feet_ankle, feet_yaw, feet_pitch, contact, events = _footsteps(ctx, sp, offsets)
+    root = _pelvis_root(ctx, sp, 2 * np.pi * (sp.phi + offsets[0]), lat_all)
+    fwd = forward_vector(sp.heading)
+    sep = ((feet_ankle[:, 0] - feet_ankle[:, 1]) * fwd).sum(-1)
+    pelvis, spine, neck = _trunk(ctx, sp, sep, feet_ankle[:, :, 1] - ANKLE_HEIGHT)
+    hand, pole = _arm_swing(ctx, sp, sep)
     ch = Channels(
-        root=root, heading=heading, pelvis=pelvis, spine=spine, neck=neck, collar=np.zeros((n, 2, 3)),
+        root=root, heading=sp.heading, pelvis=pelvis, spine=spine, neck=neck, collar=np.zeros((n, 2, 3)),
         ankle=feet_ankle, foot_yaw=feet_yaw, foot_pitch=feet_pitch, knee_out=np.zeros((n, 2)),
         hand=hand, elbow_pole=pole, hand_frame=np.zeros((n, 2)), contact=contact,
     )
     return Result(
         channels=ch, state=end_state(ch), events=events, arm_busy=np.zeros((n, 2)),
-        gait_phase=phi - phi0, posture=np.ones(n),
-        params={"cadence": float(cadence), "step_length": float(step_len), "distance": float(distance),
+        gait_phase=sp.phi - sp.phi0, posture=np.ones(n),
+        params={"cadence": float(sp.cadence), "step_length": float(sp.step_len), "distance": float(sp.distance),
                 "steps": len(events)},
     )
