@@ -120,7 +120,20 @@ PAGE_HELPERS = r"""
     if (pointer.down < 0 || pointer.moved >= 0 || !e.buttons) return;
     if (Math.hypot(e.clientX - pointer.x, e.clientY - pointer.y) > 5) pointer.moved = performance.now();
   }, true);
-  window.moattnTest = {deepAll, canvases, canvasHash, waitChange, selectOption, timedSelect, pointer};
+  // the data of the first glyph renderer of the Bokeh plot with this css class, as the page holds it (what the
+  // server sent last): {column: plain array}; null before the plot exists
+  function plotData(cls) {
+    const doc = window.Bokeh && Bokeh.documents[0];
+    if (!doc) return null;
+    const plot = [...doc.all_models].find(m => (m.css_classes || []).includes(cls) && m.renderers);
+    const r = plot && plot.renderers.find(r => r.data_source);
+    if (!r) return null;
+    const data = r.data_source.data, out = {};
+    const entries = data instanceof Map ? [...data.entries()] : Object.entries(data);
+    for (const [k, v] of entries) out[k] = Array.from(v, x => (x && x.length !== undefined && typeof x !== 'string') ? Array.from(x) : x);
+    return out;
+  }
+  window.moattnTest = {deepAll, canvases, canvasHash, waitChange, selectOption, timedSelect, pointer, plotData};
   window.moattnLastClick = 0;
   window.moattnLastClickWall = 0;
   document.addEventListener('click', () => { window.moattnLastClick = performance.now(); window.moattnLastClickWall = Date.now() / 1000; }, true);
@@ -140,12 +153,13 @@ def free_port() -> int:
 
 @contextlib.contextmanager
 def studio_server(model_dir: str | os.PathLike, *, port: int | None = None, log_path: Path | None = None,
-                  timeout: float = 90.0, duet_dir: str | os.PathLike | None = None,
+                  timeout: float = 300.0, duet_dir: str | os.PathLike | None = None,
                   workspace: str | os.PathLike | None = None, extra_args: tuple[str, ...] = ()) -> Iterator[str]:
     """Run ``moattn serve --model model_dir`` on a free port; yields its URL, stops it afterwards.
 
     ``workspace``: the motion library's folder; None: a temporary one, removed afterwards (a test or a bench never
-    writes into the user's own library)."""
+    writes into the user's own library). ``timeout``: the longest wait for its first answer (a start on two cores
+    busy with a training run took over 90 s: torch, Panel and the model load at the lowest priority)."""
     import tempfile
 
     port = port or free_port()
@@ -221,6 +235,29 @@ def open_studio(browser, url: str, *, timeout_ms: float = 60000, opening_motion:
         page.wait_for_function("window.moattnPlayer.motion_key >= 0 && "
                                "(window.moattnPlayer.motion_key in window.moattnPlayer.first_draw)", timeout=timeout_ms)
     return page
+
+
+#: the page has drawn everything it holds: every Bokeh view has finished its layout and rendering, and the 3-D
+#: viewer has drawn the frame it shows
+DRAWN_JS = """() => {
+  const p = window.moattnPlayer;
+  return !!p && p.last_drawn === p.frame && [...Bokeh.index].every(v => v.has_finished());
+}"""
+
+
+def painted(page, *, timeout_ms: float = 30000) -> None:
+    """Wait until the page has drawn what it holds (``DRAWN_JS``) and two animation frames more have passed (the
+    viewer redraws a changed view at its next frame, and a frame is painted before the next one starts): what a
+    screenshot then shows is what the page holds, not a half-drawn picture. What the page should hold (a new
+    motion, a server's answer) is each test's own condition, waited on before this."""
+    page.wait_for_function(DRAWN_JS, timeout=timeout_ms)
+    page.evaluate("() => new Promise(r => requestAnimationFrame(() => requestAnimationFrame(() => r())))")
+
+
+def animations_done(page, *, timeout_ms: float = 10000) -> None:
+    """Wait until no finite CSS animation or transition runs in the page (e.g. notifications have slid in)."""
+    page.wait_for_function("() => document.getAnimations().every(a => a.playState !== 'running' || "
+                           "a.effect.getComputedTiming().endTime === Infinity)", timeout=timeout_ms)
 
 
 def external_requests(page) -> list[str]:
@@ -310,11 +347,15 @@ def measure_orbit(page, *, moves: int = 40) -> dict:
 def run_transfer(page, *, leader: str, follower: str, timeout_ms: float = 300000) -> dict:
     """Run the Transfer tab on two prompts; ``playable_s``: from the job's end (server clock) until the page drew
     the leader / follower / out scene (page clock; one machine, one wall clock)."""
+    from playwright.sync_api import expect
+
     key = player_stats(page)["motion_key"]
     page.locator(".bk-tab", has_text="Transfer").click()
-    page.locator(".transfer-leader .source-prompt input").fill(leader)
-    page.locator(".transfer-follower .source-prompt input").fill(follower)
-    page.wait_for_timeout(600)  # the values travel to the server before the click
+    for role, prompt in (("leader", leader), ("follower", follower)):
+        page.locator(f".transfer-{role} .source-prompt input").fill(prompt)
+    for role, prompt in (("leader", leader), ("follower", follower)):
+        # the server has each prompt: it shows the prompt's words under its box
+        expect(page.locator(f".transfer-{role} .source-words .prompt-chips")).to_have_text(prompt, timeout=30000)
     page.locator(".transfer-run button").click()
     new = page.wait_for_function(
         f"window.moattnPlayer.motion_key > {key} && (window.moattnPlayer.motion_key in window.moattnPlayer.first_draw)"

@@ -46,13 +46,13 @@ def test_compose_two_intervals(browser, server_url, screens):
         wall = float(re.search(r"wall time ([\d.]+) s", result).group(1))
         assert wall > 0
         assert page.evaluate("window.moattnPlayer.n_frames") == 100
-        page.wait_for_timeout(500)
+        br.painted(page)
         (screens / "compose_tab.png").write_bytes(page.screenshot(full_page=True))
 
         # jump to the transition: the viewer moves there and the skeleton is drawn in the transition colour
         page.locator(".compose-jump button").first.click()
         page.wait_for_function("window.moattnPlayer.frame === 40", timeout=20000)
-        page.wait_for_timeout(800)
+        br.painted(page)  # the viewer has drawn frame 40
         canvas = page.locator(".skeleton-view canvas").screenshot()
         (screens / "compose_viewer_transition.png").write_bytes(canvas)
         img = _img(canvas)

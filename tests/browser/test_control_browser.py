@@ -50,7 +50,7 @@ def test_draw_a_root_path_and_follow_it(browser, server_url, screens):
         n, length, x0, z0, x1, z1 = int(m[1]), *map(float, m.groups()[1:])
         assert n >= 5 and 2.0 < length < 8.0, text
         assert z1 - z0 > 2.0, text  # drawn up the screen = forward (+z)
-        page.wait_for_timeout(300)
+        br.painted(page)
         (screens / "control_drawn_path.png").write_bytes(page.locator(".control-tab").screenshot())
 
         page.locator(".control-run button").click()
@@ -62,7 +62,7 @@ def test_draw_a_root_path_and_follow_it(browser, server_url, screens):
         assert mean < 0.1 and off == 0.0, text
         assert "inpainting" in text
         br.wait_new_motion(page, key_before)
-        page.wait_for_timeout(800)
+        br.painted(page)
         (screens / "control_tab.png").write_bytes(page.screenshot(full_page=True))
         view = page.locator(".skeleton-view canvas").screenshot()
         (screens / "control_viewer.png").write_bytes(view)

@@ -49,7 +49,7 @@ def test_duet_tab_makes_and_plays_two_people(browser, server_url, screens):
         page.locator(".duet-readout .duet-box", has_text="handshake: right hands").wait_for(timeout=5000)
         br.wait_new_motion(page, key)
         assert page.evaluate("window.moattnPlayer.n_frames") == 60
-        page.wait_for_timeout(500)
+        br.painted(page)
         (screens / "duet_tab.png").write_bytes(page.screenshot(full_page=True))
         canvas = page.locator(".skeleton-view canvas").screenshot()
         (screens / "duet_viewer.png").write_bytes(canvas)
@@ -74,7 +74,7 @@ def test_duet_tab_makes_and_plays_two_people(browser, server_url, screens):
         page.locator(".duet-readout .duet-box", has_text="first 20 given").wait_for(timeout=180000)
         br.wait_new_motion(page, key)
         assert page.evaluate("window.moattnPlayer.n_frames") == 80
-        page.wait_for_timeout(500)
+        br.painted(page)
         (screens / "duet_completion.png").write_bytes(page.locator(".skeleton-view canvas").screenshot())
         errors = [m for m in page.console_messages if m.startswith(("error", "pageerror"))
                   and "ERR_NAME_NOT_RESOLVED" not in m]

@@ -33,7 +33,9 @@ def test_emphasis_from_the_edit_tab(browser, server_url, screens):
         for _ in range(6):
             handle.press("ArrowRight")  # two presses past the end stay at the end
         page.locator(".edit-weight", has_text="0.5").wait_for(timeout=10000)
-        page.wait_for_timeout(500)  # the value travels to the server before the click
+        # the slider has sent its 0.5 (its label shows the value it sent); Panel handles the click only after the
+        # changes sent before it (panel.reactive: a click first runs the page's pending changes), and the result
+        # line below names the weight the edit used
         page.locator(".edit-run button").click()
         # progress, then the result: both motions in the viewer, every frame delivered
         page.locator(".edit-result", has_text="emphasise 'jumps' +0.50").wait_for(timeout=180000)
@@ -43,7 +45,7 @@ def test_emphasis_from_the_edit_tab(browser, server_url, screens):
             "window.moattnPlayer.first_draw && window.moattnPlayer.roles[window.moattnPlayer.motion_key] === 2",
             timeout=3000)
         br.wait_new_motion(page, key_before)
-        page.wait_for_timeout(800)
+        br.painted(page)
         _save = lambda name, png: (screens / name).write_bytes(png)  # noqa: E731
         _save("edit_tab_emphasis.png", page.screenshot(full_page=True))
         canvas = page.locator(".skeleton-view canvas").screenshot()

@@ -35,15 +35,14 @@ def test_drag_grounding_spans_on_the_word_curve(browser, server_url, screens):
         assert m, text
         a, b, c, d = map(int, m.groups())
         assert a < b < c < d, text
-        page.wait_for_timeout(300)
+        br.painted(page)
         (screens / "edit_ground_spans.png").write_bytes(page.locator(".edit-tab").screenshot())
 
         page.locator(".edit-clear-spans button").click()
         listing.locator(".span-none").wait_for(timeout=10000)
         assert spans_input.input_value() == ""
 
-        drag_spans()
-        page.wait_for_timeout(500)  # the spans travel to the server before the click
+        drag_spans()  # the server has the spans: it lists them (".span-count")
         page.locator(".edit-run button").click()
         done = re.compile(r"ground 'jumps' \+0\.30 frames \d+–\d+, \d+–\d+")
         page.locator(".edit-result", has_text=done).wait_for(timeout=180000)

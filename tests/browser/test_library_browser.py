@@ -4,7 +4,10 @@ read back from the library says it has no attention and re-records that very mot
 (``screens``)."""
 from __future__ import annotations
 
+import re
+
 import pytest
+from playwright.sync_api import expect
 
 from app.bench import browser as br
 from engine.library import MotionLibrary
@@ -19,16 +22,9 @@ def _options(page) -> list[str]:
     return [t.strip() for t in page.locator(".motion-select select option").all_inner_texts()]
 
 
-def _wait_options(page, ok, timeout_s: float = 30.0) -> list[str]:
-    """The Motion list's options once ``ok(options)`` holds (polled: the list lives in shadow roots)."""
-    import time
-
-    end = time.monotonic() + timeout_s
-    while True:
-        options = _options(page)
-        if ok(options) or time.monotonic() > end:
-            return options
-        page.wait_for_timeout(250)
+def _option(page, title: str):
+    """The Motion list's option titled ``title`` (a locator: ``expect`` waits on its count)."""
+    return page.locator(".motion-select select option").filter(has_text=re.compile(rf"^\s*{re.escape(title)}\s*$"))
 
 
 def _open(browser, url):
@@ -49,7 +45,8 @@ def test_motions_survive_a_reload_and_a_server_restart(browser, tiny_model_dir, 
         assert WAVES in _options(page) and JUMPS in _options(page)
         page.close()
         page = _open(browser, url)  # a reload: a new session
-        assert {WAVES, JUMPS} <= set(_wait_options(page, lambda o: JUMPS in o))
+        expect(_option(page, JUMPS)).to_have_count(1, timeout=30000)
+        assert {WAVES, JUMPS} <= set(_options(page))
         assert _options(page).count("imported: walk.npy") == 1  # the opening example is one motion, not one per page
         page.close()
     entries = MotionLibrary(workspace=workspace).entries()
@@ -63,8 +60,8 @@ def test_motions_survive_a_reload_and_a_server_restart(browser, tiny_model_dir, 
         search = page.locator(".motion-search input")
         search.fill("jumps")
         search.press("Enter")
-        options = _wait_options(page, lambda o: WAVES not in o, timeout_s=10)
-        assert JUMPS in options and WAVES not in options
+        expect(_option(page, WAVES)).to_have_count(0, timeout=30000)
+        assert JUMPS in _options(page)
         key = br.player_stats(page)["motion_key"]
         page.locator(".motion-select select").select_option(JUMPS)
         br.wait_new_motion(page, key)

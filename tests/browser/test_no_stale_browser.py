@@ -167,7 +167,7 @@ def test_every_upload_gets_a_message_about_that_file(page, screens):
     text = _notification(page, "diary.bvh")
     assert text.startswith("Could not import diary.bvh: line 1: expected HIERARCHY"), text
     assert "upload.bvh" not in text and "dear diary" not in text
-    page.wait_for_timeout(600)  # the toasts slide in (for the screenshot only)
+    br.animations_done(page)  # the toasts have slid in (for the screenshot only)
     page.screenshot(path=str(screens / "no_stale_upload_messages.png"))
 
 
@@ -243,7 +243,7 @@ def test_every_colour_mode_has_a_legend(page, generated, screens):
     page.wait_for_function("window.moattnPlayer.legend && window.moattnPlayer.legend.kind === 'gradient'",
                            timeout=30000)
     assert _stats(page)["legend"]["title"].startswith("attention on ")
-    page.wait_for_timeout(300)  # (the screenshot only)
+    br.painted(page)  # (the screenshot only)
     coloured = canvas.screenshot()
     (screens / "no_stale_legend_word_attention.png").write_bytes(coloured)
     assert _skeleton_pixels(_img(coloured)) > 300

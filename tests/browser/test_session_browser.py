@@ -17,6 +17,13 @@ def page(quick_page):
     return quick_page
 
 
+#: the page's scroll box (the template's main area) scrolled to its end: its scrollTop then (else false)
+SCROLLED_TO_END = """() => {
+  const main = window.moattnTest.deepAll(document, '#main')[0];
+  return main.scrollTop > 0 && main.scrollHeight - main.clientHeight - main.scrollTop <= 1 && main.scrollTop;
+}"""
+
+
 def _select(page, css: str):
     return page.locator(f"{css} select")
 
@@ -51,12 +58,13 @@ def test_evicted_attention_is_said_and_can_be_re_recorded(page, screens):
 
 def test_the_viewer_stays_in_sight_while_a_long_tab_scrolls(page, screens):
     page.locator(".bk-tab", has_text="Transfer").click()
-    page.wait_for_timeout(800)
+    expect(page.locator(".transfer-run button")).to_be_visible(timeout=30000)  # the tab is built
     page.mouse.move(1100, 600)
     for _ in range(10):
         page.mouse.wheel(0, 400)
-        page.wait_for_timeout(80)
-    page.wait_for_timeout(600)
+    # the page's scroll box has scrolled to its end (4000 px of wheel: far more than the tab is longer than the page)
+    scrolled = page.wait_for_function(SCROLLED_TO_END, timeout=30000).json_value()
+    assert scrolled > 200, scrolled  # the tab is longer than the page: it did scroll
     box = page.locator(".skeleton-view canvas").bounding_box()
     viewport = page.viewport_size
     (screens / "session_sticky_viewer.png").write_bytes(page.screenshot())

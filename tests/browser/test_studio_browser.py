@@ -34,6 +34,15 @@ def _skeleton_pixels(img: np.ndarray) -> int:
     return int(((b - r > 60) & (b > 120)).sum())
 
 
+#: the word curves (as the page holds them) draw ``word`` thicker than every other word
+WORD_PICKED_JS = """(word) => {
+  const d = window.moattnTest.plotData('cross-curves');
+  if (!d || !d.word) return false;
+  const i = d.word.indexOf(word);
+  return i >= 0 && d.width.every((w, k) => k === i || w < d.width[i]);
+}"""
+
+
 def _notification(page, text: str, timeout_ms: float = 30000) -> str:
     toast = page.locator(".notyf__message", has_text=text).last
     toast.wait_for(state="visible", timeout=timeout_ms)
@@ -55,7 +64,7 @@ def generated(page, screens):
     status = page.locator(".generation-status p").first.inner_text()
     assert f"{JUMPS_FRAMES} frames (length from the prompt)" in status, status
     br.wait_all_frames(page)
-    page.wait_for_timeout(500)
+    br.painted(page)
     _save(screens, "studio_after_generate.png", page.screenshot(full_page=True))
     return result
 
@@ -158,7 +167,7 @@ def test_clicking_a_heatmap_cell_moves_the_viewer_to_that_frame(page, generated,
     page.wait_for_function(f"window.moattnPlayer.frame !== {before}", timeout=15000)
     frame = br.player_stats(page)["frame"]
     assert 0.56 * JUMPS_FRAMES <= frame <= 0.94 * JUMPS_FRAMES, frame
-    page.wait_for_timeout(400)
+    br.painted(page)  # the viewer has drawn that frame
     after_png = page.locator(".skeleton-view canvas").screenshot()
     _save(screens, "viewer_after_pick.png", after_png)
     assert np.abs(_img(after_png) - before_img).mean() > 0.3
@@ -219,7 +228,7 @@ def test_words_the_model_does_not_know_are_noted_and_the_prompt_generates(page, 
         assert note in shown.inner_text(), shown.inner_text()
     assert page.locator(".prompt-words .prompt-note", has_text=notes[0]).count() == 1  # still said before the next
     assert page.locator(".notyf__message").filter(has_text="unknown word").count() == 0
-    page.wait_for_timeout(500)
+    br.painted(page)
     _save(screens, "unknown_words_generated.png", page.screenshot())
 
 
@@ -231,26 +240,32 @@ def test_bad_input_shows_notifications_and_the_app_keeps_working(page, generated
     expect(page.locator(".generate-button button")).to_be_disabled(timeout=10000)
     prompt.press("Enter")
     assert "unknown word" in _notification(page, "flurbs")
-    page.wait_for_timeout(600)  # let the toast slide in before the screenshot
+    br.animations_done(page)  # the toast has slid in (for the screenshot)
     _save(screens, "unknown_word.png", page.screenshot())
 
     prompt.fill("")
     prompt.press("Enter")
     assert "empty" in _notification(page, "prompt is empty")
 
-    prompt.fill("a person jumps twice")
     seconds = page.locator(".seconds-input input")
     seconds.fill("30")
     seconds.press("Enter")
-    page.wait_for_timeout(2500)  # the value travels to the server before the click (slow on a busy box)
+    prompt.fill("a person jumps twice")
+    # the server handles a page's changes in the order they were sent: once it has answered the prompt typed after
+    # the 30 s (Generate, disabled for the empty prompt, is enabled again), it has the 30 s
+    expect(page.locator(".generate-button button")).to_be_enabled(timeout=30000)
     page.locator(".generate-button button").click()
     assert "9.8" in _notification(page, "duration must be between")
-    page.wait_for_timeout(600)
+    br.animations_done(page)
     _save(screens, "bad_length.png", page.screenshot())
 
+    # the memory line under "Attention recording" is the server's answer to a new length (it counts the frames);
+    # it is the 30 s one now (sent before the notification)
+    memory = page.locator(".record-memory p")
+    line = memory.text_content()
     seconds.fill("2")
     seconds.press("Enter")
-    page.wait_for_timeout(2500)
+    expect(memory).not_to_have_text(line, timeout=30000)  # the server has the 2 s
     result = br.generate(page, "a person jumps twice")
     assert result["stats"]["n_frames"] == 40
 
@@ -276,12 +291,14 @@ def _acceptance(browser, url, screens, tag):
     br.generate(page, "a person jumps twice", timeout_ms=180000)
     br.wait_all_frames(page, timeout_ms=180000)
     page.locator(".word-buttons button", has_text="jumps").click()
-    page.wait_for_timeout(500)
+    # the server has picked the word: its curve is drawn thicker than the others
+    page.wait_for_function(WORD_PICKED_JS, arg="jumps", timeout=30000)
+    br.painted(page)
     _save(screens, f"acceptance_{tag}.png", page.screenshot(full_page=True))
     heat = page.locator(".self-heatmap")
     box = br.stable_box(heat)
     br.tap(heat, 150 / box["width"], (30 + 0.3 * 290) / box["height"])
-    page.wait_for_timeout(800)
-    assert br.player_stats(page)["frame"] > 0
+    page.wait_for_function("window.moattnPlayer.frame > 0", timeout=30000)
+    br.painted(page)
     _save(screens, f"acceptance_{tag}_picked.png", page.screenshot(full_page=True))
     page.close()

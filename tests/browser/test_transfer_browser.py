@@ -8,6 +8,7 @@ import io
 import numpy as np
 import pytest
 from PIL import Image
+from playwright.sync_api import expect
 
 from app.bench import browser as br
 
@@ -16,6 +17,13 @@ pytestmark = pytest.mark.timeout(300)
 
 def _img(png: bytes) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+
+
+#: the server's frame, as the per-query plot's title says it once the server has it (not playing)
+QUERY_FRAME_JS = """(frame) => {
+  const plot = [...Bokeh.documents[0].all_models].find(m => (m.css_classes || []).includes('per-query') && m.renderers);
+  return !!plot && plot.title.text === `Per-query maps: leader frame ${frame} as the query`;
+}"""
 
 
 def _role_pixels(img: np.ndarray) -> dict[str, np.ndarray]:
@@ -33,13 +41,16 @@ def test_transfer_from_two_prompts(browser, server_url, screens):
         page.locator(".bk-tab", has_text="Transfer").click()
         page.locator(".transfer-leader .source-prompt input").fill("a person walks forward")
         page.locator(".transfer-follower .source-prompt input").fill("a person jumps twice")
-        page.locator(".transfer-follower .source-words", has_text="jumps").wait_for(timeout=10000)
-        page.wait_for_timeout(500)  # the values travel to the server before the click
+        # the server has both prompts: it shows each one's words under its box
+        expect(page.locator(".transfer-leader .source-words .prompt-chips")).to_have_text("a person walks forward",
+                                                                                           timeout=30000)
+        expect(page.locator(".transfer-follower .source-words .prompt-chips")).to_have_text("a person jumps twice",
+                                                                                             timeout=30000)
         page.locator(".transfer-run button").click()
         page.locator(".transfer-result", has_text="a person walks forward → a person jumps twice").wait_for(
             timeout=180000)
         br.wait_new_motion(page, key_before)
-        page.wait_for_timeout(800)
+        br.painted(page)
         save("transfer_tab.png", page.screenshot(full_page=True))
         canvas = page.locator(".skeleton-view canvas").screenshot()
         save("transfer_viewer_roles.png", canvas)
@@ -50,11 +61,14 @@ def test_transfer_from_two_prompts(browser, server_url, screens):
         # the three play together, drawn by the page (no frames to wait for)
         played = br.measure_draw_rate(page, 1.0)
         assert played["draws"] >= 10, played
+        paused = br.player_stats(page)["frame"]
+        if paused:  # the server has the frame playback stopped at (so that it cannot come after the Home below)
+            page.wait_for_function(QUERY_FRAME_JS, arg=paused, timeout=30000)
         scrub = page.locator(".moattn-scrub")
         scrub.focus()
         scrub.press("Home")  # back to frame 0 (on the server too) before a click picks a frame below
         page.wait_for_function("window.moattnPlayer.frame === 0", timeout=5000)
-        page.wait_for_timeout(300)
+        page.wait_for_function(QUERY_FRAME_JS, arg=0, timeout=30000)  # the server has frame 0
         masks = _role_pixels(img)
         counts = {k: int(m.sum()) for k, m in masks.items()}
         assert all(c > 150 for c in counts.values()), counts
@@ -91,7 +105,7 @@ def test_transfer_from_two_prompts(browser, server_url, screens):
         page.locator(".transfer-color button", has_text="Q cluster").click()
         changed = page.evaluate(f"window.moattnTest.waitChange('.skeleton-view', {before}, 30000)")
         assert changed >= 0, "the skeletons were not recoloured"
-        page.wait_for_timeout(800)
+        br.painted(page)
         coloured = page.locator(".skeleton-view canvas").screenshot()
         save("transfer_viewer_q_clusters.png", coloured)
         masks = _role_pixels(_img(coloured))
@@ -102,15 +116,16 @@ def test_transfer_from_two_prompts(browser, server_url, screens):
         # right of the first out
         page.locator(".transfer-color button", has_text="roles").click()
         page.locator(".transfer-more textarea").fill("a person runs forward")
-        page.wait_for_timeout(500)
+        # (sent as it is typed; Panel handles the click only after the changes sent before it -- panel.reactive: a
+        # click first runs the page's pending changes -- and the result names the second follower)
         key_before = br.player_stats(page)["motion_key"]
         page.locator(".transfer-run button").click()
         page.locator(".transfer-result", has_text="+ 1 more").wait_for(timeout=180000)
         page.locator(".transfer-result", has_text="out 2: 80 frames").wait_for(timeout=5000)
         br.wait_new_motion(page, key_before)
-        page.wait_for_timeout(800)
         page.locator(".transfer-analysed", has_text="follower 2").wait_for(timeout=5000)  # pick whose analysis
         page.locator(".transfer-analysed").scroll_into_view_if_needed()
+        br.painted(page)
         save("transfer_tab_two_followers.png", page.screenshot())
         s = _img(strips.screenshot())  # clicked earlier: a click picks a frame, it does not fade the other cells
         assert int(((s.max(-1) - s.min(-1)) > 60).sum()) > 5000

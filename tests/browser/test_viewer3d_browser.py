@@ -8,6 +8,7 @@ import io
 import numpy as np
 import pytest
 from PIL import Image
+from playwright.sync_api import expect
 
 from app.bench import browser as br
 
@@ -34,7 +35,8 @@ def test_the_first_denoising_step_shows_before_sampling_ends(page, screens):
     steps = page.locator(".steps-input input")
     steps.fill("400")  # long enough to watch: the tiny model takes a few ms a step
     steps.press("Enter")
-    page.wait_for_timeout(500)
+    # the server has the 400 steps: the memory line under "Attention recording" counts them
+    expect(page.locator(".record-memory p")).to_contain_text("of 400 steps", timeout=30000)
     key = br.player_stats(page)["motion_key"]
     page.locator(".prompt-input input").fill("a person jumps twice")
     page.locator(".generate-button button").click()
@@ -59,7 +61,7 @@ def test_orbit_zoom_and_reset_change_the_view(page, screens):
     before_png = page.locator(".skeleton-view canvas").screenshot()
     orbit = br.measure_orbit(page)
     assert orbit["changed"], orbit
-    page.wait_for_timeout(200)
+    br.painted(page)
     after_png = page.locator(".skeleton-view canvas").screenshot()
     (screens / "viewer_orbited.png").write_bytes(after_png)
     assert np.abs(_img(after_png) - _img(before_png)).mean() > 1.0
@@ -85,7 +87,7 @@ def test_the_denoising_steps_can_be_scrubbed_after_sampling(page, screens):
     slider.focus()
     slider.press("Home")  # the first step kept: the model's first guess of the clean motion
     page.wait_for_function("window.moattnPlayer.step_index === 0", timeout=5000)
-    page.wait_for_timeout(200)
+    br.painted(page)  # the viewer has drawn that step
     first = page.locator(".skeleton-view canvas").screenshot()
     (screens / "viewer_denoising_step1.png").write_bytes(first)
     assert page.locator(".moattn-step-label").inner_text().startswith("1 / 400")
