@@ -363,8 +363,8 @@ class EditTab(pn.viewable.Viewer):
         self.run.label = "Count this motion" if not is_edit else f"Run {e.kind}"
         self.count_button.visible = is_edit  # one "Count this motion" button at a time: the Run button in count mode
         self.help.object = KIND_HELP[entry.name] + ("" if not entry.source else
-                                              " Sources: the prompt, or a session motion (a generated one is "
-                                              "re-generated from its prompt, an imported one is DDIM-inverted).")
+                                                    " Sources: the prompt, or a session motion (a generated one is "
+                                                    "re-generated from its prompt, an imported one is DDIM-inverted).")
         if entry.positive_weight and self.weight.value < 0:
             self.weight.value = abs(self.weight.value)
         if entry.spans:
