@@ -58,16 +58,17 @@ class Delivery:
     """How a finished job's result becomes session motions, and what shows then (applied by the job runner).
 
     The runner adds ``items`` (in order; kept in the motion library together, linked to what they were made from),
-    paints ``frame_colors``, sets ``readout``, shows ``show`` with ``compare`` and ``also`` beside it, ends the job
-    with ``status`` and says ``notices``."""
+    paints ``frame_colors``, shows ``show`` with ``compare`` and ``also`` beside it, ends the job with ``status``,
+    sets ``readout`` and says ``notices``."""
 
     status: str  # the status line once done
     items: list[MotionItem] = field(default_factory=list)  # new motions (named with ``session.unique_name``)
     show: str = ""  # the motion shown ('' = the viewer stays as it is)
     compare: str = ""  # shown beside it
     also: list[str] = field(default_factory=list)  # shown after the compared one
-    frame_colors: dict = field(default_factory=dict)  # motion name -> (T, 22, 3) uint8 colours
+    frame_colors: dict = field(default_factory=dict)  # motion name -> (T, 22, 3) uint8 colours, painted as shown
     color_names: dict = field(default_factory=dict)  # '#rrggbb' -> what that colour stands for (the legend)
+    color_notes: dict = field(default_factory=dict)  # motion name -> what its colours mean (the viewer's title)
     renewed: str = ""  # an existing motion whose data the job replaced (Re-record): every view reads it again
     readout: tuple[param.Parameterized, dict] | None = None  # (owner, {parameter: value}): the tab's result
     notices: list[tuple[str, str]] = field(default_factory=list)  # (level, text) said once it is shown
@@ -229,13 +230,12 @@ class JobRunner(param.Parameterized):
                 self._bound_memory(keep=delivery.renewed)
             if delivery.color_names:
                 self.color_names = {**self.color_names, **delivery.color_names}
+            if delivery.color_notes:
+                self.color_notes = {**self.color_notes, **delivery.color_notes}
             if delivery.frame_colors:  # (the colours of motions no longer in the session go)
                 self.frame_colors = {**{k: v for k, v in self.frame_colors.items() if k in self.items},
                                      **delivery.frame_colors}
-            if delivery.readout is not None:  # before they are shown: a readout may paint them (cluster colours)
-                owner, values = delivery.readout
-                owner.param.update(**values)
-            # the motions before the status line: their scene leaves for the page before the buttons change
+            # the motions first: their scene leaves for the page before the status line, the buttons and the readout
             if delivery.show:
                 with param.parameterized.batch_call_watchers(self):
                     self.show(delivery.show)
@@ -244,6 +244,9 @@ class JobRunner(param.Parameterized):
                     if delivery.also:
                         self.also = list(delivery.also)
             self.end_job(delivery.status)
+            if delivery.readout is not None:
+                owner, values = delivery.readout
+                owner.param.update(**values)
             for level, text in delivery.notices:
                 self._notify(level, text)
             if delivery.renewed:

@@ -20,6 +20,7 @@ import param
 from app.generation import Cancelled, sampling_slot
 from app.session.items import MotionItem
 from app.session.jobs import Delivery, JobDescription, Worker
+from app.tabs.transfer.colors import cluster_paint
 from app.tabs.transfer.settings import SourceSettings, TransferSettings
 
 MIN_MOTION_FRAMES = 20  # 1 s
@@ -276,7 +277,10 @@ class TransferJob:
             items.append(item)
             view.names[role] = item.name
         names = view.names
+        # painted as they are shown when the tab colours skeletons by clusters (the first follower's analysis)
+        colors, notes, legend = cluster_paint(view.focus(1), self.settings.color_by)
         return Delivery(items=items, show=names["leader"], compare=names["follower"], also=_outs(names),
+                        frame_colors=colors, color_notes=notes, color_names=legend,
                         status=f"transfer {job.description}: done in {view.seconds_taken:.1f} s "
                                f"({job.sample.steps} steps)",
                         readout=(self.settings, {"analysed": 1, "result": view}))
