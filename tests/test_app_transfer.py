@@ -125,8 +125,17 @@ def test_transfer_from_an_imported_motion(studio):
     tab.leader.prompt.value = ""  # the description is optional
     tab.follower.kind.value = "prompt"
     tab.follower.prompt.value = "a person jumps twice"
-    _run(studio)
+    tab.color.value = "Q cluster"  # skeletons coloured by clusters: the new trio is painted as it is first shown
+    scenes = []
+    watcher = studio.viewer.player.param.watch(lambda e: scenes.append(e.new), "scene")
+    try:
+        _run(studio)
+    finally:
+        studio.viewer.player.param.unwatch(watcher)
+        tab.color.value = "roles"
     view = tab.settings.result
+    first = next(m for m in scenes if len(m["roles"]) == 3)  # (before it: the imported motion shown alone)
+    assert [r["frame_colors"] is not None for r in first["roles"]] == [True, True, True]
     n = view.frames["leader"]
     assert abs(n - min(len(joints), 196)) <= 1 and view.frames["out"] == n
     assert view.analysis.nearest.shape == (n,) and view.analysis.maps["mixed"].shape == (n, view.frames["follower"])
