@@ -49,15 +49,16 @@ class LibrarySettings:
         return MotionLibrary(workspace=self.workspace, limit_mb=self.limit_mb)
 
 
-#: the tabs on the right, in order: (title, the view's class); the first is built with the page, each other one
-#: the first time it is selected
-TAB_VIEWS = (("Attention", AttentionExplorer), ("Edit", EditTab), ("Transfer", TransferTab), ("Compose", ComposeTab),
-             ("Control", ControlTab), ("Duet", DuetTab))
+#: the tabs on the right, in order: (title, the view's class, the name of its settings in the session's
+#: ``tab_settings``, None: it has none); the first is built with the page, each other one the first time it is selected
+TAB_VIEWS = (("Attention", AttentionExplorer, None), ("Edit", EditTab, "edit"), ("Transfer", TransferTab, "transfer"),
+             ("Compose", ComposeTab, "compose"), ("Control", ControlTab, "control"), ("Duet", DuetTab, "duet"))
 
 
 def tab_settings(*, controls_dir: Path | None = None, duet_dir: Path | None = None) -> dict[str, SettingsFactory]:
-    """Each tab's settings, made by the session as it starts (``state.edit``, ``state.compose``, ...): they exist
-    (and keep their rules, e.g. counting a shown motion) whether or not the tab's view was ever built."""
+    """Each tab's settings, made by the session as it starts (``state.tab_settings["edit"]``, ...) and handed to the
+    tab's view and jobs: they exist (and keep their rules, e.g. counting a shown motion) whether or not the tab's
+    view was ever built."""
     return {"edit": EditSettings.for_session, "transfer": TransferSettings.for_session,
             "compose": ComposeSettings.for_session,
             "control": partial(ControlSettings.for_session, controls_dir=controls_dir),
@@ -78,7 +79,8 @@ class Studio:
             self.state.attach_document(doc)
         self.controls = GenerateControls(state=self.state)
         self.viewer = SkeletonViewer(state=self.state)
-        self.tabs = LazyTabs(tabs=[(title, partial(view, state=self.state)) for title, view in TAB_VIEWS],
+        self.tabs = LazyTabs(tabs=[(title, partial(view, state=self.state, **self._settings(name)))
+                                   for title, view, name in TAB_VIEWS],
                              width=600, css_classes=["right-tabs"])
         self.imports = ImportPanel(state=self.state)
         self.exports = ExportPanel(state=self.state)
@@ -95,6 +97,10 @@ class Studio:
                 self.state.model
             except Exception as exc:
                 self.state.error(f"no model loaded, generation is off: {exc}")
+
+    def _settings(self, name: str | None) -> dict:
+        """A tab view's own settings, handed to it explicitly ({} for a tab without settings)."""
+        return {} if name is None else {"settings": self.state.tab_settings[name]}
 
     @property
     def attention(self) -> AttentionExplorer:

@@ -132,7 +132,7 @@ def test_bad_input_is_a_notification_not_a_crash(tiny_model_dir, change, message
         s = st.state
         s.param.update(**change)
         assert s.generate() is False
-        assert not s.running and s._worker is None
+        assert not s.running and s.active_run is None
         level, text = s.notices[-1]
         assert level == "error" and message in text
         assert s.notice[2] == text

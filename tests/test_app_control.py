@@ -178,6 +178,11 @@ def test_root_and_both_wrists_together_blended(studio):
 def test_blend_weights_follow_the_engines_rule(studio):
     """The tab neither clamps nor re-normalises: the engine's blend_shares decides, and its one-line message is what
     the tab shows and what Generate refuses with."""
+    import re
+    import threading
+    from dataclasses import replace
+
+    from app.tabs.control.job import prepare, run_job
     from engine.methods.control_options import blend_shares
 
     s, tab = studio.state, studio.control
@@ -188,6 +193,16 @@ def test_blend_weights_follow_the_engines_rule(studio):
     k.weights = {"root": 3.0, "right_wrist": 1.0, "left_wrist": 5.0}  # the left wrist is off: not in the blend
     assert k.shares() == {"root": 0.75, "right_wrist": 0.25}
     assert "0.75 × root path + 0.25 × right wrist" in tab.shares.object
+    # the job hands the engine the weights as typed (the engine scales them); its shares are for the readout
+    plan = prepare(s, k)
+    assert plan.weights == {"root": 3.0, "right_wrist": 1.0} and plan.shares == {"root": 0.75, "right_wrist": 0.25}
+    # so the engine's own check fires from the studio: typed weights it refuses fail with its one-line message
+    for typed in ({"root": -1.0, "right_wrist": 1.0}, {"root": 0.0, "right_wrist": 0.0}):
+        with pytest.raises(ValueError) as refused:
+            blend_shares(typed, ["root", "right_wrist"])
+        with pytest.raises(ValueError, match=f"^{re.escape(str(refused.value))}$"):
+            run_job(s.model, replace(plan, weights=typed), on_step=lambda done, total: None,
+                    cancel=threading.Event())
     for weights in ({"root": -1.0, "right_wrist": 1.0}, {"root": 0.0, "right_wrist": 0.0},
                     {"root": float("nan"), "right_wrist": 1.0}):
         k.weights = {**k.weights, **weights}

@@ -36,7 +36,7 @@ def _run(studio, kind: str) -> None:
     s, tab = studio.state, studio.edit
     tab.kind.value = kind
     before = len(s.notices)
-    assert run_edit(s), s.notices[-1:]
+    assert run_edit(s, tab.settings), s.notices[-1:]
     assert s.wait(120)
     assert not s.running
     errors = [n for n in s.notices[before:] if n[0] == "error"]
@@ -49,7 +49,7 @@ def test_emphasis_changes_the_edit_and_keeps_the_reference(studio):
     plain = _plain(studio)
     # the word is picked by clicking it: the tab keeps the word (and which occurrence), not a token index
     tab.words.value = 2
-    assert (s.edit.word, s.edit.occurrence) == ("jumps", 0)
+    assert (tab.settings.word, tab.settings.occurrence) == ("jumps", 0)
     tab.weight.value = 0.4
     steps_seen = []
     s.param.watch(lambda e: steps_seen.append(e.new), "progress")
@@ -84,7 +84,7 @@ def test_emphasis_weight_sign_and_multiplicative_mode(studio):
     assert "×2.00" in s.item.name and "frames 10–40" in s.item.name
     np.testing.assert_allclose(s.compare_item.joints, _plain(studio).joints, atol=1e-4)
     tab.mode.value = "add"
-    assert tab.weight.start == -0.5 and -0.5 <= s.edit.weight <= 0.5
+    assert tab.weight.start == -0.5 and -0.5 <= tab.settings.weight <= 0.5
     tab.layers.value = []
     tab.frames.value = (0, tab.frames.end)
     tab.steps.value = (0.0, 1.0)
@@ -104,7 +104,7 @@ def test_the_emphasis_range_is_stated_once(studio, capsys):
         with pytest.raises(ValueError, match=f"between {lo:g} and {hi:g}"):
             ReweightConfig(word="jumps", weight=hi + 0.1, mode=mode)
     tab.mode.value = "add"
-    bounds = studio.state.edit.param.weight.bounds
+    bounds = studio.edit.settings.param.weight.bounds
     assert bounds == (min(lo for lo, _ in WEIGHT_RANGES.values()), max(hi for _, hi in WEIGHT_RANGES.values()))
     with pytest.raises(SystemExit):
         build_parser().parse_args(["edit", "--help"])
@@ -123,7 +123,7 @@ def test_erase_ground_shift_each_give_a_before_after_pair(studio):
         assert np.abs(after.joints - before.joints).max() > (1e-5 if kind == "shift" else 1e-3), kind
     # erase defaults to the last half of the frames
     tab.kind.value = "erase"
-    assert s.edit.frames == (30, 60)
+    assert tab.settings.frames == (30, 60)
     # the reference made again by another edit is reused, not added twice
     assert sum("· reference" in n for n in s.items) == 1
 
@@ -159,7 +159,7 @@ def test_example_based_and_style_transfer_with_session_sources(studio):
 def test_replace_aligns_the_words_and_shows_how(studio):
     s, tab = studio.state, studio.edit
     tab.kind.value = "replace"
-    assert s.edit.edited == "a person kicks twice"  # a suggestion aligned with the prompt
+    assert tab.settings.edited == "a person kicks twice"  # a suggestion aligned with the prompt
     shown = html.unescape(tab.alignment.object)
     assert "align-ok" in shown and "aligned word by word" in shown and "'jumps' → 'kicks'" in shown, shown
     assert "'a' = 'a'" in shown and "'twice' = 'twice'" in shown
@@ -176,7 +176,7 @@ def test_replace_aligns_the_words_and_shows_how(studio):
     assert "align-bad" in tab.alignment.object and "the same as the prompt" in tab.alignment.object
     assert tab.run.disabled
     n_items = len(s.items)
-    assert run_edit(s) is False  # refused with a visible error, no worker, no crash
+    assert run_edit(s, tab.settings) is False  # refused with a visible error, no worker, no crash
     level, text = s.notices[-1]
     assert level == "error" and "the same as the prompt" in text
     assert not s.running and len(s.items) == n_items
@@ -218,7 +218,7 @@ def test_ground_to_several_spans_dragged_on_the_word_curve(studio):
     assert len(curve) == 60 and np.allclose(curve, plain.attention.word_curve(2), atol=1e-6)
     assert "'jumps'" in tab.span_fig.title.text
     tab.clear_spans.clicks += 1
-    assert s.edit.spans == [] and "No span" in tab.spans_list.object
+    assert tab.settings.spans == [] and "No span" in tab.spans_list.object
 
     def drag(x0, x1):  # what the browser sends when a drag on the curve ends (the x-only box select)
         tab.span_fig._trigger_event(SelectionGeometry(tab.span_fig, final=True,
@@ -226,32 +226,32 @@ def test_ground_to_several_spans_dragged_on_the_word_curve(studio):
 
     drag(4.3, 13.6)
     drag(41.0, 30.2)  # dragged right to left
-    assert s.edit.spans == [(4, 14), (30, 41)]
+    assert tab.settings.spans == [(4, 14), (30, 41)]
     assert tab.span_src.data == {"x0": [4, 30], "x1": [14, 41]}  # drawn over the curve
     assert tab.spans_text.value == "4:14,30:41" and "<li>4–14" in tab.spans_list.object
     drag(10.0, 18.0)  # overlaps 4-14: refused, said, nothing changed
     level, text = s.notices[-1]
-    assert level == "error" and "4:14 and 10:18 overlap" in text and s.edit.spans == [(4, 14), (30, 41)]
+    assert level == "error" and "4:14 and 10:18 overlap" in text and tab.settings.spans == [(4, 14), (30, 41)]
     drag(-5.0, 2.4)  # clipped to the motion
-    assert s.edit.spans == [(0, 3), (4, 14), (30, 41)]
+    assert tab.settings.spans == [(0, 3), (4, 14), (30, 41)]
     # the spans as text: typed, checked the same way
     tab.spans_text.value = "4:14,30:41,48:58"
-    assert s.edit.spans == [(4, 14), (30, 41), (48, 58)]
+    assert tab.settings.spans == [(4, 14), (30, 41), (48, 58)]
     tab.spans_text.value = "4:14,50:70"
     level, text = s.notices[-1]
     assert level == "error" and "runs past the motion's end: it has 60 frames" in text
-    assert s.edit.spans == [(4, 14), (30, 41), (48, 58)] and tab.spans_text.value == "4:14,30:41,48:58"
+    assert tab.settings.spans == [(4, 14), (30, 41), (48, 58)] and tab.spans_text.value == "4:14,30:41,48:58"
     from app.tabs.edit.job import prepare
 
-    plan = prepare(s)
+    plan = prepare(s, tab.settings)
     assert plan.options.frames == ((4, 14), (30, 41), (48, 58))
     _run(studio, "ground")
     assert "ground 'jumps' +0.30 frames 4–14, 30–41, 48–58" in s.item.name, s.item.name
     np.testing.assert_allclose(s.compare_item.joints, plain.joints, atol=1e-4)
     assert np.abs(s.item.joints - s.compare_item.joints).max() > 1e-3
     tab.clear_spans.clicks += 1
-    assert s.edit.spans == [] and tab.spans_text.value == "" and tab.span_src.data["x0"] == []
-    assert prepare(s).options.frames is None  # no span: the whole motion
+    assert tab.settings.spans == [] and tab.spans_text.value == "" and tab.span_src.data["x0"] == []
+    assert prepare(s, tab.settings).options.frames is None  # no span: the whole motion
     tab.kind.value = "emphasise"
     assert tab.frames.visible and not tab.spans_box.visible
 
@@ -267,7 +267,7 @@ def test_example_based_chunk_size_is_a_setting(studio):
     assert tab.chunk.name == spec.label and tab.chunk_help.object == spec.help
     tab.chunk.value = 10
     tab.count.value = 2
-    assert prepare(s).options.chunk_frames == 10
+    assert prepare(s, tab.settings).options.chunk_frames == 10
     _run(studio, "example-based")
     assert s.item.name.endswith("example-based (10-frame chunks) #1"), s.item.name
     tab.chunk.value = spec.default
@@ -278,10 +278,10 @@ def test_example_based_chunk_size_is_a_setting(studio):
 def test_bad_settings_are_notifications(studio):
     s, tab = studio.state, studio.edit
     tab.kind.value = "emphasise"
-    s.edit.word = ""
-    assert run_edit(s) is False and "pick a word" in s.notices[-1][1]
+    tab.settings.word = ""
+    assert run_edit(s, tab.settings) is False and "pick a word" in s.notices[-1][1]
     s.prompt = "a person walks"
-    assert s.edit.word == "" and list(tab.words.options) == ["a", "person", "walks"]
+    assert tab.settings.word == "" and list(tab.words.options) == ["a", "person", "walks"]
     s.prompt = "a person jumps twice"
 
 
@@ -294,15 +294,15 @@ def test_a_left_out_word_is_shown_and_cannot_be_pointed_at(studio):
     assert s.reading.left_out == ("flibbers",) and not s.reading.blocked
     assert list(tab.words.options) == ["a", "person", "jumps", "flibbers (left out)"]
     tab.words.value = 3
-    assert (s.edit.word, s.edit.occurrence) == ("flibbers", 0)
+    assert (tab.settings.word, tab.settings.occurrence) == ("flibbers", 0)
     n_items = len(s.items)
-    assert run_edit(s) is False
+    assert run_edit(s, tab.settings) is False
     level, text = s.notices[-1]
     assert level == "error" and "'flibbers' was left out" in text and "cannot be pointed at" in text, text
     assert not s.running and len(s.items) == n_items
     tab.words.value = 2  # a word the model reads: accepted (checked, not run here)
     from app.tabs.edit.job import prepare
-    assert prepare(s).options.word == "jumps"
+    assert prepare(s, tab.settings).options.word == "jumps"
     s.prompt = "a person jumps twice"
 
 
@@ -312,7 +312,7 @@ def test_cancel_stops_an_edit(tiny_model_dir):
         s = st.state
         s.param.update(prompt="a person walks", steps=1000, record_steps=0, seconds=2.0)
         st.edit.kind.value = "shift"
-        assert run_edit(s)
+        assert run_edit(s, st.edit.settings)
         assert not st.edit.cancel.disabled and st.edit.run.disabled and st.controls.generate.disabled
         s.cancel()
         assert s.wait(60)
@@ -362,7 +362,7 @@ def test_counting_readout_shows_count_baseline_and_peaks(studio):
     assert tab.count_button.visible  # the counting section's button, while another kind is picked
     tab.kind.value = "count"
     assert tab.run.label == "Count this motion" and not tab.count_button.visible  # never two such buttons
-    assert run_edit(s) and s.wait(120)
+    assert run_edit(s, tab.settings) and s.wait(120)
     readout = s.count_result
     assert readout.item == "imported: hops" and readout.baseline == 4 and "inverted" in readout.source
     assert "count-attention" in tab.readout.object

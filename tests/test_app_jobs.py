@@ -8,7 +8,7 @@ from typing import ClassVar
 import pytest
 
 from app.main import TAB_VIEWS, Studio
-from app.session.jobs import Job, JobDescription, Worker
+from app.session.jobs import Delivery, Job, JobDescription, Worker
 from app.session.state import StudioState
 from app.tabs.compose.job import ComposeJob
 
@@ -33,8 +33,9 @@ class Counting:
             worker.step(k + 1, self.total)
         return self.total
 
-    def finish(self, result) -> None:
+    def deliver(self, result) -> Delivery:
         self.finished.append(result)
+        return Delivery(status=f"counted to {result}")
 
 
 @pytest.fixture()
@@ -44,13 +45,14 @@ def state(tiny_model_dir):
     s.close()
 
 
-def test_a_job_runs_on_the_worker_and_finishes_on_the_session(state):
+def test_a_job_runs_on_the_worker_and_is_ended_by_the_runner(state):
     job = Counting(total=3)
     assert isinstance(job, Job)
     assert state.launch(job) and state.wait(30)
     assert job.finished == [3]
-    # the job ends itself (its finish calls end_job in the tabs); here the runner still says it runs
+    # the runner ends every job the same way: its delivery's status, progress full, the controls free
     assert state.job == "counting" and state.progress == 3 and state.progress_total == 3
+    assert not state.running and state.status == "counted to 3"
 
 
 def test_a_refused_job_is_a_notice_and_never_runs(state):
@@ -74,12 +76,12 @@ def test_a_page_builds_its_first_tab_and_each_other_when_selected(tiny_model_dir
         assert st.tabs.built == ["Attention"]
         # every tab's settings live on the session before (and without) its view
         assert {"edit", "transfer", "compose", "control", "duet"} <= set(st.state.tab_settings)
-        compose = [title for title, _ in TAB_VIEWS].index("Compose")
+        compose = [title for title, _, _ in TAB_VIEWS].index("Compose")
         st.tabs.tabs.active = compose
         assert st.tabs.built == ["Attention", "Compose"]
         shown = [box.objects[0].css_classes for box in st.tabs.tabs]  # a placeholder until the view is built
         assert shown[compose] == ["compose-tab"] and shown.count(["tab-placeholder"]) == len(TAB_VIEWS) - 2
-        assert st.compose.settings is st.state.compose
+        assert st.compose.settings is st.state.tab_settings["compose"]
     finally:
         st.close()
 
@@ -89,10 +91,11 @@ def test_a_tabs_job_runs_without_its_view(tiny_model_dir):
     try:
         s = st.state
         s.param.update(steps=4, seed=1)
-        s.compose.param.update(second_take=False)
-        s.compose.intervals = s.compose.intervals[:1]
-        assert s.launch(ComposeJob(session=s, settings=s.compose)) and s.wait(120), s.notices[-1:]
-        assert s.compose.result is not None and s.current == s.compose.result.name
+        compose = s.tab_settings["compose"]
+        compose.param.update(second_take=False)
+        compose.intervals = compose.intervals[:1]
+        assert s.launch(ComposeJob(session=s, settings=compose)) and s.wait(120), s.notices[-1:]
+        assert compose.result is not None and s.current == compose.result.name
         assert st.tabs.built == ["Attention"]
     finally:
         st.close()

@@ -38,7 +38,7 @@ def test_every_motion_made_edited_or_imported_survives_a_new_session(tiny_model_
         s.show(generated)
         first.edit.kind.value = "emphasise"
         first.edit.words.value = 2
-        assert run_edit(s) and s.wait(120), s.notices[-1:]
+        assert run_edit(s, first.edit.settings) and s.wait(120), s.notices[-1:]
         edited, reference = s.current, s.compare
         names = list(s.items)
         assert not [n for n in s.notices if n[0] == "error"], s.notices

@@ -212,7 +212,7 @@ def test_the_transfer_maps_have_few_ticks_and_the_per_query_plot_is_a_hint_until
     from app.tabs.transfer.plots import MAP_TICKS, TransferPlots
 
     state = StudioState(tabs=tab_settings())
-    plots = TransferPlots(state=state)
+    plots = TransferPlots(state=state, settings=state.tab_settings["transfer"])
     for fig in plots.maps.values():  # 190 px wide: a label every ~60 px, never "80100120140"
         for axis in (*fig.xaxis, *fig.yaxis):
             assert axis.ticker.desired_num_ticks == MAP_TICKS <= 3

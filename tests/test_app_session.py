@@ -70,7 +70,7 @@ def test_idle_bars_are_empty_and_a_kind_switch_clears_the_last_edit(studio):
     assert studio.controls.progress.value == 0 and studio.controls.progress.max == 6
     edit.kind.value = "emphasise"
     edit.words.value = 2
-    assert run_edit(s) and s.wait(120)
+    assert run_edit(s, edit.settings) and s.wait(120)
     assert edit.result.object and edit.status.object
     edit.kind.value = "replace"
     assert edit.result.object == "" and edit.status.object == ""

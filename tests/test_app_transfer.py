@@ -21,9 +21,9 @@ def studio(tiny_model_dir):
 
 
 def _run(studio) -> None:
-    s = studio.state
+    s, tab = studio.state, studio.transfer
     before = len(s.notices)
-    assert s.launch(TransferJob(session=s)), s.notices[-1:]
+    assert s.launch(TransferJob(session=s, settings=tab.settings)), s.notices[-1:]
     assert s.wait(180) and not s.running
     errors = [n for n in s.notices[before:] if n[0] == "error"]
     assert not errors, errors
@@ -43,7 +43,7 @@ def test_transfer_from_two_prompts(studio):
     seen = []
     s.param.watch(lambda e: seen.append(e.new), "progress")
     _run(studio)
-    view = s.transfer.result
+    view = tab.settings.result
     n, m = frames_for(3.0), frames_for(2.5)
     # three roles, each a session motion of the right length, side by side in the viewer (leader, follower, out)
     assert view.frames == {"leader": n, "follower": m, "out": n}
@@ -73,7 +73,7 @@ def test_transfer_from_two_prompts(studio):
 
 def test_picking_frames_and_cluster_colours(studio):
     s, tab = studio.state, studio.transfer
-    view, plots = s.transfer.result, tab.plots
+    view, plots = tab.settings.result, tab.plots
     n = view.frames["leader"]
     plots.pick("strips", 12.4)  # a Q cell
     assert s.frame == 12
@@ -120,13 +120,22 @@ def test_transfer_from_an_imported_motion(studio):
     joints = Corpus("test").sample(3).joints
     item = s.show_motion(joints, title="imported: corpus 3")
     tab.leader.kind.value = "motion"  # the "imported motion" button
-    assert item.name in tab.leader.motion.options and s.transfer.leader.motion == item.name
+    assert item.name in tab.leader.motion.options and tab.settings.leader.motion == item.name
     assert "DDIM-inverted" in tab.leader.info.object and not tab.leader.seconds.visible
     tab.leader.prompt.value = ""  # the description is optional
     tab.follower.kind.value = "prompt"
     tab.follower.prompt.value = "a person jumps twice"
-    _run(studio)
-    view = s.transfer.result
+    tab.color.value = "Q cluster"  # skeletons coloured by clusters: the new trio is painted as it is first shown
+    scenes = []
+    watcher = studio.viewer.player.param.watch(lambda e: scenes.append(e.new), "scene")
+    try:
+        _run(studio)
+    finally:
+        studio.viewer.player.param.unwatch(watcher)
+        tab.color.value = "roles"
+    view = tab.settings.result
+    first = next(m for m in scenes if len(m["roles"]) == 3)  # (before it: the imported motion shown alone)
+    assert [r["frame_colors"] is not None for r in first["roles"]] == [True, True, True]
     n = view.frames["leader"]
     assert abs(n - min(len(joints), 196)) <= 1 and view.frames["out"] == n
     assert view.analysis.nearest.shape == (n,) and view.analysis.maps["mixed"].shape == (n, view.frames["follower"])
@@ -143,11 +152,11 @@ def test_footwork_option_reaches_the_engine(studio):
 
     s, tab = studio.state, studio.transfer
     _set_prompts(tab, "a person walks forward", "a person jumps twice")
-    assert prepare(s).config.feet is False
+    assert prepare(s, tab.settings).config.feet is False
     tab.feet.value = True
     try:
-        assert s.transfer.feet is True and prepare(s).config.feet is True
-        assert prepare(s).description.endswith("leader's footwork)")
+        assert tab.settings.feet is True and prepare(s, tab.settings).config.feet is True
+        assert prepare(s, tab.settings).description.endswith("leader's footwork)")
     finally:
         tab.feet.value = False
 
@@ -161,7 +170,7 @@ def test_root_and_directions_reach_the_engine(studio):
 
     s, tab = studio.state, studio.transfer
     _set_prompts(tab, "a person walks forward", "a person jumps twice", seconds=(2.0, 2.0))
-    assert s.transfer.root == ROOT_DEFAULT and prepare(s).config.root == ROOT_DEFAULT
+    assert tab.settings.root == ROOT_DEFAULT and prepare(s, tab.settings).config.root == ROOT_DEFAULT
     assert tab.root.options == ROOT_LABELS and set(ROOT_LABELS.values()) == set(ROOT_CHOICES)
     assert (tab.directions.start, tab.directions.end) == option_info("directions").bounds and tab.directions.value == 1
     assert ROOT_CHOICES[ROOT_DEFAULT][1][1:40] in tab.root_help.object
@@ -169,16 +178,16 @@ def test_root_and_directions_reach_the_engine(studio):
     try:
         tab.root.value = other
         tab.directions.value = 3
-        plan = prepare(s)
+        plan = prepare(s, tab.settings)
         assert plan.config.root == other and plan.config.directions == 3
         assert f"root: {other}, 3 directions" in plan.description
         assert "3 copies of its follower" in tab.root_help.object
         _run(studio)
-        view = s.transfer.result
+        view = tab.settings.result
         assert list(view.frames) == ["leader", "follower", "out"]  # the copies are read, not shown
         tab.more.value = "a person runs\na person waves\na person kicks\na person claps\na person hops"
         tab.directions.value = 4
-        assert s.launch(TransferJob(session=s)) is False
+        assert s.launch(TransferJob(session=s, settings=tab.settings)) is False
         level, text = s.notices[-1]
         assert level == "error" and "6 followers x 4 directions make 24 follower streams, at most 16" in text
     finally:
@@ -191,13 +200,13 @@ def test_one_leader_onto_several_followers(studio):
     s, tab = studio.state, studio.transfer
     _set_prompts(tab, "a person walks forward", "a person jumps twice", seconds=(3.0, 2.0))
     tab.more.value = "a person runs forward\n\n  a person waves with the right hand  "
-    assert s.transfer.more_followers.splitlines()[0] == "a person runs forward"
+    assert tab.settings.more_followers.splitlines()[0] == "a person runs forward"
     try:
         n_items = len(s.items)
         _run(studio)
     finally:
         tab.more.value = ""
-    view = s.transfer.result
+    view = tab.settings.result
     n, m = frames_for(3.0), frames_for(2.0)
     assert list(view.frames) == ["leader", "follower", "out", "follower 2", "out 2", "follower 3", "out 3"]
     assert view.frames == {"leader": n, "follower": m, "out": n, "follower 2": m, "out 2": n, "follower 3": m,
@@ -216,7 +225,7 @@ def test_one_leader_onto_several_followers(studio):
     plots = tab.plots
     np.testing.assert_allclose(plots.map_srcs["mixed"][0].data["image"][0], view.analyses[0].maps["mixed"])
     tab.analysed.value = 3
-    assert s.transfer.analysed == 3
+    assert tab.settings.analysed == 3
     np.testing.assert_allclose(plots.map_srcs["mixed"][0].data["image"][0], view.analyses[2].maps["mixed"])
     assert not np.allclose(view.analyses[2].maps["mixed"], view.analyses[0].maps["mixed"])
     tab.color.value = "Q cluster"
@@ -232,18 +241,18 @@ def test_one_leader_onto_several_followers(studio):
     (lambda tab, s: setattr(tab.more, "value", "\n".join(["a person runs"] * 8)), "at most 8 followers"),
     (lambda tab, s: setattr(tab.leader.prompt, "value", "   "), "type a prompt for the leader"),
     (lambda tab, s: setattr(tab.follower.prompt, "value", "a person flumps twice"), "flumps"),
-    (lambda tab, s: setattr(s.transfer, "layers", (1, 5)), "do not exist"),
+    (lambda tab, s: setattr(tab.settings, "layers", (1, 5)), "do not exist"),
     (lambda tab, s: setattr(tab.follower.seconds, "value", 30.0), "duration"),
-    (lambda tab, s: s.transfer.leader.param.update(kind="motion", motion="no such motion"),
+    (lambda tab, s: tab.settings.leader.param.update(kind="motion", motion="no such motion"),
      "no longer in the session"),
 ])
 def test_bad_input_is_refused_with_a_message(studio, change, message):
     s, tab = studio.state, studio.transfer
     _set_prompts(tab, "a person walks forward", "a person jumps twice")
-    s.transfer.layers = None
+    tab.settings.layers = None
     n_items = len(s.items)
     change(tab, s)
-    assert s.launch(TransferJob(session=s)) is False  # refused up front: no worker, no crash
+    assert s.launch(TransferJob(session=s, settings=tab.settings)) is False  # refused up front: no worker, no crash
     level, text = s.notices[-1]
     assert level == "error" and text.startswith("cannot transfer") and message in text, text
     assert not s.running and len(s.items) == n_items
@@ -251,8 +260,8 @@ def test_bad_input_is_refused_with_a_message(studio, change, message):
         # the engine refuses it (nothing else says a motion): flagged as typed, with its message, Run disabled
         assert "word-left-out" in tab.follower.words.object and "prompt-refused" in tab.follower.words.object
         assert tab.run.disabled
-    s.transfer.layers = None
-    s.transfer.leader.param.update(kind="prompt", motion="")
+    tab.settings.layers = None
+    tab.settings.leader.param.update(kind="prompt", motion="")
     tab.follower.seconds.value = 2.5
     tab.more.value = ""
 
@@ -263,9 +272,9 @@ def test_cancel_stops_the_transfer_and_keeps_the_session(studio):
     s, tab = studio.state, studio.transfer
     _set_prompts(tab, "a person walks forward", "a person jumps twice")
     s.steps = 120
-    n_items, last = len(s.items), s.transfer.result
+    n_items, last = len(s.items), tab.settings.result
     try:
-        assert s.launch(TransferJob(session=s)) and s.running and not tab.cancel.disabled
+        assert s.launch(TransferJob(session=s, settings=tab.settings)) and s.running and not tab.cancel.disabled
         end = time.monotonic() + 60
         while s.progress < 2 and s.running and time.monotonic() < end:
             time.sleep(0.01)
@@ -274,7 +283,7 @@ def test_cancel_stops_the_transfer_and_keeps_the_session(studio):
     finally:
         s.steps = 8
     assert s.notices[-1] == ("info", "transfer cancelled")
-    assert len(s.items) == n_items and s.transfer.result is last  # nothing half-made was added
+    assert len(s.items) == n_items and tab.settings.result is last  # nothing half-made was added
     assert not tab.run.disabled and tab.cancel.disabled
 
 
@@ -284,7 +293,8 @@ def test_the_leaders_own_upload_refuses_an_empty_file_by_name_and_imports_a_moti
 
     from engine.synth import Corpus
 
-    s, picker = studio.state, studio.transfer.leader
+    s, tab = studio.state, studio.transfer
+    picker = tab.leader
     picker.upload._process_events({"filename": "empty.npy", "value": "", "mime_type": ""})  # Panel reads None
     assert s.notices[-1] == ("error", "Could not import empty.npy: it is empty (0 bytes)")
     buf = io.BytesIO()
@@ -292,5 +302,5 @@ def test_the_leaders_own_upload_refuses_an_empty_file_by_name_and_imports_a_moti
     errors = sum(kind == "error" for kind, _ in s.notices)
     picker.upload._process_events({"filename": "walk.npy", "value": base64.b64encode(buf.getvalue()).decode(),
                                    "mime_type": ""})
-    assert sum(kind == "error" for kind, _ in s.notices) == errors and s.transfer.leader.kind == "motion"
-    assert s.transfer.leader.motion == "imported: walk.npy" and "imported: walk.npy" in s.items
+    assert sum(kind == "error" for kind, _ in s.notices) == errors and tab.settings.leader.kind == "motion"
+    assert tab.settings.leader.motion == "imported: walk.npy" and "imported: walk.npy" in s.items

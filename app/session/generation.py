@@ -1,4 +1,8 @@
-"""The session's own job: sample its settings (the Generate box, and Re-record of a shown motion)."""
+"""The session's own method: the Generate box (prompt, seconds, seed, steps, guidance, recorded steps) and its jobs,
+``GenerateJob`` (text -> motion with recorded attention) and ``RerecordJob`` (a shown motion generated again from
+its recipe to record its attention anew). They run through the one job runner like every tab's method.
+``GenerateBox`` is one part of ``StudioState``.
+"""
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -6,18 +10,23 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
+import param
 
-from app.generation import Checked, GenerationResult, GenerationSettings, check, run_generation
-from app.session.jobs import JobDescription, Worker
-from engine.units import FPS
+from app.generation import Checked, GenerationResult, GenerationSettings, PromptReading, check, prompt_analysis, \
+    run_generation
+from app.session.items import MotionItem
+from app.session.jobs import Delivery, JobDescription, Worker
+from app.session.viewer_rule import Preview
+from engine.duration import resolve_seconds
+from engine.units import DEFAULT_GUIDANCE, FPS, MAX_SECONDS, MIN_SECONDS
 
 
 @dataclass
 class GenerateJob:
-    """Text -> motion with recorded attention; ``deliver`` takes the result on the session's thread."""
+    """Text -> motion with recorded attention: a new session motion, shown."""
 
+    session: object  # StudioState
     settings: GenerationSettings
-    deliver: Callable[[GenerationResult], None]
     on_preview: Callable[[int, int, np.ndarray, str], None] | None = None  # (done, total, x̂0 joints, title)
     checked: Checked | None = field(default=None, init=False)
     refused: ClassVar[str] = "cannot generate"
@@ -37,5 +46,118 @@ class GenerateJob:
         return run_generation(loaded, self.checked, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting,
                               on_preview=preview)
 
-    def finish(self, result: GenerationResult) -> None:
-        self.deliver(result)
+    def deliver(self, result: GenerationResult) -> Delivery:
+        s = result.settings
+        item = MotionItem(name=self.session.unique_name(f"{s.prompt} · seed {s.seed}"), joints=result.joints,
+                          source="generated", prompt=s.prompt, words=result.words, attention=result.attention,
+                          features=result.features, settings=s, denoising=result.denoising, info=_info(result))
+        auto = " (length from the prompt)" if s.seconds is None else ""
+        return Delivery(items=[item], show=item.name,
+                        status=f"{s.prompt!r}: {len(result.joints)} frames{auto} in {result.seconds_taken:.1f} s "
+                               f"({s.steps} steps)")
+
+
+@dataclass
+class RerecordJob(GenerateJob):
+    """A motion generated again with its own settings (same seed: the same motion): its attention goes to the motion
+    it was asked for (shown again); if the model now makes another motion from the recipe, that one is added beside
+    it, and said."""
+
+    name: str = ""  # the motion re-recorded
+
+    def deliver(self, result: GenerationResult) -> Delivery:
+        name = self.name
+        item = self.session.items.get(name)
+        same = False
+        if item is not None:
+            try:
+                old = item.joints
+                same = old.shape == result.joints.shape and float(np.abs(old - result.joints).max()) <= 1e-3
+            except ValueError:  # its joints are gone from the library: the new motion takes its place
+                same = False
+        if not same:
+            delivery = super().deliver(result)
+            if item is not None:
+                delivery.notices.append(("warning", f"{name!r} was re-generated from its recipe, but this model makes "
+                                                    f"another motion from it (another model, or changed weights): "
+                                                    f"shown as a new motion, the kept one is unchanged"))
+            return delivery
+        item.joints = np.asarray(result.joints, dtype=np.float32)
+        item.attention = result.attention
+        item.denoising = result.denoising
+        item.words = result.words
+        item.features = result.features
+        item.evicted = False
+        item.from_library = False
+        item.info = {**item.info, **_info(result)}
+        return Delivery(show=name, renewed=name,
+                        status=f"{name!r}: attention re-recorded in {result.seconds_taken:.1f} s "
+                               f"({result.settings.steps} steps)")
+
+
+def _info(result: GenerationResult) -> dict:
+    return {"seconds_taken": result.seconds_taken, "followed": result.followed, "notes": tuple(result.notes)}
+
+
+class GenerateBox(param.Parameterized):
+    """The Generate box's inputs (every tab samples with its seed, steps and guidance too), the prompt as the engine
+    reads it, and Generate / Re-record. Uses the session's model, ``launch``, ``post`` and viewer rule."""
+
+    prompt = param.String(default="a person jumps twice", doc="what to generate")
+    seconds = param.Number(default=None, allow_None=True, step=0.5,
+                           doc=f"duration in seconds ({MIN_SECONDS:g} to {MAX_SECONDS:g}); empty: predicted from the prompt (auto)")
+    seed = param.Integer(default=0, softbounds=(0, None), doc="noise seed (same seed, same motion)")
+    steps = param.Integer(default=50, bounds=(1, 1000), doc="sampling steps (DDIM)")
+    guidance = param.Number(default=DEFAULT_GUIDANCE, bounds=(0.0, 20.0), step=0.5,
+                            doc="classifier-free guidance scale")
+    record_steps = param.Integer(default=10, bounds=(0, 1000), label="Recorded steps",
+                                 doc="sampling steps whose attention is recorded (0 = none)")
+
+    # ---- derived from the prompt
+    prompt_words = param.List(default=[], doc="words of the prompt")
+    reading = param.ClassSelector(class_=PromptReading, default=PromptReading(),
+                                  doc="the prompt as the engine will read it (its notes, or why it refuses it)")
+
+    def _analyse_prompt(self, *_):
+        reading = prompt_analysis(self.tokenizer(), self.prompt)
+        with param.parameterized.batch_call_watchers(self):
+            self.prompt_words = list(reading.words)
+            self.reading = reading
+
+    def replace_word(self, old: str, new: str) -> None:
+        """Swap a left-out word for a suggestion (whole words, case-insensitive); a '~adverb' suggestion moves to
+        the end of the word's clause (engine.wordforms.rewrite)."""
+        from engine.wordforms import rewrite
+
+        self.prompt = rewrite(self.prompt, old, new)
+
+    def settings(self) -> GenerationSettings:
+        return GenerationSettings(prompt=self.prompt, seconds=self.seconds, seed=self.seed, steps=self.steps,
+                                  guidance=self.guidance, record_steps=self.record_steps)
+
+    def duration(self) -> float:
+        """The Generate box's length in seconds: as typed, or predicted from the prompt when the box is empty."""
+        return resolve_seconds(self.seconds, self.prompt)
+
+    def generate(self) -> bool:
+        """Check the inputs and start sampling on a worker thread; False (and a notification) if refused."""
+        return self.launch(GenerateJob(session=self, settings=self.settings(), on_preview=self._preview))
+
+    def rerecord(self) -> bool:
+        """Generate the shown motion again with its own settings (same seed: the same motion) to record its
+        attention anew, and show that motion with it; False (and a notification) when it has no settings to
+        repeat."""
+        item = self.item
+        if item is None or item.settings is None:
+            self.error("only a motion generated in the Generate box can be re-recorded")
+            return False
+        s = item.settings
+        self.param.update(prompt=s.prompt, seconds=s.seconds, seed=s.seed, steps=s.steps, guidance=s.guidance,
+                          record_steps=max(1, s.record_steps))
+        return self.launch(RerecordJob(session=self, settings=self.settings(), on_preview=self._preview,
+                                       name=item.name))
+
+    def _preview(self, done: int, total: int, joints: np.ndarray, title: str) -> None:
+        """The running generation's x̂0 after ``done`` steps (from its worker): shown live by the viewer."""
+        self.post(lambda: setattr(self, "preview", Preview(step=done, num_steps=total, joints=joints, title=title))
+                  if self.running else None)

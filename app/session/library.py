@@ -3,7 +3,7 @@
 What a motion's recipe holds is read from the ``MotionItem`` the job made (its settings, its ``info``), so every
 tab's results are kept without the tab knowing about the library; the links between the motions of one job (an
 edit's reference -> its edited motions, a transfer's leader and follower -> its output) are made once the job's
-``finish`` has added them all (:func:`job_parents`). Nothing here imports Panel or a tab.
+``Delivery`` has been added (:func:`job_parents`). Nothing here imports Panel or a tab.
 """
 from __future__ import annotations
 

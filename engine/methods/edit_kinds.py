@@ -16,6 +16,14 @@ from typing import Any
 INPUTS = frozenset({"word", "weight", "mode", "frames", "edited", "fraction", "style", "count", "chunk_frames", "seed"})
 
 
+def _whole(frames: int) -> tuple[int, int]:
+    return (0, frames)
+
+
+def _one_output(options) -> int:
+    return 1
+
+
 @dataclass(frozen=True)
 class EditKind:
     """One edit: ``build(options, frames=, steps=) -> config`` and ``run(loaded, options, config, **common)``.
@@ -23,7 +31,12 @@ class EditKind:
     ``inputs``: what the kind reads (the tab shows those fields, the CLI's help names them). ``window``: the
     method's default step/layer window as ``(model_config) -> Window`` (None: the whole run, every layer).
     ``calibrated``: its default layers come from the model's emphasis calibration. ``source``: the prompt box
-    may also name a session motion (example, style).
+    may also name a session motion (example, style), offered under ``source_label``.
+
+    What a front end needs besides: ``default_frames(frames)``, the frame span it touches when none is given;
+    ``spans``: it takes several frame spans (ground); ``positive_weight``: only the weight's size counts;
+    ``describe(options, frames=)``, the edit in a few words; ``outputs(options)``, how many edited motions it makes;
+    ``before_title``, what the motion it starts from is called beside them.
     """
 
     name: str
@@ -35,6 +48,13 @@ class EditKind:
     window: Callable[[dict | None], Any] | None = None
     calibrated: bool = False
     source: bool = False
+    source_label: str = "Content"
+    default_frames: Callable[[int], tuple[int, int]] = _whole
+    spans: bool = False
+    positive_weight: bool = False
+    describe: Callable[..., str] | None = None
+    outputs: Callable[[Any], int] = _one_output
+    before_title: str = "reference"
 
     def __post_init__(self) -> None:
         unknown = set(self.inputs) - INPUTS
@@ -44,6 +64,10 @@ class EditKind:
     @property
     def is_edit(self) -> bool:
         return self.run is not None
+
+    def batch_slots(self, options) -> int:
+        """Streams in the edit's batch: the motion it starts from, each output, and a style source if it reads one."""
+        return 1 + self.outputs(options) + ("style" in self.inputs)
 
 
 # ------------------------------------------------------------------------------------------- the edits
@@ -75,12 +99,16 @@ def _emphasize_config(o, *, frames, steps):
                           frames=_span(o, frames), window=steps, occurrence=int(o.occurrence))
 
 
+def _last_half(frames: int) -> tuple[int, int]:
+    return (frames // 2, frames)
+
+
 def _erase_config(o, *, frames, steps):
     from dataclasses import replace
 
     from engine.methods.motionclr import erase_config
 
-    cfg = erase_config(_need(o.word, "a word", o.kind), frames=_span(o, frames) or (frames // 2, frames), window=steps)
+    cfg = erase_config(_need(o.word, "a word", o.kind), frames=_span(o, frames) or _last_half(frames), window=steps)
     return replace(cfg, occurrence=int(o.occurrence))
 
 
@@ -119,6 +147,30 @@ def _style_config(o, *, frames, steps):
     from engine.methods.motionclr import StyleTransferConfig
 
     return replace(StyleTransferConfig(), window=steps)
+
+
+# ------------------------------------------------------------------------------------------- in a few words
+def _describe_weighted(what: str):
+    def describe(o, *, frames: int) -> str:
+        sign = "+" if o.mode == "add" and o.weight >= 0 else ""
+        w = f"{sign}{o.weight:.2f}" if o.mode == "add" else f"×{o.weight:.2f}"
+        spans = ", ".join(f"{a}–{min(b, frames)}" for a, b in o.spans)
+        return f"{what} '{o.word}' {w}" + (f" frames {spans}" if spans else "")
+    return describe
+
+
+def _describe_replace(o, *, frames: int) -> str:
+    from engine.methods.word_alignment import align_words
+    from engine.text import split_words
+
+    return "replace " + ", ".join(align_words(split_words(o.prompt), split_words(o.edited)).changes())
+
+
+def _describe_example(o, *, frames: int) -> str:
+    from engine.methods.edit_options import option_spec
+
+    default = option_spec("chunk_frames").default
+    return "example-based" + ("" if o.chunk_frames == default else f" ({o.chunk_frames}-frame chunks)")
 
 
 def _method_window(config_name: str) -> Callable[[dict | None], Any]:
@@ -160,32 +212,36 @@ REGISTRY: dict[str, EditKind] = {k.name: k for k in (
              "Add the weight to (or multiply) the picked word's cross-attention column: positive = more of that "
              "action, negative = less. Paper range ±0.5; beyond that maps break.",
              inputs=frozenset({"word", "weight", "mode", "frames"}), build=_emphasize_config,
-             run=_run("reweight"), calibrated=True),
+             run=_run("reweight"), calibrated=True, describe=_describe_weighted("emphasise")),
     EditKind("erase", "erase",
              "Multiply the picked word's cross-attention by 0.1 inside the frame window (default: last half).",
-             inputs=frozenset({"word", "frames"}), build=_erase_config, run=_run("reweight")),
+             inputs=frozenset({"word", "frames"}), build=_erase_config, run=_run("reweight"),
+             default_frames=_last_half, describe=lambda o, *, frames: f"erase '{o.word}'"),
     EditKind("replace", "replace",
              "Generate the prompt and the edited prompt together; the edited one takes the reference's attention "
              "maps in the first steps, so its new action lands in the reference's time slots. The words are aligned "
              "as prompt-to-prompt aligns them: words may be added (they keep their own attention) or dropped.",
              inputs=frozenset({"edited"}), build=_replace_config, run=_run_replace,
-             window=_method_window("ReplaceConfig")),
+             window=_method_window("ReplaceConfig"), describe=_describe_replace),
     EditKind("shift", "shift", "Roll the reference's Q, K, V in time: the first part of the motion moves to the end.",
              inputs=frozenset({"fraction"}), build=_shift_config, run=_run("shift"),
-             window=_method_window("ShiftConfig")),
+             window=_method_window("ShiftConfig"), describe=lambda o, *, frames: f"shift {o.fraction:.0%}"),
     EditKind("example", "example-based",
              "Several new motions whose self-attention queries are the example's, shuffled in chunks (default 1 s).",
              inputs=frozenset({"count", "chunk_frames", "seed"}), build=_example_config,
              run=_run("example_based", prompt_what="an example prompt or motion",
                       extra=lambda o: {"count": int(o.count)}),
-             window=_method_window("ExampleConfig"), source=True),
+             window=_method_window("ExampleConfig"), source=True, source_label="Example",
+             describe=_describe_example, outputs=lambda o: int(o.count), before_title="example"),
     EditKind("style", "style transfer", "Q of the output from the style motion, K and V from the content motion.",
              inputs=frozenset({"style"}), build=_style_config, run=_run_style,
-             window=_method_window("StyleTransferConfig"), source=True),
+             window=_method_window("StyleTransferConfig"), source=True,
+             describe=lambda o, *, frames: "style transfer", before_title="content"),
     EditKind("ground", "ground",
              "Emphasise the picked word inside the frame span(s) and de-emphasise it outside (when it happens): "
              "several spans ground it several times, e.g. four jumps at chosen times.",
-             inputs=frozenset({"word", "weight", "frames"}), build=_ground_config, run=_run("ground")),
+             inputs=frozenset({"word", "weight", "frames"}), build=_ground_config, run=_run("ground"),
+             spans=True, positive_weight=True, describe=_describe_weighted("ground")),
     # (grounding acts in every layer, as in the paper: on the shipped model the emphasis-calibrated layers put the
     # jumps in 0.55 of four chosen spans, below the 0.68 of no grounding; every layer 0.80; moattn bench --edits)
     EditKind("count", "count", "Count repetitions from the self-attention map (the project's lag profile, or "

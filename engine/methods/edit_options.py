@@ -146,9 +146,10 @@ def build_config(options: EditOptions, *, frames: int, model_config: dict | None
 
 
 def run_edit(loaded, options: EditOptions, *, frames: int, sample, record: bool = False,
-             on_step: Callable | None = None):
-    """Build the config and run the edit -> ``edits.EditOutput`` (``on_step(StepState)`` after every step)."""
-    cfg = build_config(options, frames=frames, model_config=loaded.config)
+             on_step: Callable | None = None, config=None):
+    """Run the edit -> ``edits.EditOutput`` (``on_step(StepState)`` after every step). ``config``: the edit's
+    config when it was already built (:func:`build_config`, e.g. to check it before the run); None: built here."""
+    cfg = config if config is not None else build_config(options, frames=frames, model_config=loaded.config)
     cfg.window.check_layers(loaded.model.num_layers)  # the user's layers, or the calibrated ones
     return REGISTRY[options.kind].run(loaded, options, cfg, frames=frames, sample=sample, record=record,
                                       on_step=on_step)

@@ -17,7 +17,7 @@ import numpy as np
 
 from app.generation import Cancelled, sampling_slot
 from app.session.items import MotionItem
-from app.session.jobs import JobDescription, Worker
+from app.session.jobs import Delivery, JobDescription, Worker
 from app.tabs.compose.settings import ComposeSettings
 from engine.units import FPS
 
@@ -125,31 +125,24 @@ class ComposeJob:
     def run(self, loaded, worker: Worker):
         return run_job(loaded, self.plan, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting)
 
-    def finish(self, result) -> None:
-        finish(self.session, self.settings, self.plan, result)
-
-
-def finish(state, settings: ComposeSettings, job: ComposePlan, result) -> None:
-    """The long motion becomes a session motion, coloured per interval with its transitions highlighted."""
-    n = len(result.joints)
-    ends = [s + int(round(iv.seconds * FPS)) for s, iv in zip(result.starts, job.intervals)]
-    title = f"compose · {' > '.join(_short(iv.prompt) for iv in job.intervals)} · seed {job.sample.seed}"
-    summary = ComposeSummary(name="", prompts=[iv.prompt for iv in job.intervals], starts=list(result.starts),
-                             ends=[min(e, n) for e in ends], transitions=[tuple(t) for t in result.transitions],
-                             n_frames=n, handshakes=[b - a for a, b in result.transitions],
-                             second_take=job.config.second_take is not None, seconds_taken=result.seconds,
-                             second_take_text=job.config.second_take is not None and job.config.second_take.text)
-    item = MotionItem(name=state.unique_name(title), joints=np.asarray(result.joints, dtype=np.float32),
-                      source="generated", prompt=" then ".join(iv.prompt for iv in job.intervals),
-                      info={"compose": summary})
-    summary.name = item.name
-    state.end_job(f"{job.description}: {n} frames ({n / FPS:.1f} s of motion) in {result.seconds:.1f} s")
-    state.add_item(item, show=False)
-    state.color_names = {**state.color_names, **COLOR_NAMES}
-    state.frame_colors = {**{k: v for k, v in state.frame_colors.items() if k in state.items},
-                          item.name: frame_colors(summary)}
-    state.show(item.name)
-    settings.result = summary
+    def deliver(self, result) -> Delivery:
+        """The long motion becomes a session motion, coloured per interval with its transitions highlighted."""
+        job = self.plan
+        n = len(result.joints)
+        ends = [s + int(round(iv.seconds * FPS)) for s, iv in zip(result.starts, job.intervals)]
+        title = f"compose · {' > '.join(_short(iv.prompt) for iv in job.intervals)} · seed {job.sample.seed}"
+        summary = ComposeSummary(name="", prompts=[iv.prompt for iv in job.intervals], starts=list(result.starts),
+                                 ends=[min(e, n) for e in ends], transitions=[tuple(t) for t in result.transitions],
+                                 n_frames=n, handshakes=[b - a for a, b in result.transitions],
+                                 second_take=job.config.second_take is not None, seconds_taken=result.seconds,
+                                 second_take_text=job.config.second_take is not None and job.config.second_take.text)
+        item = MotionItem(name=self.session.unique_name(title), joints=np.asarray(result.joints, dtype=np.float32),
+                          source="generated", prompt=" then ".join(iv.prompt for iv in job.intervals),
+                          info={"compose": summary})
+        summary.name = item.name
+        return Delivery(items=[item], show=item.name, frame_colors={item.name: frame_colors(summary)},
+                        color_names=COLOR_NAMES, readout=(self.settings, {"result": summary}),
+                        status=f"{job.description}: {n} frames ({n / FPS:.1f} s of motion) in {result.seconds:.1f} s")
 
 
 def frame_colors(summary: ComposeSummary) -> np.ndarray:

@@ -26,7 +26,8 @@ class IntervalRow:
 
 
 class ComposeSettings(param.Parameterized):
-    """The Compose tab's settings (one per session, on ``StudioState.compose``) and its last composition.
+    """The Compose tab's settings (one per session, in ``StudioState.tab_settings["compose"]``) and its last
+    composition.
 
     Defaults are the engine's (``DoubleTakeConfig``, ``SecondTake``: what ``moattn compose`` runs)."""
 

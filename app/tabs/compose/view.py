@@ -3,7 +3,8 @@ length between each two (one widget per transition), the second take, Generate w
 motion in the viewer, coloured per interval with the transitions highlighted, and a timeline strip of the result
 (click it to move the viewer there).
 
-The settings live on the session (``state.compose``, a ``ComposeSettings``); the widgets are made from them.
+The settings live on the session (a ``ComposeSettings``, handed to the tab by the page); the widgets are made from
+them.
 """
 from __future__ import annotations
 
@@ -81,10 +82,11 @@ class TransitionView:
 
 class ComposeTab(pn.viewable.Viewer):
     state = param.ClassSelector(class_=StudioState)
+    settings = param.ClassSelector(class_=ComposeSettings, doc="the session's Compose settings")
 
     def __init__(self, **params):
         super().__init__(**params)
-        self.settings = c = self.state.compose
+        c = self.settings
         self._syncing = False
         self.rows: list[IntervalRowView] = []
         self.transitions: list[TransitionView] = []

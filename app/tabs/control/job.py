@@ -5,7 +5,8 @@ Nothing here touches Panel widgets. The engine does the work (``engine.methods.p
 features, ``engine.methods.control.controlled`` samples; the same functions ``moattn control`` calls); this
 module adds what only the studio needs: the drawn paths (the root and both wrists, any of them at once) and blend
 weights of ``ControlSettings`` as controls, and the result placed in the path's world with its errors measured.
-The blend weights go through the engine's rule (``control_options.blend_shares``): a refusal is its message.
+The blend weights reach the engine as the user typed them; the engine's rule (``control_options.blend_shares``)
+scales or refuses them, and a refusal is its one-line message (checked before the run starts, by the same rule).
 """
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ import numpy as np
 
 from app.generation import Cancelled, checked_frames, sampling_slot
 from app.session.items import MotionItem
-from app.session.jobs import JobDescription, Worker
+from app.session.jobs import Delivery, JobDescription, Worker
 from app.tabs.control.models import control_setup
 from app.tabs.control.paths import COLORS, LABELS, ROOT_COLOR, WRISTS
 from app.tabs.control.settings import ControlSettings
@@ -34,7 +35,8 @@ class ControlPlan:
     wrist_targets: dict[str, np.ndarray]  # controlled wrist -> (T, 3) body-frame values
     models: dict | None  # None: plain inpainting
     base: object  # the LoadedModel that runs it: the session's, or the control models' own base (issue #32)
-    weights: dict[str, float] | None  # control -> its share of the blend (the engine's rule); None: inpainting
+    weights: dict[str, float] | None  # control -> its blend weight as typed (the engine scales it); None: inpainting
+    shares: dict[str, float] | None  # control -> its share of the blend, by the engine's rule (the readout)
     sample: object
     seconds: float
     method: str
@@ -74,9 +76,10 @@ def prepare(state, settings: ControlSettings) -> ControlPlan:
     names = settings.active
     if not names:
         raise ValueError("turn on at least one control: the root path or a wrist")
-    models, shares = None, None
+    models, weights, shares = None, None, None
     if settings.method == "blending":
-        shares = settings.shares()  # the engine's blend-weight rule: its one-line message if refused
+        weights = settings.typed_weights()  # as typed: the engine's rule scales them, or refuses with one line
+        shares = settings.shares()  # the same rule, here: a refusal comes before any work starts
         found = run.models
         missing = [n for n in names if n not in found]
         if missing:
@@ -103,7 +106,7 @@ def prepare(state, settings: ControlSettings) -> ControlPlan:
     sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
     what = " + ".join(LABELS[n] for n in names)
     return ControlPlan(prompt=settings.prompt.strip(), controls=controls, frame=frame, wrist_targets=wrist_targets,
-                      models=models, weights=shares, sample=sample, seconds=seconds,
+                      models=models, weights=weights, shares=shares, sample=sample, seconds=seconds,
                       method=settings.method, description=f"{what} by {settings.method}", base=loaded,
                       base_note=run.note)
 
@@ -168,7 +171,7 @@ def measure(job: ControlPlan, joints: np.ndarray, *, features: np.ndarray) -> Co
         if job.frame is not None:
             target = _world(target[:, None], job.frame)[:, 0]
         guides.append((COLORS[name], np.asarray(target, dtype=np.float64)))
-    return ControlSummary(name="", method=job.method, controls=names, weights=dict(job.weights or {}),
+    return ControlSummary(name="", method=job.method, controls=names, weights=dict(job.shares or {}),
                           root_error=root_error, wrist_errors=wrist_errors, seconds_taken=0.0, guides=guides)
 
 
@@ -192,21 +195,16 @@ class ControlJob:
     def run(self, loaded, worker: Worker) -> ControlSummary:
         return run_job(loaded, self.plan, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting)
 
-    def finish(self, summary: ControlSummary) -> None:
-        finish(self.session, self.settings, self.plan, summary)
-
-
-def finish(state, settings: ControlSettings, job: ControlPlan, summary: ControlSummary) -> None:
-    """The motion (in the path's world) becomes a session motion with its target paths as guides; shown."""
-    joints = summary.joints
-    title = f"control · {job.prompt} · {' + '.join(LABELS[n] for n in summary.controls)} · {job.method}"
-    item = MotionItem(name=state.unique_name(title), joints=joints, source="generated", prompt=job.prompt,
-                      info={"control": summary, "guides": summary.guides})
-    summary.name = item.name
-    state.end_job(f"{job.description}: done in {summary.seconds_taken:.1f} s ({job.sample.steps} steps)"
-                  + (f", root error {summary.root_error['mean_m']:.3f} m" if summary.root_error else ""))
-    state.add_item(item)
-    settings.result = summary
+    def deliver(self, summary: ControlSummary) -> Delivery:
+        """The motion (in the path's world) becomes a session motion with its target paths as guides; shown."""
+        job = self.plan
+        title = f"control · {job.prompt} · {' + '.join(LABELS[n] for n in summary.controls)} · {job.method}"
+        item = MotionItem(name=self.session.unique_name(title), joints=summary.joints, source="generated",
+                          prompt=job.prompt, info={"control": summary, "guides": summary.guides})
+        summary.name = item.name
+        return Delivery(items=[item], show=item.name, readout=(self.settings, {"result": summary}),
+                        status=f"{job.description}: done in {summary.seconds_taken:.1f} s ({job.sample.steps} steps)"
+                               + (f", root error {summary.root_error['mean_m']:.3f} m" if summary.root_error else ""))
 
 
 def describe(summary: ControlSummary) -> list[tuple[str, str]]:

@@ -23,7 +23,7 @@ _SECONDS = option_info(ControlOptions, "seconds")
 
 
 class ControlSettings(param.Parameterized):
-    """The Control tab's settings (one per session, on ``StudioState.control``) and its last result."""
+    """The Control tab's settings (one per session, in ``StudioState.tab_settings["control"]``) and its last result."""
 
     prompt = param.String(default="a person walks", label="Prompt",
                           doc="what the person does while following the paths")
@@ -104,11 +104,16 @@ class ControlSettings(param.Parameterized):
     def wrist_points(self, name: str) -> list:
         return getattr(self, f"{name}_points")
 
+    def typed_weights(self) -> dict[str, float]:
+        """Active control -> its blend weight as typed (the engine's rule judges it; nothing is clamped here)."""
+        return {n: self.weights.get(n, option_info(ControlOptions, ControlOptions.weight_field(n)).default)
+                for n in self.active}
+
     def shares(self) -> dict[str, float]:
         """Active control -> its share of the blend, by the engine's rule (a ValueError with the engine's one-line
         message for negative or all-zero weights; nothing is clamped here)."""
         names = self.active
-        return dict(zip(names, blend_shares(self.weights, names))) if names else {}
+        return dict(zip(names, blend_shares(self.typed_weights(), names))) if names else {}
 
     def set_stroke(self, kind: str, xs, ys) -> None:
         """A stroke drawn on a canvas (root: x, z; a wrist: x, y) becomes that path's points."""

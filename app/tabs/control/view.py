@@ -3,8 +3,8 @@ front view (any of them at once), set the prompt, the duration and a blend weigh
 Generate; the motion in the viewer with the target paths drawn in 3-D, and the measured errors. The tab opens on
 blending only when the control bench has it ahead of inpainting, and says which one the bench has ahead.
 
-The settings live on the session (``state.control``, a ``ControlSettings``); the widgets are made from them and the
-canvases (``app.tabs.control.canvas``) draw them.
+The settings live on the session (a ``ControlSettings``, handed to the tab by the page); the widgets are made from
+them and the canvases (``app.tabs.control.canvas``) draw them.
 """
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from app.session.state import StudioState
 from app.tabs.control.canvas import FrontCanvas, TopDownCanvas
 from app.tabs.control.job import ControlJob, describe
 from app.tabs.control.paths import COLOR_NAMES, LABELS, WRISTS, path_length
-from app.tabs.control.settings import METHOD_LABELS
+from app.tabs.control.settings import METHOD_LABELS, ControlSettings
 from engine.methods.control_options import ControlOptions, option_info
 from engine.methods.paths import MAX_ROOT_SPEED
 
@@ -33,10 +33,11 @@ HELP = ("Draw the **root path** on the floor (top-down, metres; drag to draw, or
 
 class ControlTab(pn.viewable.Viewer):
     state = param.ClassSelector(class_=StudioState)
+    settings = param.ClassSelector(class_=ControlSettings, doc="the session's Control settings")
 
     def __init__(self, **params):
         super().__init__(**params)
-        self.settings = k = self.state.control
+        k = self.settings
         self.prompt = text_from_param(k.param.prompt, css_classes=["control-prompt"], sizing_mode="stretch_width")
         self.seconds = FloatBox.from_param(k.param.seconds, width=90, css_classes=["control-seconds"])
         self.flag = pn.pane.HTML("", margin=(0, 10), stylesheets=[WORD_CSS], css_classes=["control-flag"])

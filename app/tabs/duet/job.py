@@ -19,7 +19,7 @@ import numpy as np
 from app.generation import Cancelled, sampling_slot
 from app.session.duets import DuetPair
 from app.session.items import MotionItem
-from app.session.jobs import JobDescription, Worker
+from app.session.jobs import Delivery, JobDescription, Worker
 from app.tabs.duet.models import EXAMPLE, duet_model, example
 from app.tabs.duet.settings import DuetSettings
 from engine.io import seconds_number
@@ -163,43 +163,36 @@ class DuetJob:
         return run_job(loaded, self.plan, duet_dir=self.settings.duet_dir, on_step=worker.step, cancel=worker.cancel,
                        on_wait=worker.waiting)
 
-    def finish(self, result) -> None:
-        finish(self.session, self.settings, self.plan, *result)
+    def deliver(self, result) -> Delivery:
+        """The two people become two session motions shown together in one scene."""
+        from engine.analysis.duet_pose import face_each_other
+        from viz.colors import ROLE_PALETTE, default_joint_colors
 
-
-def finish(state, settings: DuetSettings, job: DuetPlan, duet, seconds_taken: float) -> None:
-    """The two people become two session motions shown together in one scene."""
-    from engine.analysis.duet_pose import face_each_other
-    from viz.colors import ROLE_PALETTE, default_joint_colors
-
-    what = job.prompt or "completion"
-    base = f"duet · {what[:40]} · seed {job.sample.seed}" + ("" if job.communicate else " · no block")
-    first = state.unique_name(base + " · a")
-    second = state.unique_name(base + " · b")
-    pair = DuetPair(first=first, second=second, joints=duet.joints)
-    items = [MotionItem(name=n, joints=duet.joints[k], source="generated", prompt=job.prompt or "",
-                        info={"duet": pair}) for k, n in enumerate((first, second))]
-    given = int(round(job.prefix_seconds * FPS)) if job.mode == "prefix" else 0
-    p = duet.placement
-    summary = DuetSummary(names=(first, second), mode=job.mode, prompt=job.prompt or "", communicate=job.communicate,
-                          placement=p, contacts=contact_words(job, duet), distance_m=float(np.hypot(p.x, p.z)),
-                          facing_each_other=face_each_other(duet.joints), prefix_frames=given,
-                          n_frames=duet.frames, seconds_taken=seconds_taken)
-    state.end_job(f"{job.description}: {duet.frames} frames in {seconds_taken:.1f} s")
-    for it in items:
-        state.add_item(it, show=False)
-    colors = {}
-    if given:
-        for k, it in enumerate(items):
-            rgb = np.broadcast_to(default_joint_colors(ROLE_PALETTE[k]), (duet.frames, 22, 3)).copy()
-            rgb[:given] = default_joint_colors(PREFIX_COLOR)
-            colors[it.name] = rgb
-    if colors:
-        state.color_names = {**state.color_names, PREFIX_COLOR.lower(): "given prefix"}
-    state.frame_colors = {**{k: v for k, v in state.frame_colors.items() if k in state.items}, **colors}
-    state.show(first)
-    state.also = [second]
-    settings.result = summary
+        duet, seconds_taken = result
+        job = self.plan
+        what = job.prompt or "completion"
+        base = f"duet · {what[:40]} · seed {job.sample.seed}" + ("" if job.communicate else " · no block")
+        first = self.session.unique_name(base + " · a")
+        second = self.session.unique_name(base + " · b")
+        pair = DuetPair(first=first, second=second, joints=duet.joints)
+        items = [MotionItem(name=n, joints=duet.joints[k], source="generated", prompt=job.prompt or "",
+                            info={"duet": pair}) for k, n in enumerate((first, second))]
+        given = int(round(job.prefix_seconds * FPS)) if job.mode == "prefix" else 0
+        p = duet.placement
+        summary = DuetSummary(names=(first, second), mode=job.mode, prompt=job.prompt or "",
+                              communicate=job.communicate, placement=p, contacts=contact_words(job, duet),
+                              distance_m=float(np.hypot(p.x, p.z)), facing_each_other=face_each_other(duet.joints),
+                              prefix_frames=given, n_frames=duet.frames, seconds_taken=seconds_taken)
+        colors = {}
+        if given:
+            for k, it in enumerate(items):
+                rgb = np.broadcast_to(default_joint_colors(ROLE_PALETTE[k]), (duet.frames, 22, 3)).copy()
+                rgb[:given] = default_joint_colors(PREFIX_COLOR)
+                colors[it.name] = rgb
+        return Delivery(items=items, show=first, also=[second], frame_colors=colors,
+                        color_names={PREFIX_COLOR.lower(): "given prefix"} if colors else {},
+                        readout=(self.settings, {"result": summary}),
+                        status=f"{job.description}: {duet.frames} frames in {seconds_taken:.1f} s")
 
 
 def contact_words(job: DuetPlan, duet) -> str:

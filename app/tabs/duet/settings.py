@@ -20,7 +20,7 @@ MODES = {"text": "from a prompt", "prefix": "complete a prefix"}
 
 
 class DuetSettings(param.Parameterized):
-    """The Duet tab's settings (one per session, on ``StudioState.duet``) and its last duet.
+    """The Duet tab's settings (one per session, in ``StudioState.tab_settings["duet"]``) and its last duet.
 
     Lengths default to the engine's (``engine.methods.duet``: what ``moattn duet`` runs)."""
 

@@ -3,7 +3,8 @@ interaction, an uploaded duet .npy, or a duet made in this session); the communi
 prior run twice). Both people play in the viewer in one scene, in two colours, with the viewer's playback and
 export (exports hold both people).
 
-The settings live on the session (``state.duet``, a ``DuetSettings``); the widgets are made from them.
+The settings live on the session (a ``DuetSettings``, handed to the tab by the page); the widgets are made from
+them.
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from app.components.number_box import FloatBox
 from app.session.state import StudioState
 from app.tabs.duet.job import DuetJob, describe
 from app.tabs.duet.models import duet_model
+from app.tabs.duet.settings import DuetSettings
 
 HELP = ("Two copies of the base model, one per person, exchange what they are doing through a small trained "
         "**communication block** (ComMDM), which also places the two people. Turn it off to see the base model run "
@@ -28,10 +30,11 @@ HELP = ("Two copies of the base model, one per person, exchange what they are do
 
 class DuetTab(pn.viewable.Viewer):
     state = param.ClassSelector(class_=StudioState)
+    settings = param.ClassSelector(class_=DuetSettings, doc="the session's Duet settings")
 
     def __init__(self, **params):
         super().__init__(**params)
-        self.settings = d = self.state.duet
+        d = self.settings
         self.mode = pn.widgets.RadioButtonGroup.from_param(d.param.mode, name="", color="primary", variant="outline",
                                                            css_classes=["duet-mode"])
         self.prompt = text_from_param(d.param.prompt, css_classes=["duet-prompt"], sizing_mode="stretch_width")

@@ -14,14 +14,14 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
-import param
 
 from app.attention_record import AttentionRecord, estimate_bytes, plan_steps
 from app.generation import Cancelled, sampling_slot
 from app.session.items import MotionItem
-from app.session.jobs import JobDescription, Worker
+from app.session.jobs import Delivery, JobDescription, Worker
 from app.session.counting import CountReadout, auto_count, count_imported
 from app.tabs.edit.settings import PROMPT_SOURCE, EditSettings, EditSummary
+from engine.methods.edit_kinds import EditKind
 
 RECORD_BUDGET = 400 * 1024 * 1024  # the edit's AttentionStore keeps 512 MB at most: stay below it
 
@@ -93,7 +93,9 @@ def swap_example(words: list[str]) -> list[str]:
 class EditPlan:
     """A checked edit, ready for the worker."""
 
+    kind: EditKind  # the engine's registry entry of the edit
     options: object  # engine.methods.edit_options.EditOptions
+    config: object  # the edit's method config, built (and checked) once
     sample: object  # engine.generate.SampleConfig
     frames: int
     record_steps: int
@@ -122,14 +124,15 @@ class EditResult:
 
 
 # ---------------------------------------------------------------------------------------------- checks
-def prepare(state) -> EditPlan:
-    """Check the tab's settings against the session (prompt, model, sources); raises ValueError with a message."""
+def prepare(state, settings: EditSettings) -> EditPlan:
+    """Check the tab's settings against the session (prompt, model, sources); raises ValueError with a message.
+    What each kind reads and how it is described is the engine's registry (``engine.methods.edit_kinds``)."""
     from engine.generate import SampleConfig, frames_for
     from engine.methods.edit_options import EditOptions, build_config
 
-    cfg: EditSettings = state.edit
-    kind = cfg.engine_kind
-    if kind == "count":
+    cfg = settings
+    entry = cfg.entry
+    if not entry.is_edit:
         raise ValueError("counting is not an edit: use Count")
     loaded = state.model
     prompt = state.prompt
@@ -138,7 +141,7 @@ def prepare(state) -> EditPlan:
         raise ValueError(f"this model handles at most {loaded.model.config.max_frames / 20:.1f} s")
     sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
     word = cfg.word or None
-    if kind in ("emphasize", "erase", "ground"):
+    if "word" in entry.inputs:
         if word is None:
             raise ValueError("pick a word: click it in the prompt")
         words = state.prompt_words
@@ -146,42 +149,37 @@ def prepare(state) -> EditPlan:
             raise ValueError(f"the word '{word}' is not in the prompt any more: pick a word again")
         # a word the engine leaves out has no token to point at: its PromptError says so, naming the word
         loaded.tokenizer.encode(prompt).word_index(word, cfg.occurrence)
-    source = style = None
-    if kind in ("example", "style"):
-        source = resolve_source(state, cfg.source)
-    if kind == "style":
-        style = resolve_source(state, cfg.style_source, prompt=cfg.style_prompt)
-    text_sources = [s for s in (prompt if kind not in ("example", "style") else source, style) if isinstance(s, str)]
-    for text in text_sources:
+    source = resolve_source(state, cfg.source) if entry.source else prompt
+    style = resolve_source(state, cfg.style_source, prompt=cfg.style_prompt) if "style" in entry.inputs else None
+    for text in (s for s in (source, style) if isinstance(s, str)):
         loaded.tokenizer.encode(text)  # PromptError (a ValueError) with the unknown words
-    if kind == "replace":
+    if "edited" in entry.inputs:
         ok, message = alignment(loaded.tokenizer, prompt, cfg.edited)
         if not ok:
             raise ValueError(message)
-    weight = float(cfg.weight)
     span = tuple(int(f) for f in cfg.frames) if cfg.frames is not None else None
-    if span is not None and kind != "erase" and span[0] <= 0 and span[1] >= frames:
-        span = None  # the whole motion (erase's default is the last half, so its span stays explicit)
-    if kind == "ground":  # the spans dragged on the word's curve (none: the whole motion)
+    if span is not None and entry.default_frames(frames) == (0, frames) and span[0] <= 0 and span[1] >= frames:
+        span = None  # the whole motion (a kind whose default is less, e.g. the last half, keeps its span)
+    if entry.spans:  # the spans dragged on the word's curve (none: the whole motion)
         from engine.methods.spans import check_spans
 
         span = check_spans([tuple(int(v) for v in s) for s in cfg.spans], frames=frames) or None
     options = EditOptions(
-        kind=kind, prompt=source if kind in ("example", "style") else prompt, word=word, occurrence=cfg.occurrence,
-        weight=weight, mode=cfg.mode, frames=span,
-        edited=cfg.edited, fraction=float(cfg.fraction), style=style, count=int(cfg.count),
-        chunk_frames=int(cfg.chunk_frames),
+        kind=entry.name, prompt=source, word=word, occurrence=cfg.occurrence, weight=float(cfg.weight),
+        mode=cfg.mode, frames=span, edited=cfg.edited, fraction=float(cfg.fraction), style=style,
+        count=int(cfg.count), chunk_frames=int(cfg.chunk_frames),
         step_window=tuple(cfg.step_window) if cfg.step_window is not None else None,
         layers=tuple(cfg.layers) or None, seed=int(state.seed))
-    build_config(options, frames=frames, model_config=loaded.config)  # the config's own checks (weight ranges, windows) before any work
-    description = describe(options, frames=frames)
+    # built once, here: the config's own checks (weight ranges, windows) before any work; the worker runs it
+    config = build_config(options, frames=frames, model_config=loaded.config)
+    description = entry.describe(options, frames=frames)
     m = loaded.config["model"]
-    slots = 2 + (int(cfg.count) - 1 if kind == "example" else 0) + (1 if kind == "style" else 0)
-    size = slots * estimate_bytes(num_steps=sample.steps, record_steps=sample.steps, layers=m["layers"],
-                                  heads=m["heads"], frames=frames, words=16)
-    return EditPlan(options=options, sample=sample, frames=frames, record_steps=int(state.record_steps),
-                   label=cfg.kind, description=description,
-                   prompt=prompt if isinstance(prompt, str) else "", record=state.record_steps > 0 and size < RECORD_BUDGET)
+    size = entry.batch_slots(options) * estimate_bytes(num_steps=sample.steps, record_steps=sample.steps,
+                                                       layers=m["layers"], heads=m["heads"], frames=frames, words=16)
+    return EditPlan(kind=entry, options=options, config=config, sample=sample, frames=frames,
+                    record_steps=int(state.record_steps), label=cfg.kind, description=description,
+                    prompt=prompt if isinstance(prompt, str) else "",
+                    record=state.record_steps > 0 and size < RECORD_BUDGET)
 
 
 def resolve_source(state, name: str, *, prompt: str | None = None):
@@ -202,32 +200,6 @@ def resolve_source(state, name: str, *, prompt: str | None = None):
     return np.asarray(item.joints[: 196])
 
 
-def describe(options, *, frames: int) -> str:
-    o = options
-    if o.kind in ("emphasize", "ground"):
-        sign = "+" if o.mode == "add" and o.weight >= 0 else ""
-        w = f"{sign}{o.weight:.2f}" if o.mode == "add" else f"×{o.weight:.2f}"
-        what = "emphasise" if o.kind == "emphasize" else "ground"
-        spans = ", ".join(f"{a}–{min(b, frames)}" for a, b in o.spans)
-        span = "" if not spans else f" frames {spans}"
-        return f"{what} '{o.word}' {w}{span}"
-    if o.kind == "erase":
-        return f"erase '{o.word}'"
-    if o.kind == "replace":
-        from engine.methods.word_alignment import align_words
-        from engine.text import split_words
-
-        return "replace " + ", ".join(align_words(split_words(o.prompt), split_words(o.edited)).changes())
-    if o.kind == "shift":
-        return f"shift {o.fraction:.0%}"
-    if o.kind == "example":
-        from engine.methods.edit_options import option_spec
-
-        default = option_spec("chunk_frames").default
-        return "example-based" + ("" if o.chunk_frames == default else f" ({o.chunk_frames}-frame chunks)")
-    return "style transfer"
-
-
 # ---------------------------------------------------------------------------------------------- the worker
 def run_edit_job(loaded, job: EditPlan, *, on_step=None, cancel=None, on_wait=None) -> EditResult:
     """Run one edit (waits for the sampling slot); ``on_step(done, total)`` after every step."""
@@ -244,7 +216,8 @@ def run_edit_job(loaded, job: EditPlan, *, on_step=None, cancel=None, on_wait=No
 
     with sampling_slot(cancel, on_wait):
         start = time.perf_counter()
-        out = run_engine_edit(loaded, job.options, frames=job.frames, sample=job.sample, record=job.record, on_step=step)
+        out = run_engine_edit(loaded, job.options, frames=job.frames, sample=job.sample, record=job.record,
+                              on_step=step, config=job.config)
     gen = out.generation
     keep = plan_steps(job.sample.steps, job.record_steps) if job.record_steps else []
 
@@ -260,10 +233,8 @@ def run_edit_job(loaded, job: EditPlan, *, on_step=None, cancel=None, on_wait=No
         record = _record(out.store, role, index, words, job.sample.steps, keep, timesteps)
         return EditedMotion(role=role, joints=joints, prompt=prompt or "", words=words, attention=record, title=title)
 
-    o = job.options
-    n_after = o.count if o.kind == "example" else 1
-    before_title = {"example": "example", "style": "content"}.get(o.kind, "reference")
-    before = motion(out.before_role, 0, before_title)
+    n_after = job.kind.outputs(job.options)
+    before = motion(out.before_role, 0, job.kind.before_title)
     after = [motion(out.after_role, i, job.description + (f" #{i + 1}" if n_after > 1 else ""))
              for i in range(n_after)]
     return EditResult(job=job, before=before, after=after, seconds_taken=time.perf_counter() - start)
@@ -291,14 +262,15 @@ class EditJob:
     """One MotionCLR edit of the session's prompt (or sources): before and after side by side when done."""
 
     session: object  # StudioState
+    settings: EditSettings
     plan: EditPlan | None = field(default=None, init=False)
 
     @property
     def refused(self) -> str:
-        return f"cannot {self.session.edit.kind}"
+        return f"cannot {self.settings.kind}"
 
     def prepare(self, loaded) -> None:
-        self.plan = prepare(self.session)
+        self.plan = prepare(self.session, self.settings)
 
     def describe(self) -> JobDescription:
         p = self.plan
@@ -308,8 +280,30 @@ class EditJob:
     def run(self, loaded, worker: Worker) -> EditResult:
         return run_edit_job(loaded, self.plan, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting)
 
-    def finish(self, result: EditResult) -> None:
-        finish_edit(self.session, result)
+    def deliver(self, result: EditResult) -> Delivery:
+        """The reference (re-used when the session has it already) and the edited motions, side by side."""
+        session, job = self.session, result.job
+        seed = job.sample.seed
+
+        def item(m: EditedMotion, title: str) -> MotionItem:
+            return MotionItem(name=session.unique_name(title), joints=m.joints, source="generated", prompt=m.prompt,
+                              words=m.words, attention=m.attention,
+                              info={"edit": job.description, "role": m.role, "seed": seed})
+
+        base = (result.before.prompt or "imported") if job.kind.source else job.prompt
+        title = f"{base} · seed {seed} · {result.before.title}"
+        before = same_motion(session, title, result.before.joints)
+        new = [] if before is not None else [item(result.before, title)]
+        before = before or new[0]
+        afters = [item(m, f"{m.prompt or base} · {m.title}") for m in result.after]
+        first = afters[0]
+        n = min(len(first.joints), len(before.joints))
+        diff = float(np.linalg.norm(first.joints[:n] - before.joints[:n], axis=-1).max()) if n else 0.0
+        summary = EditSummary(kind=job.label, description=job.description, before=before.name,
+                              after=[a.name for a in afters], seconds_taken=result.seconds_taken, max_difference=diff)
+        return Delivery(items=[*new, *afters], show=first.name, compare=before.name,
+                        status=f"{job.description}: done in {result.seconds_taken:.1f} s ({job.sample.steps} steps)",
+                        readout=(self.settings, {"last_edit": summary}))
 
 
 @dataclass
@@ -333,16 +327,16 @@ class CountJob:
             return count_imported(loaded, self.item.joints[:196], item=self.item.name, prompt=self.item.prompt,
                                   method=self.session.count_method)
 
-    def finish(self, readout: CountReadout) -> None:
-        self.session.end_job(f"counted {self.item.name!r}: {readout.count:.2f} (baseline {readout.baseline})")
-        self.session.count_result = readout
+    def deliver(self, readout: CountReadout) -> Delivery:
+        return Delivery(status=f"counted {self.item.name!r}: {readout.count:.2f} (baseline {readout.baseline})",
+                        readout=(self.session, {"count_result": readout}))
 
 
-def run_edit(session) -> bool:
+def run_edit(session, settings: EditSettings) -> bool:
     """The Edit tab's Run: the edit (or counting) on the worker; False (and a notification) if refused."""
-    if session.edit.engine_kind == "count":
+    if not settings.entry.is_edit:
         return count_current(session)
-    return session.launch(EditJob(session=session))
+    return session.launch(EditJob(session=session, settings=settings))
 
 
 def count_current(session) -> bool:
@@ -355,39 +349,6 @@ def count_current(session) -> bool:
         auto_count(session)
         return True
     return session.launch(CountJob(session=session, item=item))
-
-
-def finish_edit(session, result: EditResult) -> None:
-    """The reference (re-used when the session has it already) and the edited motions; shown side by side."""
-    job = result.job
-    seed = job.sample.seed
-
-    def item(m, title: str) -> MotionItem:
-        return MotionItem(name=session.unique_name(title), joints=m.joints, source="generated", prompt=m.prompt,
-                          words=m.words, attention=m.attention,
-                          info={"edit": job.description, "role": m.role, "seed": seed})
-
-    base = job.prompt if job.options.kind not in ("example", "style") else (result.before.prompt or "imported")
-    title = f"{base} · seed {seed} · {result.before.title}"
-    before = same_motion(session, title, result.before.joints)
-    if before is None:
-        before = item(result.before, title)
-        session.add_item(before, show=False)
-    afters = []
-    for m in result.after:
-        it = item(m, f"{m.prompt or base} · {m.title}")
-        session.add_item(it, show=False)
-        afters.append(it)
-    first = afters[0]
-    n = min(len(first.joints), len(before.joints))
-    diff = float(np.linalg.norm(first.joints[:n] - before.joints[:n], axis=-1).max()) if n else 0.0
-    session.end_job(f"{job.description}: done in {result.seconds_taken:.1f} s ({job.sample.steps} steps)")
-    with param.parameterized.batch_call_watchers(session):
-        session.show(first.name)
-        session.compare = before.name
-    session.edit.last_edit = EditSummary(kind=job.label, description=job.description, before=before.name,
-                                         after=[a.name for a in afters], seconds_taken=result.seconds_taken,
-                                         max_difference=diff)
 
 
 def same_motion(session, title: str, joints: np.ndarray) -> MotionItem | None:

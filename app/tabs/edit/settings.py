@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import param
 
-from engine.methods.edit_kinds import REGISTRY
+from engine.methods.edit_kinds import REGISTRY, EditKind
 from engine.methods.edit_options import option_spec
 from engine.methods.motionclr import WEIGHT_RANGES, weight_range_text
 
@@ -18,7 +18,7 @@ PROMPT_SOURCE = "(the prompt)"
 
 
 class EditSettings(param.Parameterized):
-    """The Edit tab's settings (one per session, on ``StudioState.edit``) and its last edit."""
+    """The Edit tab's settings (one per session, in ``StudioState.tab_settings["edit"]``) and its last edit."""
 
     kind = param.Selector(default="emphasise", objects=list(KIND_LABELS), label="Edit", doc="which edit")
     word = param.String(default="", doc="the picked word ('' = none picked yet)")
@@ -53,6 +53,11 @@ class EditSettings(param.Parameterized):
     @property
     def engine_kind(self) -> str:
         return KIND_LABELS[self.kind]
+
+    @property
+    def entry(self) -> EditKind:
+        """The chosen kind's entry in the engine's registry: what it reads, how it is described, what it makes."""
+        return REGISTRY[self.engine_kind]
 
 
 @dataclass

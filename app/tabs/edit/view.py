@@ -1,7 +1,8 @@
 """The Edit tab (MotionCLR): pick an edit, click a word of the prompt, set weights and windows, run it off the UI
 thread, see before / after side by side in the viewer; the counting readout with its peaks.
 
-All settings live on ``state.edit`` (an ``app.tabs.edit.settings.EditSettings``); the widgets only mirror it. The
+All settings live on the tab's ``settings`` (an ``app.tabs.edit.settings.EditSettings``, the session's, handed over by
+the page); the widgets only mirror it. What each kind reads and shows is the engine's registry entry (``entry``). The
 edit itself is an ``EditJob`` launched on the session (checks, then the shared worker with progress and cancel).
 """
 from __future__ import annotations
@@ -20,9 +21,8 @@ from app.components.guard import SyncGuard
 from app.components.jobbar import WRAP_BUTTONS_CSS, JobBar, text_from_param
 from app.session.state import StudioState
 from app.tabs.edit.job import alignment, count_current, run_edit, swap_example, word_choice
-from app.tabs.edit.settings import KIND_HELP, PROMPT_SOURCE
+from app.tabs.edit.settings import KIND_HELP, PROMPT_SOURCE, EditSettings
 from engine.analysis.counting import COUNTING_METHODS
-from engine.methods.edit_kinds import REGISTRY
 from engine.methods.motionclr import WEIGHT_RANGES
 from engine.methods.spans import check_spans, parse_spans, spans_text
 
@@ -30,10 +30,11 @@ from engine.methods.spans import check_spans, parse_spans, spans_text
 
 class EditTab(pn.viewable.Viewer):
     state = param.ClassSelector(class_=StudioState)
+    settings = param.ClassSelector(class_=EditSettings, doc="the session's Edit settings")
 
     def __init__(self, **params):
         super().__init__(**params)
-        s, e = self.state, self.state.edit
+        s, e = self.state, self.settings
         self._syncing = SyncGuard()
         self.kind = pn.widgets.RadioButtonGroup.from_param(e.param.kind, color="primary", variant="outline",
                                                            css_classes=["edit-kind"], sizing_mode="stretch_width")
@@ -72,7 +73,7 @@ class EditTab(pn.viewable.Viewer):
                                               css_classes=["edit-style-source"], width=260)
         self.style_prompt = text_from_param(e.param.style_prompt, css_classes=["edit-style-prompt"], width=260)
         self.bar = JobBar(state=s, jobs=["edit", "counting"], label="Run edit", prefix="edit",
-                          on_run=lambda: run_edit(self.state), blocked=self._misaligned)
+                          on_run=lambda: run_edit(self.state, self.settings), blocked=self._misaligned)
         b = self.bar
         self.run, self.cancel, self.progress, self.status = b.run, b.cancel, b.progress, b.status
         self.result = pn.pane.Markdown("", css_classes=["edit-result"], margin=(0, 10))
@@ -154,7 +155,7 @@ class EditTab(pn.viewable.Viewer):
             self.state.error(f"grounding spans: {exc}")
             self._on_spans()  # the text shows the spans kept
             return False
-        self.state.edit.spans = [tuple(sp) for sp in checked]
+        self.settings.spans = [tuple(sp) for sp in checked]
         return True
 
     def add_span(self, start: float, end: float) -> bool:
@@ -166,7 +167,7 @@ class EditTab(pn.viewable.Viewer):
         if hi <= lo:
             self.state.error(f"grounding spans: the span {start:.0f}–{end:.0f} is outside the motion (0–{n})")
             return False
-        return self.set_spans([*self.state.edit.spans, (lo, hi)])
+        return self.set_spans([*self.settings.spans, (lo, hi)])
 
     def _on_span_drawn(self, event) -> None:
         geometry = getattr(event, "geometry", None) or {}
@@ -189,7 +190,7 @@ class EditTab(pn.viewable.Viewer):
         self.set_spans(spans)
 
     def _on_spans(self, *_):
-        spans = [tuple(sp) for sp in self.state.edit.spans]
+        spans = [tuple(sp) for sp in self.settings.spans]
         self.span_src.data = dict(x0=[a for a, _ in spans], x1=[b for _, b in spans])
         self._sync(lambda: setattr(self.spans_text, "value", spans_text(spans)))
         n = self._frames_total()
@@ -204,7 +205,7 @@ class EditTab(pn.viewable.Viewer):
     def _span_curve(self) -> tuple[np.ndarray | None, str]:
         """The picked word's cross-attention per frame in the shown motion (mean of the recorded steps, layers and
         heads) and the figure's title; None when the shown motion has no recorded attention on that word."""
-        e, item = self.state.edit, self.state.item
+        e, item = self.settings, self.state.item
         if not e.word:
             return None, "Pick a word, then drag across the frames to add a span"
         if item is None or item.attention is None:
@@ -235,7 +236,7 @@ class EditTab(pn.viewable.Viewer):
         if self._syncing or value is None:
             return
         try:
-            setattr(self.state.edit, name, value)
+            setattr(self.settings, name, value)
         except ValueError as exc:
             self.state.error(f"{name}: {exc}")
 
@@ -247,7 +248,7 @@ class EditTab(pn.viewable.Viewer):
     def pick_word(self, position: int) -> None:
         """What a click on the prompt's ``position``-th word does: the edit names that word (and which occurrence)."""
         word, occurrence = word_choice(self.state.prompt_words, position)
-        self.state.edit.param.update(word=word, occurrence=occurrence)
+        self.settings.param.update(word=word, occurrence=occurrence)
         self._sync(lambda: setattr(self.words, "value", position))
 
     # ------------------------------------------------------------------ state -> widgets
@@ -274,7 +275,7 @@ class EditTab(pn.viewable.Viewer):
         self.layers.options = {f"layer {i}": i for i in range(layers)}
 
     def _on_prompt(self, *_):
-        s, e = self.state, self.state.edit
+        s, e = self.state, self.settings
         words = list(s.prompt_words)
         left_out = set(s.reading.left_out)  # no token: picking one is refused with the engine's message
         options = {}
@@ -294,7 +295,7 @@ class EditTab(pn.viewable.Viewer):
         self._on_alignment()
 
     def _on_prompt_text(self, *_):
-        if self.state.edit.engine_kind in ("example", "style"):
+        if self.settings.entry.source:
             self._on_items()
 
     def _on_seconds(self, *_):
@@ -304,18 +305,17 @@ class EditTab(pn.viewable.Viewer):
 
     def _reset_frames(self) -> None:
         n = self._frames_total()
-        kind = self.state.edit.engine_kind
-        value = (n // 2, n) if kind == "erase" else (0, n)
+        value = self.settings.entry.default_frames(n)
 
         def apply():
             self.frames.end = n
             self.frames.value = value
         self._sync(apply)
-        self.state.edit.frames = value
+        self.settings.frames = value
 
     def _on_items(self, *_):
         names = list(self.state.items)
-        e = self.state.edit
+        e = self.settings
         prompt_label = PROMPT_SOURCE
 
         def apply():
@@ -332,9 +332,9 @@ class EditTab(pn.viewable.Viewer):
     def _on_kind(self, *_):
         from engine.methods.edit_options import default_window
 
-        e = self.state.edit
-        kind = e.engine_kind
-        window = default_window(kind, self._model_config()) if kind != "count" else None
+        e = self.settings
+        entry = e.entry
+        window = default_window(entry.name, self._model_config()) if entry.is_edit else None
         if window is not None:
             e.step_window = (window.start, window.end)
             e.layers = sorted(window.layers or [])  # the calibrated emphasis layers, shown so they can be changed
@@ -345,37 +345,36 @@ class EditTab(pn.viewable.Viewer):
         if not self.state.running:
             self.result.object = ""
         self.bar.clear()
-        entry = REGISTRY[kind]
         reads = entry.inputs  # the fields this kind reads, by the engine's registry
         is_edit = entry.is_edit
         self.words_label.visible = self.words.visible = "word" in reads
         self.mode.visible = "mode" in reads
         self.weight.visible = "weight" in reads
-        self.frames.visible = "frames" in reads and kind != "ground"
-        self.spans_box.visible = "frames" in reads and kind == "ground"  # several spans, dragged on the curve
+        self.frames.visible = "frames" in reads and not entry.spans
+        self.spans_box.visible = "frames" in reads and entry.spans  # several spans, dragged on the curve
         self.steps.visible = self.layers.visible = is_edit
         self.fraction.visible = "fraction" in reads
         self.count.visible = "count" in reads
         self.chunk.visible = self.chunk_help.visible = "chunk_frames" in reads
         self.edited.visible = self.alignment.visible = "edited" in reads
         self.source.visible = entry.source
-        self.source.label = "Example" if kind == "example" else "Content"
+        self.source.label = entry.source_label
         self.style_source.visible = self.style_prompt.visible = "style" in reads
         self.run.label = "Count this motion" if not is_edit else f"Run {e.kind}"
         self.count_button.visible = is_edit  # one "Count this motion" button at a time: the Run button in count mode
-        self.help.object = KIND_HELP[kind] + ("" if not entry.source else
-                                              " Sources: the prompt, or a session motion (a generated one is "
-                                              "re-generated from its prompt, an imported one is DDIM-inverted).")
-        if kind == "ground" and self.weight.value < 0:
+        self.help.object = KIND_HELP[entry.name] + ("" if not entry.source else
+                                                    " Sources: the prompt, or a session motion (a generated one is "
+                                                    "re-generated from its prompt, an imported one is DDIM-inverted).")
+        if entry.positive_weight and self.weight.value < 0:
             self.weight.value = abs(self.weight.value)
-        if kind == "ground":
+        if entry.spans:
             self._write_span_curve()
-        if kind == "replace" and not e.edited:
+        if "edited" in reads and not e.edited:
             e.edited = " ".join(swap_example(list(self.state.prompt_words)))
         self.bar.refresh()  # Run waits for aligned prompts in replacement only
 
     def _on_mode(self, *_):
-        e = self.state.edit
+        e = self.settings
         start, end = WEIGHT_RANGES[e.mode]  # the range the method checks (engine.methods.motionclr)
         value = e.weight if start <= e.weight <= end else (2.0 if e.mode == "mul" else 0.3)
 
@@ -387,12 +386,12 @@ class EditTab(pn.viewable.Viewer):
             tokenizer = self.state.model.tokenizer
         except Exception:
             tokenizer = None
-        return alignment(tokenizer, self.state.prompt, self.state.edit.edited)
+        return alignment(tokenizer, self.state.prompt, self.settings.edited)
 
     def _on_alignment(self, *_):
-        e = self.state.edit
+        e = self.settings
         self.bar.refresh()
-        if e.engine_kind != "replace" and not e.edited:
+        if "edited" not in e.entry.inputs and not e.edited:
             self.alignment.object = ""
             return
         ok, message = self._alignment()
@@ -404,10 +403,10 @@ class EditTab(pn.viewable.Viewer):
 
     def _misaligned(self) -> bool:
         """Replacement needs an edited prompt that changes something the model reads: Run waits until it does."""
-        return self.state.edit.engine_kind == "replace" and not self._alignment()[0]
+        return "edited" in self.settings.entry.inputs and not self._alignment()[0]
 
     def _on_last_edit(self, *_):
-        last = self.state.edit.last_edit
+        last = self.settings.last_edit
         if last is None:
             self.result.object = ""
             return

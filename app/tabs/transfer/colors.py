@@ -31,21 +31,25 @@ def hex_rgb(colors: list[str]) -> np.ndarray:
     return np.array([[int(c[i : i + 2], 16) for i in (1, 3, 5)] for c in colors], dtype=np.uint8)
 
 
+def cluster_paint(view, color_by: str) -> tuple[dict, dict, dict]:
+    """How a transfer (a ``TransferView`` seen through one follower) paints its skeletons for ``color_by``:
+    (motion name -> per-frame colours, motion name -> what they mean, '#rrggbb' -> its legend name); all empty
+    for the role colours."""
+    if view is None or color_by == "roles":
+        return {}, {}, {}
+    labels = view.analysis.q_labels if color_by == "Q cluster" else view.analysis.k_labels
+    n = n_clusters(view)
+    colors = {view.names[r]: hex_rgb(cluster_colors(labels[r], n)) for r in ROLES if r in view.names}
+    note = f"colour: {color_by} (legend in the Transfer tab)"
+    return colors, {name: note for name in colors}, cluster_names("Q" if color_by == "Q cluster" else "K", n)
+
+
 def paint_clusters(state, cfg) -> None:
     """Skeleton colours per frame from the last transfer's Q or K clusters in ``cfg`` (the session's transfer
     settings), or none: the role colours."""
-    view = focused(cfg)
-    if view is None or cfg.color_by == "roles":
-        colors = {}
-    else:
-        labels = view.analysis.q_labels if cfg.color_by == "Q cluster" else view.analysis.k_labels
-        n = n_clusters(view)
-        colors = {view.names[r]: hex_rgb(cluster_colors(labels[r], n)) for r in ROLES if r in view.names}
+    colors, notes, names = cluster_paint(focused(cfg), cfg.color_by)
     if colors or state.frame_colors:
-        note = f"colour: {cfg.color_by} (legend in the Transfer tab)"
-        names = cluster_names("Q" if cfg.color_by == "Q cluster" else "K", n_clusters(view)) if colors else {}
-        state.param.update(frame_colors=colors, color_notes={name: note for name in colors},
-                           color_names={**state.color_names, **names})
+        state.param.update(frame_colors=colors, color_notes=notes, color_names={**state.color_names, **names})
 
 
 def focused(settings):

@@ -19,7 +19,8 @@ import param
 
 from app.generation import Cancelled, sampling_slot
 from app.session.items import MotionItem
-from app.session.jobs import JobDescription, Worker
+from app.session.jobs import Delivery, JobDescription, Worker
+from app.tabs.transfer.colors import cluster_paint
 from app.tabs.transfer.settings import SourceSettings, TransferSettings
 
 MIN_MOTION_FRAMES = 20  # 1 s
@@ -106,12 +107,12 @@ def _source(state, settings: SourceSettings, loaded):
     return Source(prompt=text or None, joints=joints, name=item.name), item.name
 
 
-def prepare(state) -> TransferPlan:
+def prepare(state, settings: TransferSettings) -> TransferPlan:
     """Check the tab's settings against the session and the model; raises ValueError with a message."""
     from engine.generate import SampleConfig
     from engine.methods.momo import MAX_FOLLOWER_STREAMS, TransferConfig
 
-    cfg: TransferSettings = state.transfer
+    cfg = settings
     loaded = state.model
     leader, leader_label = _source(state, cfg.leader, loaded)
     follower, follower_label = _source(state, cfg.follower, loaded)
@@ -240,11 +241,12 @@ class TransferJob:
     """One transfer, leader -> follower(s): leader / follower / out side by side and the analysis when done."""
 
     session: object  # StudioState
+    settings: TransferSettings
     plan: TransferPlan | None = field(default=None, init=False)
     refused: ClassVar[str] = "cannot transfer"
 
     def prepare(self, loaded) -> None:
-        self.plan = prepare(self.session)
+        self.plan = prepare(self.session, self.settings)
 
     def describe(self) -> JobDescription:
         p = self.plan
@@ -255,45 +257,51 @@ class TransferJob:
         return run_job(loaded, self.plan, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting,
                        note=worker.note)
 
-    def finish(self, view: TransferView) -> None:
-        finish(self.session, self.plan, view)
+    def deliver(self, view: TransferView) -> Delivery:
+        """Session motions (leader, follower, out, then follower k / out k of any extra follower) side by side in
+        the viewer; the analysis on the tab."""
+        job = self.plan
+        titles = {"leader": f"leader · {job.labels['leader']}"}
+        prompts = {"leader": job.leader.prompt or ""}
+        for k, src in enumerate((job.follower, *job.extra), start=1):
+            n = "" if k == 1 else f" {k}"
+            label = job.labels[f"follower{n}"]
+            titles.update({f"follower{n}": f"follower{n} · {label}",
+                           f"out{n}": f"out{n} · {_short(label)} ← {_short(job.labels['leader'])}"})
+            prompts.update({f"follower{n}": src.prompt or "", f"out{n}": src.prompt or ""})
+        items = []
+        for role in view.joints:
+            item = MotionItem(name=self.session.unique_name(titles[role]), joints=view.joints[role],
+                              source="generated", prompt=prompts[role],
+                              info={"transfer": job.description, "role": role, "inversion": view.inversion.get(role)})
+            items.append(item)
+            view.names[role] = item.name
+        names = view.names
+        # painted as they are shown when the tab colours skeletons by clusters (the first follower's analysis)
+        colors, notes, legend = cluster_paint(view.focus(1), self.settings.color_by)
+        return Delivery(items=items, show=names["leader"], compare=names["follower"], also=_outs(names),
+                        frame_colors=colors, color_notes=notes, color_names=legend,
+                        status=f"transfer {job.description}: done in {view.seconds_taken:.1f} s "
+                               f"({job.sample.steps} steps)",
+                        readout=(self.settings, {"analysed": 1, "result": view}))
 
 
-def finish(state, job: TransferPlan, view: TransferView) -> None:
-    """Session motions (leader, follower, out, then follower k / out k of any extra follower) side by side in
-    the viewer; the analysis on the tab."""
-    titles = {"leader": f"leader · {job.labels['leader']}"}
-    prompts = {"leader": job.leader.prompt or ""}
-    for k, src in enumerate((job.follower, *job.extra), start=1):
-        n = "" if k == 1 else f" {k}"
-        label = job.labels[f"follower{n}"]
-        titles.update({f"follower{n}": f"follower{n} · {label}",
-                       f"out{n}": f"out{n} · {_short(label)} ← {_short(job.labels['leader'])}"})
-        prompts.update({f"follower{n}": src.prompt or "", f"out{n}": src.prompt or ""})
-    for role in view.joints:
-        item = MotionItem(name=state.unique_name(titles[role]), joints=view.joints[role], source="generated",
-                          prompt=prompts[role], info={"transfer": job.description, "role": role,
-                                                      "inversion": view.inversion.get(role)})
-        state.add_item(item, show=False)
-        view.names[role] = item.name
-    state.end_job(f"transfer {job.description}: done in {view.seconds_taken:.1f} s ({job.sample.steps} steps)")
-    with param.parameterized.batch_call_watchers(state.transfer):
-        state.transfer.analysed = 1
-        state.transfer.result = view
-    show_roles(state)
+def _outs(names: dict[str, str]) -> list[str]:
+    """The out of the first follower, then the outs of any extra followers."""
+    return [names["out"], *(names[r] for r in names if r.startswith("out "))]
 
 
-def show_roles(state) -> None:
+def show_roles(state, settings: TransferSettings) -> None:
     """Leader / follower / out side by side and in sync in the viewer (the last transfer), then the outs of any
     extra followers."""
-    view = state.transfer.result
+    view = settings.result
     if view is None or any(n not in state.items for n in view.names.values()):
         state.error("the transfer's motions are no longer in the session: run it again")
         return
     with param.parameterized.batch_call_watchers(state):
         state.show(view.names["leader"])
         state.compare = view.names["follower"]
-        state.also = [view.names["out"], *(view.names[r] for r in view.names if r.startswith("out "))]
+        state.also = _outs(view.names)
 
 
 def describe_inversion(error: dict | None) -> str:

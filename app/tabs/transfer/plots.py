@@ -18,6 +18,7 @@ from bokeh.plotting import figure
 
 from app.session.state import StudioState
 from app.tabs.transfer.colors import ROLES, cluster_colors, cluster_palette, focused, index_colors, n_clusters
+from app.tabs.transfer.settings import TransferSettings
 from viz.geometry import BONE_CHILDREN, BONE_PARENTS
 
 WIDTH = 580
@@ -50,6 +51,7 @@ def _no_selection_look(renderer) -> None:
 
 class TransferPlots(pn.viewable.Viewer):
     state = param.ClassSelector(class_=StudioState)
+    settings = param.ClassSelector(class_=TransferSettings, doc="the session's Transfer settings (the result shown)")
 
     def __init__(self, **params):
         super().__init__(**params)
@@ -63,7 +65,7 @@ class TransferPlots(pn.viewable.Viewer):
         self._build_query()
         for fig in (self.strips, self.film, self.query, *self.maps.values()):
             fig.on_event(Tap, lambda event, fig=fig: self._on_tap(fig, event))
-        self.state.transfer.param.watch(self._on_result, ["result", "analysed"])
+        self.settings.param.watch(self._on_result, ["result", "analysed"])
         self.state.param.watch(self._on_frame, ["frame", "playing"])
         self._on_result()
 
@@ -143,7 +145,7 @@ class TransferPlots(pn.viewable.Viewer):
 
     # ------------------------------------------------------------------ state -> views
     def _on_result(self, *_):
-        view = focused(self.state.transfer)
+        view = focused(self.settings)
         self._show_query(False)  # the rows of another transfer's frame are gone; a picked frame brings them back
         for src in self.query_src.values():
             src.data = dict(x=[], y=[])
@@ -225,7 +227,7 @@ class TransferPlots(pn.viewable.Viewer):
         self.film.x_range.start, self.film.x_range.end = -0.02 * longest, longest * 1.02
 
     def _on_frame(self, *_):
-        view = focused(self.state.transfer)
+        view = focused(self.settings)
         if view is None or self.state.current not in view.names.values():
             return  # the cursors follow the transfer's own motions (moving them repaints the plots)
         frame = self.state.frame

@@ -45,8 +45,8 @@ class SourceSettings(param.Parameterized):
 
 
 class TransferSettings(param.Parameterized):
-    """The Transfer tab's settings (one per session, on ``StudioState.transfer``), its last transfer and what the
-    analysis shows."""
+    """The Transfer tab's settings (one per session, in ``StudioState.tab_settings["transfer"]``), its last transfer
+    and what the analysis shows."""
 
     leader = param.ClassSelector(class_=SourceSettings)
     follower = param.ClassSelector(class_=SourceSettings)

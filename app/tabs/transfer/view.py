@@ -2,8 +2,9 @@
 or an imported motion; layer and step windows; run off the UI thread with progress and cancel; then leader /
 follower / out side by side in the viewer and the analysis views (``app.tabs.transfer.plots``).
 
-All settings live on ``state.transfer`` (an ``app.tabs.transfer.settings.TransferSettings``); the widgets only mirror
-it. The transfer itself is a ``TransferJob`` launched on the session (checks, then the shared worker).
+All settings live on the tab's ``settings`` (the session's ``app.tabs.transfer.settings.TransferSettings``, handed over
+by the page); the widgets only mirror it. The transfer itself is a ``TransferJob`` launched on the session (checks,
+then the shared worker).
 """
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ from app.components.words import WORD_CSS, word_chips
 from app.session.state import StudioState
 from app.tabs.transfer.job import TransferJob, describe_inversion, show_roles
 from app.tabs.transfer.plots import TransferPlots
-from app.tabs.transfer.settings import SourceSettings
+from app.tabs.transfer.settings import SourceSettings, TransferSettings
 
 NO_MOTION = "(import a motion)"
 HELP = {"leader": "**Leader**: what and when (outline, timing).", "follower": "**Follower**: how (motifs)."}
@@ -29,6 +30,7 @@ class SourcePicker(pn.viewable.Viewer):
     description) that is DDIM-inverted when the transfer runs."""
 
     state = param.ClassSelector(class_=StudioState)
+    settings = param.ClassSelector(class_=TransferSettings, doc="the session's Transfer settings (its last result)")
     source = param.ClassSelector(class_=SourceSettings)
 
     def __init__(self, **params):
@@ -50,7 +52,7 @@ class SourcePicker(pn.viewable.Viewer):
         src.param.watch(self._on_kind, ["kind", "motion"])
         src.param.watch(self._on_words, ["reading", "kind"])
         self.state.param.watch(self._on_items, "items")
-        self.state.transfer.param.watch(self._on_info, "result")
+        self.settings.param.watch(self._on_info, "result")
         self._on_items()
         self._on_kind()
         self._on_words()
@@ -98,7 +100,7 @@ class SourcePicker(pn.viewable.Viewer):
         self.words.object = word_chips(src.reading) if src.reading.words or src.kind == "prompt" else ""
 
     def _on_info(self, *_):
-        src, view = self.source, self.state.transfer.result
+        src, view = self.source, self.settings.result
         if src.kind == "prompt":
             self.info.object = ""
             return
@@ -116,12 +118,13 @@ class SourcePicker(pn.viewable.Viewer):
 
 class TransferTab(pn.viewable.Viewer):
     state = param.ClassSelector(class_=StudioState)
+    settings = param.ClassSelector(class_=TransferSettings, doc="the session's Transfer settings")
 
     def __init__(self, **params):
         super().__init__(**params)
-        s, t = self.state, self.state.transfer
-        self.leader = SourcePicker(state=s, source=t.leader)
-        self.follower = SourcePicker(state=s, source=t.follower)
+        s, t = self.state, self.settings
+        self.leader = SourcePicker(state=s, settings=t, source=t.leader)
+        self.follower = SourcePicker(state=s, settings=t, source=t.follower)
         self.more = text_from_param(t.param.more_followers, widget_type=pn.widgets.TextAreaInput, rows=3,
                                     placeholder="a person runs like a zombie\na person walks and waves",
                                     css_classes=["transfer-more"], sizing_mode="stretch_width")
@@ -141,7 +144,8 @@ class TransferTab(pn.viewable.Viewer):
                                           styles={"font-size": "12px", "color": "#444"})
         t.param.watch(lambda *_: setattr(self.root_help, "object", self._root_help()), ["root", "directions"])
         self.bar = JobBar(state=s, jobs=["transfer"], label="Run transfer", busy_label="Running…", prefix="transfer",
-                          on_run=lambda: self.state.launch(TransferJob(session=self.state)), blocked=self._refused)
+                          on_run=lambda: self.state.launch(TransferJob(session=self.state, settings=self.settings)),
+                          blocked=self._refused)
         self.run, self.cancel, self.progress, self.status = self.bar.run, self.bar.cancel, self.bar.progress, self.bar.status
         self.result = pn.pane.HTML("", css_classes=["transfer-result"], margin=(0, 10))
         self.show = pn.widgets.Button(label="Show leader / follower / out", css_classes=["transfer-show"],
@@ -151,11 +155,11 @@ class TransferTab(pn.viewable.Viewer):
         self.analysed = pn.widgets.RadioButtonGroup(options={"follower 1": 1}, value=t.analysed, color="primary",
                                                     variant="outline", css_classes=["transfer-analysed"])
         self.analysed_row = pn.Row(pn.pane.Markdown("Analysis of", margin=(8, 10)), self.analysed, visible=False)
-        self.plots = TransferPlots(state=s)
+        self.plots = TransferPlots(state=s, settings=t)
 
         self.layers.param.watch(lambda e: self._set("layers", tuple(int(v) for v in e.new)), "value")
         self.analysed.param.watch(lambda e: self._set("analysed", int(e.new)), "value")
-        self.show.on_click(lambda _: show_roles(self.state))
+        self.show.on_click(lambda _: show_roles(self.state, self.settings))
         for src in (t.leader, t.follower):
             src.param.watch(self.bar.refresh, ["reading", "kind"])
         t.param.watch(self._on_result, "result")
@@ -165,7 +169,7 @@ class TransferTab(pn.viewable.Viewer):
         """What the chosen root mode and direction count do (their declared help)."""
         from engine.methods.transfer_config import ROOT_CHOICES
 
-        t = self.state.transfer
+        t = self.settings
         text = ROOT_CHOICES[t.root][1]
         if t.directions > 1:
             text += (f". Each out reads {t.directions} copies of its follower (a prompt: other seeds; an imported "
@@ -180,21 +184,21 @@ class TransferTab(pn.viewable.Viewer):
 
     def _set(self, name: str, value) -> None:
         try:
-            setattr(self.state.transfer, name, value)
+            setattr(self.settings, name, value)
         except ValueError as exc:
             self.state.error(f"{name}: {exc}")
 
     def _refused(self) -> bool:
         """Run waits while the engine would refuse a source's prompt (words it does not know never block)."""
-        t = self.state.transfer
+        t = self.settings
         return any(src.blocked for src in (t.leader, t.follower))
 
     def _on_result(self, *_):
-        view = self.state.transfer.result
+        view = self.settings.result
         self.show.disabled = view is None
         n = 1 if view is None else view.followers
         self.analysed.options = {f"follower {k}": k for k in range(1, n + 1)}
-        self.analysed.value = min(self.state.transfer.analysed, n)
+        self.analysed.value = min(self.settings.analysed, n)
         self.analysed_row.visible = n > 1
         if view is None:
             self.result.object = ""
