@@ -144,13 +144,16 @@ def test_edit_and_compose_keep_what_they_make_with_their_recipe(capsys, tiny_mod
                          "--model", tiny_model_dir, "--steps", 2, "--seconds", 1, "--seed", 3,
                          "--out", tmp_path / "edited.npy")
     assert code == 0, err
+    json.loads(out)  # stdout stays one JSON report: the library's line goes to stderr
+    err1 = err
     code, out2, err = run(capsys, "compose", "a person walks:2", "a person jumps:2", "--model", tiny_model_dir,
                           "--steps", 2, "--out", tmp_path / "long.npy")
     assert code == 0, err
+    json.loads(out2)
     lib = MotionLibrary(workspace=workspace)
     kept = {e.kind: e for e in lib.entries()}
     assert set(kept) == {"edit", "compose"} and lib.count() == 2
-    assert KEPT.search(out).group(1) == kept["edit"].id and KEPT.search(out2).group(1) == kept["compose"].id
+    assert KEPT.search(err1).group(1) == kept["edit"].id and KEPT.search(err).group(1) == kept["compose"].id
     np.testing.assert_array_equal(lib.joints(kept["edit"].id), np.load(tmp_path / "edited.npy"))
     np.testing.assert_array_equal(lib.joints(kept["compose"].id), np.load(tmp_path / "long.npy"))
     code, shown, _ = run(capsys, "library", "show", kept["edit"].id, "--json")

@@ -98,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
     result = compose(loaded, intervals, config, sample=SampleConfig(steps=args.steps, guidance=args.guidance,
                                                                     seed=args.seed))
     save_motion(result.joints, args.out)
-    keep(args, result.joints, kind="compose", title=" → ".join(iv.prompt for iv in intervals)[:200],
+    keep(args, result.joints, kind="compose", stream=sys.stderr, title=" → ".join(iv.prompt for iv in intervals)[:200],
          recipe={"prompt": " / ".join(iv.prompt for iv in intervals), "seed": args.seed, "steps": args.steps,
                  "guidance": args.guidance, "seconds": len(result.joints) / 20, "model": model_info(args.model),
                  "operation": {"compose": list(args.intervals), "transitions": result.transitions,

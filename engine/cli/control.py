@@ -230,7 +230,7 @@ def run(args: argparse.Namespace) -> int:
         joints = to_world(joints, frame)
         report["root_error"] = path_error(joints, frame["target"])
     save_motion(joints, args.out)
-    keep(args, joints, kind="control", title=f"{args.prompt} · {options.method} ({', '.join(report['controls'])})"[:200],
+    keep(args, joints, kind="control", stream=sys.stderr, title=f"{args.prompt} · {options.method} ({', '.join(report['controls'])})"[:200],
          recipe={"prompt": args.prompt, "seed": args.seed, "steps": args.steps, "guidance": args.guidance,
                  "seconds": args.seconds, "model": model_info(report["base"]),
                  "operation": {"control": {"method": options.method, "controls": report["controls"],

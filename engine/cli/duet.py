@@ -120,9 +120,9 @@ def run(args: argparse.Namespace) -> int:
     written = write_duet(duet.joints, args.out)
     recipe = {"prompt": args.prompt, "seed": args.seed, "steps": args.steps, "guidance": guidance,
               "seconds": duet.frames / 20, "model": model_info(args.model)}
-    first = keep(args, duet.joints[0], kind="duet", title=f"{args.prompt or 'completed duet'} · person a"[:200],
+    first = keep(args, duet.joints[0], kind="duet", stream=sys.stderr, title=f"{args.prompt or 'completed duet'} · person a"[:200],
                  recipe={**recipe, "operation": {"duet": {"person": "a"}, "made_by": "moattn duet"}})
-    keep(args, duet.joints[1], kind="duet", title=f"{args.prompt or 'completed duet'} · person b"[:200],
+    keep(args, duet.joints[1], kind="duet", stream=sys.stderr, title=f"{args.prompt or 'completed duet'} · person b"[:200],
          parents=[first.entry.id] if first is not None else (),
          recipe={**recipe, "operation": {"duet": {"person": "b"}, "made_by": "moattn duet"}})
     p = duet.placement

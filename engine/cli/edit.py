@@ -146,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
                       peaks=len(count.attention.peaks))
         save_motion(joints, args.out)
         if isinstance(source, str):  # a motion was made (a given one is only read)
-            keep(args, joints, kind="generate", title=f"{source} · seed {args.seed}",
+            keep(args, joints, kind="generate", stream=sys.stderr, title=f"{source} · seed {args.seed}",
                  recipe=_recipe(args, source, frames, counted=report))
         print(json.dumps(report, indent=2, ensure_ascii=False))
         return 0
@@ -158,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
     out = run_edit(loaded, options, frames=frames, sample=sample)
     save_motion(out.after, args.out)
     report["out"] = str(args.out)
-    keep(args, out.after, kind="edit", title=f"{args.kind}: {options.edited or options.prompt or args.kind}"[:200],
+    keep(args, out.after, kind="edit", stream=sys.stderr, title=f"{args.kind}: {options.edited or options.prompt or args.kind}"[:200],
          recipe=_recipe(args, options.prompt if isinstance(options.prompt, str) else None, frames))
     if args.kind == "ground":
         report["spans"] = spans_text(out.extra.get("spans", ()))

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_output_folder, check_outputs, seed_argument
@@ -150,7 +151,7 @@ def run_transfer(args: argparse.Namespace) -> int:
     for i, path in enumerate(out_paths(args.out, len(result.followers))):
         save_motion(result.out(i), path)
         outs.append(str(path))
-        keep(args, result.out(i), kind="transfer", title=f"{report['leader']} ← {report['followers'][i]}"[:200],
+        keep(args, result.out(i), kind="transfer", stream=sys.stderr, title=f"{report['leader']} ← {report['followers'][i]}"[:200],
              recipe={"prompt": None, "seed": args.seed, "steps": args.steps, "guidance": args.guidance,
                      "model": model_info(args.model),
                      "operation": {"transfer": {"leader": report["leader"], "follower": report["followers"][i],

@@ -46,8 +46,9 @@ def open_library(args: argparse.Namespace, *, quiet: bool = False) -> MotionLibr
 
 
 def keep(args: argparse.Namespace, joints, *, kind: str, title: str, recipe: dict | None = None, features=None,
-         parents=(), reuse: bool = False, library: MotionLibrary | None = None) -> Added | None:
-    """Keep one motion in the library unless ``--no-library``; print what happened; None when not kept."""
+         parents=(), reuse: bool = False, library: MotionLibrary | None = None, stream=None) -> Added | None:
+    """Keep one motion in the library unless ``--no-library``; print what happened (on ``stream``, default stdout:
+    commands whose stdout is one JSON report say it on stderr); None when not kept."""
     if getattr(args, "no_library", False):
         return None
     try:
@@ -60,7 +61,7 @@ def keep(args: argparse.Namespace, joints, *, kind: str, title: str, recipe: dic
     except Exception as exc:  # sqlite3.Error and the like: the motion files were written, say why and go on
         print(f"warning: not kept in the library: {type(exc).__name__}: {exc}", file=sys.stderr)
         return None
-    print(say_added(added, library))
+    print(say_added(added, library), file=stream or sys.stdout)
     if added.evicted:
         print(say_evicted(added), file=sys.stderr)
     return added
