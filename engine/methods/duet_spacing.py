@@ -15,10 +15,12 @@ people's pelvis-and-spine centres), the rule a duet from a prompt keeps is the g
 
 Where a duet breaks it, person b moves away from person a along the line between their torsos at the first
 frame, by the least amount that keeps the rule, changing by at most ``PUSH_SPEED`` and eased (b drifts rather
-than jumps); where b was on a's other side along that line (the two walk through each other), the push carries
-b clear past a rather than into a. So people who start too close keep their distance through the first second, and in an interaction
-with contact (handshake, high five, hug, push) b then drifts back to where the model put it, so hands can still
-meet; a duet that keeps the rule comes back untouched, bit for bit. Person a never moves.
+than jumps). So people who start too close keep their distance through the first second, and in an interaction
+with contact (handshake, high five, hug, push) b then drifts back towards where the model put it (no closer
+than ``FLOOR`` and never into a), so hands can still meet. Where the model walks b through a, b is held on its
+side of a (the push grows, at most ``PUSH_SPEED``, as b walks on) rather than let into a: a sample that bad
+keeps its people apart, not its path. A duet that keeps the rule comes back untouched, bit for bit. Person a
+never moves.
 """
 from __future__ import annotations
 
