@@ -143,8 +143,7 @@ def test_text_to_duet_guides_the_contact_the_prompt_reads_as(tiny_model_dir, tin
     model = load_trained(tiny_duet_dir, tiny_model_dir)
     (plan,) = plans_for(model.contact_table, "two people shake hands")[1]
     sample = SampleConfig(steps=6, seed=1)
-    # contact guidance alone (spacing=False): the tiny model's people stand inside each other, and spacing (its own
-    # tests: tests/test_duet_spacing.py) would part the hands it joined; the shipped model keeps both (bench --duet)
+    # the guidance alone (the spacing rule would move the untrained tiny model's people apart: test_duet_spacing.py)
     free = text_to_duet(model, "two people shake hands", seconds=3.0, sample=sample, contact=None, spacing=False)
     guided = text_to_duet(model, "two people shake hands", seconds=3.0, sample=sample, spacing=False)
     assert free.interaction is None and free.contacts == ()

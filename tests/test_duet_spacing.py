@@ -78,6 +78,16 @@ def test_people_side_by_side_need_their_shoulders_room(standing):
     assert torso_gap(out).min() >= 0.0
 
 
+def test_a_push_never_carries_b_into_a(standing):
+    joints = facing_pair(standing, 0.3)
+    # person b walks straight through person a after the first second, out to 0.8 m behind a
+    joints[1, 20:, :, 2] -= np.linspace(0.0, 1.1, 40, dtype=np.float32)[:, None]
+    assert interpenetrate(joints).any()
+    out, spacing = keep_apart(joints, "handshake")
+    assert spacing.moved and torso_gap(out).min() >= 0.0
+    assert torso_distance(out)[:FPS].min() >= TRUTH["handshake"][0] - 1e-5
+
+
 def test_people_on_top_of_each_other_are_moved_out_in_front_of_a(standing):
     joints = np.stack([standing, standing])
     out, spacing = keep_apart(joints, None)

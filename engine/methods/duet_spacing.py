@@ -16,8 +16,11 @@ people's pelvis-and-spine centres), the rule a duet from a prompt keeps is the g
 Where a duet breaks it, person b moves away from person a along the line between their torsos at the first
 frame, by the least amount that keeps the rule, changing by at most ``PUSH_SPEED`` and eased (b drifts rather
 than jumps). So people who start too close keep their distance through the first second, and in an interaction
-with contact (handshake, high five, hug, push) b then drifts back to where the model put it, so hands can still
-meet; a duet that keeps the rule comes back untouched, bit for bit. Person a never moves.
+with contact (handshake, high five, hug, push) b then drifts back towards where the model put it (no closer
+than ``FLOOR`` and never into a), so hands can still meet. Where the model walks b through a, b is held on its
+side of a (the push grows, at most ``PUSH_SPEED``, as b walks on) rather than let into a: a sample that bad
+keeps its people apart, not its path. A duet that keeps the rule comes back untouched, bit for bit. Person a
+never moves.
 """
 from __future__ import annotations
 
@@ -34,6 +37,7 @@ START_SECONDS = 1.0  # the start the interaction's own minimum holds over
 PUSH_SPEED = 0.5  # m/s: how fast the push may grow or shrink (a slow shuffle)
 EASE_FRAMES = 3  # the push's corners are rounded over 2 * EASE_FRAMES + 1 frames
 CLEARANCE = 0.01  # m kept between torsos that would otherwise just touch
+REACH_PASSES = 4  # moves tried while the torsos' reach, measured where b ends up, still overlaps
 
 # the truth's smallest torso distances (m), per interaction: (in its first second, anywhere in the clip), rounded
 # down to the centimetre: ``truth_minimums`` over 1,120 corpus duets (60 per interaction from make_duet and the
@@ -101,14 +105,22 @@ def push_direction(joints: np.ndarray) -> np.ndarray:
     return v / norm
 
 
-def required_push(joints: np.ndarray, minimum: np.ndarray, direction: np.ndarray) -> np.ndarray:
-    """(T,): per frame, the least move of person b along ``direction`` that puts the torsos ``minimum`` apart
-    (0 where they already are). Moving b by p: |v + p u|^2 = |v_perp|^2 + (v.u + p)^2."""
+def forbidden_pushes(joints: np.ndarray, minimum: np.ndarray, direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi), each (T,): per frame, moving person b by p along ``direction`` with lo < p < hi puts the torsos
+    closer than ``minimum`` (an empty interval where no move does). Moving b by p: |v + p u|^2 = |v_perp|^2 +
+    (v.u + p)^2."""
     v = np.diff(torso_centres(joints), axis=0)[0]  # (T, 2) a -> b
     along = v @ direction
-    dist2 = (v ** 2).sum(-1)
-    room = np.sqrt(np.maximum(minimum ** 2 - (dist2 - along ** 2), 0.0))
-    return np.where(dist2 < minimum ** 2, np.maximum(room - along, 0.0), 0.0)
+    room2 = minimum ** 2 - ((v ** 2).sum(-1) - along ** 2)
+    room = np.where(room2 > 0.0, np.sqrt(np.maximum(room2, 0.0)), -np.inf)
+    return -along - room, -along + room
+
+
+def required_push(joints: np.ndarray, minimum: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """(T,): per frame, the least move of person b along ``direction`` that puts the torsos ``minimum`` apart
+    (0 where they already are)."""
+    lo, hi = forbidden_pushes(joints, minimum, direction)
+    return np.where((lo < 0.0) & (0.0 < hi), hi, 0.0)
 
 
 def push_profile(required: np.ndarray, fps: float = FPS) -> np.ndarray:
@@ -128,20 +140,42 @@ def push_profile(required: np.ndarray, fps: float = FPS) -> np.ndarray:
     return np.maximum(eased, 0.0)
 
 
+def least_push(joints: np.ndarray, minimum: np.ndarray, direction: np.ndarray, fps: float = FPS) -> np.ndarray:
+    """(T,): the push profile (``push_profile``) that keeps the torsos ``minimum`` apart at every frame, and does
+    not carry person b into person a where b was clear of a (b on a's other side along ``direction``)."""
+    lo, hi = forbidden_pushes(joints, minimum, direction)
+    need = np.where((lo < 0.0) & (0.0 < hi), hi, 0.0)
+    push = push_profile(need, fps)
+    for _ in range(len(need)):
+        into = (lo < push - 1e-9) & (push + 1e-9 < hi)
+        if not into.any():
+            break
+        need = np.where(into, np.maximum(need, hi), need)
+        push = push_profile(need, fps)
+    return push
+
+
 def keep_apart(joints: np.ndarray, interaction: str | None, *, fps: float = FPS) -> tuple[np.ndarray, Spacing]:
     """Two people (2, T, 22, 3) in one frame -> (the same with person b moved where the rule needs it, what was
-    done). Whatever the interaction, torsos never interpenetrate (``duet_pose.torso_reach``, plus
-    ``CLEARANCE``): people side by side need more room than face to face. Joints that keep the rule come back as
-    the very array given."""
+    done). Whatever the interaction, torsos never interpenetrate (``duet_pose.torso_reach`` + ``CLEARANCE``;
+    how far they reach towards each other depends on where b ends up, so it is measured again after the move).
+    Joints that keep the rule come back as the very array given."""
     rule = SpacingRule.of(interaction)
     direction = push_direction(joints)
-    minimum = np.maximum(rule.minimum(joints.shape[1], fps), torso_reach(joints) + CLEARANCE)
-    push = push_profile(required_push(joints, minimum, direction), fps)
-    spacing = Spacing(rule=rule, push=push, direction=direction)
-    if not spacing.moved:
-        return joints, spacing
-    out = np.array(joints, copy=True)
-    out[1] = out[1] + spacing.offset[:, None, :].astype(out.dtype)
+    minimum = rule.minimum(joints.shape[1], fps)
+    reach = torso_reach(joints)
+    out = joints
+    for _ in range(REACH_PASSES):
+        push = least_push(joints, np.maximum(minimum, reach + CLEARANCE), direction, fps)
+        spacing = Spacing(rule=rule, push=push, direction=direction)
+        if not spacing.moved:
+            return joints, spacing
+        out = np.array(joints, copy=True)
+        out[1] = out[1] + spacing.offset[:, None, :].astype(out.dtype)
+        now = torso_reach(out)
+        if (torso_distance(out) >= now).all():
+            break
+        reach = np.maximum(reach, now)
     return out, spacing
 
 
