@@ -7,6 +7,7 @@ counter in a checkpoint is global, so ``--resume`` works under another world siz
 """
 from __future__ import annotations
 
+import contextlib
 import copy
 import json
 import math
@@ -14,6 +15,7 @@ import os
 import signal
 import sys
 import time
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import NamedTuple
@@ -123,6 +125,19 @@ class _Stop:
 
     def __call__(self, signum, frame):
         self.requested = True
+
+
+@contextlib.contextmanager
+def stop_on_signals() -> Iterator[_Stop]:
+    """SIGINT/SIGTERM set the yielded flag's ``requested`` instead of killing the process (a training loop then
+    checkpoints and exits); the previous handlers come back on exit."""
+    stop = _Stop()
+    previous = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield stop
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
 
 
 def _state_from_model_folder(folder: Path, batch_size: int) -> tuple[dict, dict]:
@@ -356,50 +371,47 @@ class TrainingRun:
     # -- the loop ------------------------------------------------------------------------------------------------------
     def loop(self) -> dict:
         config = self.config
-        stop = _Stop()
         deadline = time.monotonic() + 60 * config.max_minutes if config.max_minutes else None
-        previous = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
         bar = tqdm(total=config.steps, initial=self.step, disable=not self.progress or not self.main, desc="train",
                    unit="step")
         skipped = 0
         window, window_t0, last = [], time.perf_counter(), {}
-        try:
-            self.model.train()
-            while self.step < config.steps and not stop.requested:
-                if deadline is not None and time.monotonic() > deadline:
-                    if self.main:
-                        print(f"--max-minutes {config.max_minutes:g} reached at step {self.step}", flush=True)
-                    break
-                batch = next(self.stream)
-                self.index += config.batch_size * self.world
-                outcome = self.train_step(batch, step=self.step, lr=lr_at(self.step, config))
-                if not outcome.applied:
-                    if outcome.overflow:
-                        continue  # an fp16 gradient overflowed: the scaler lowered its scale
-                    skipped += 1  # never let one bad batch poison the weights
-                    if self.main:
-                        print(f"step {self.step}: non-finite loss or gradient; update skipped ({skipped} so far)",
-                              flush=True)
-                    if skipped > 50:
-                        raise RuntimeError("more than 50 non-finite updates: stopping (check the data and learning "
-                                           "rate)")
-                    continue
-                self.step += 1
-                window.append((outcome.mse, outcome.vel))
-                bar.update(1)
-                if self.step % config.log_every == 0 or self.step == config.steps:
-                    last = self.log(window, time.perf_counter() - window_t0)
-                    bar.set_postfix(mse=f"{last['mse']:.4f}", s_step=f"{last['s_per_step']:.2f}")
-                    window, window_t0 = [], time.perf_counter()
-                if self.step % config.ckpt_every == 0:
-                    self.checkpoint()
-                if self.main and config.snapshot_every and self.step % config.snapshot_every == 0:
-                    self.snapshot()
-        finally:
-            bar.close()
-            for s, handler in previous.items():
-                signal.signal(s, handler)
-            self.checkpoint()
+        with stop_on_signals() as stop:
+            try:
+                self.model.train()
+                while self.step < config.steps and not stop.requested:
+                    if deadline is not None and time.monotonic() > deadline:
+                        if self.main:
+                            print(f"--max-minutes {config.max_minutes:g} reached at step {self.step}", flush=True)
+                        break
+                    batch = next(self.stream)
+                    self.index += config.batch_size * self.world
+                    outcome = self.train_step(batch, step=self.step, lr=lr_at(self.step, config))
+                    if not outcome.applied:
+                        if outcome.overflow:
+                            continue  # an fp16 gradient overflowed: the scaler lowered its scale
+                        skipped += 1  # never let one bad batch poison the weights
+                        if self.main:
+                            print(f"step {self.step}: non-finite loss or gradient; update skipped ({skipped} so far)",
+                                  flush=True)
+                        if skipped > 50:
+                            raise RuntimeError("more than 50 non-finite updates: stopping (check the data and learning "
+                                               "rate)")
+                        continue
+                    self.step += 1
+                    window.append((outcome.mse, outcome.vel))
+                    bar.update(1)
+                    if self.step % config.log_every == 0 or self.step == config.steps:
+                        last = self.log(window, time.perf_counter() - window_t0)
+                        bar.set_postfix(mse=f"{last['mse']:.4f}", s_step=f"{last['s_per_step']:.2f}")
+                        window, window_t0 = [], time.perf_counter()
+                    if self.step % config.ckpt_every == 0:
+                        self.checkpoint()
+                    if self.main and config.snapshot_every and self.step % config.snapshot_every == 0:
+                        self.snapshot()
+            finally:
+                bar.close()
+                self.checkpoint()
         return {"step": self.step, "stopped": stop.requested, **last}
 
     def close(self) -> None:

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import copy
 import json
-import signal
 import time
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
@@ -34,7 +33,7 @@ from engine.model.denoiser import Condition
 from engine.attention.context import WordIndex
 from engine.generate import FPS
 from engine.paths import MODEL_DIR
-from engine.train import _Stop, lr_at
+from engine.train import lr_at, stop_on_signals
 from engine.runtime import CPU, Runtime
 
 
@@ -230,30 +229,27 @@ class ComTrainingRun:
 
     def loop(self) -> dict:
         config = self.config
-        stop = _Stop()
-        previous = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
         bar = tqdm(total=config.steps, initial=self.step, disable=not self.progress, desc="train commdm", unit="step")
         window, t0, last = [], time.perf_counter(), {}
-        try:
-            self.net.train()
-            while self.step < config.steps and not stop.requested:
-                losses = self.train_step()
-                if losses is None:
-                    continue
-                window.append(losses)
-                bar.update(1)
-                if self.step % config.log_every == 0 or self.step == config.steps:
-                    last = self.log(window, time.perf_counter() - t0)
-                    bar.set_postfix(mse=f"{last['mse']:.4f}", place=f"{last['place']:.4f}",
-                                    contact=f"{last['contact']:.3f}")
-                    window, t0 = [], time.perf_counter()
-                if self.step % config.ckpt_every == 0:
-                    self.checkpoint()
-        finally:
-            bar.close()
-            for s, handler in previous.items():
-                signal.signal(s, handler)
-            self.checkpoint()
+        with stop_on_signals() as stop:
+            try:
+                self.net.train()
+                while self.step < config.steps and not stop.requested:
+                    losses = self.train_step()
+                    if losses is None:
+                        continue
+                    window.append(losses)
+                    bar.update(1)
+                    if self.step % config.log_every == 0 or self.step == config.steps:
+                        last = self.log(window, time.perf_counter() - t0)
+                        bar.set_postfix(mse=f"{last['mse']:.4f}", place=f"{last['place']:.4f}",
+                                        contact=f"{last['contact']:.3f}")
+                        window, t0 = [], time.perf_counter()
+                    if self.step % config.ckpt_every == 0:
+                        self.checkpoint()
+            finally:
+                bar.close()
+                self.checkpoint()
         return {"step": self.step, "stopped": stop.requested, **last}
 
 

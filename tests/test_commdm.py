@@ -371,13 +371,24 @@ def _moattn(*args, timeout=600):
                           cwd=PROJECT_ROOT, timeout=timeout)
 
 
-def test_moattn_duet_writes_both_people(tmp_path, tiny_model_dir, tiny_duet_dir):
+def test_moattn_duet_writes_both_people(tmp_path, tiny_model_dir, tiny_duet_dir, workspace):
     out = tmp_path / "duet.npy"
     done = _moattn("duet", "two people hug", "--out", out, "--seconds", "2", "--steps", "3",
                    "--model", tiny_model_dir, "--duet-model", tiny_duet_dir)
     assert done.returncode == 0, done.stderr
     joints = np.load(out)
     assert joints.shape == (2, 40, 22, 3) and json.loads(done.stdout)["frames"] == 40
+    # both people are kept in the library, person b as made from person a, each with the duet's recipe
+    from engine.library import MotionLibrary
+
+    lib = MotionLibrary(workspace=workspace)
+    kept = {e.title: e for e in lib.entries()}
+    a, b = kept["two people hug · person a"], kept["two people hug · person b"]
+    np.testing.assert_array_equal(lib.joints(a.id), joints[0])
+    np.testing.assert_array_equal(lib.joints(b.id), joints[1])
+    recipe = lib.recipe(b.id)
+    assert recipe["parents"] == [a.id] and recipe["operation"]["duet"] == {"person": "b"}
+    assert (recipe["prompt"], recipe["steps"], recipe["seconds"]) == ("two people hug", 3, 2.0)
     done = _moattn("duet", "--prefix", out, "--prefix-seconds", "0.5", "--seconds", "1", "--out",
                    tmp_path / "more.npy", "--steps", "3", "--model", tiny_model_dir, "--duet-model", tiny_duet_dir)
     assert done.returncode == 0, done.stderr

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
-from engine.library.cli_support import add_library_arguments, keep, model_info
+from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.methods.doubletake_config import (DoubleTakeConfig, SecondTake, check_option, option_info, options,
                                               parse_handshakes)
 from engine.paths import MODEL_DIR
@@ -99,10 +99,8 @@ def run(args: argparse.Namespace) -> int:
                                                                     seed=args.seed))
     save_motion(result.joints, args.out)
     keep(args, result.joints, kind="compose", stream=sys.stderr, title=" → ".join(iv.prompt for iv in intervals)[:200],
-         recipe={"prompt": " / ".join(iv.prompt for iv in intervals), "seed": args.seed, "steps": args.steps,
-                 "guidance": args.guidance, "seconds": len(result.joints) / 20, "model": model_info(args.model),
-                 "operation": {"compose": list(args.intervals), "transitions": result.transitions,
-                               "made_by": "moattn compose"}})
+         recipe=cli_recipe(args, made_by="moattn compose", prompt=" / ".join(iv.prompt for iv in intervals),
+                           frames=len(result.joints), compose=list(args.intervals), transitions=result.transitions))
     report = {"out": str(args.out), "frames": int(len(result.joints)), "seconds_of_motion": len(result.joints) / 20,
               "intervals": [{"prompt": iv.prompt, "start_frame": s} for iv, s in zip(intervals, result.starts)],
               "transitions": result.transitions, "handshakes": [b - a for a, b in result.transitions],

@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
-from engine.library.cli_support import add_library_arguments, keep, model_info
+from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.methods.control_options import (CONTROLS, LABELS, ControlOptions, WRITE_COMMAND, bench_verdict,
                                             option_info)
 from engine.paths import CONTROL_DIR, MODEL_DIR
@@ -230,11 +230,12 @@ def run(args: argparse.Namespace) -> int:
         joints = to_world(joints, frame)
         report["root_error"] = path_error(joints, frame["target"])
     save_motion(joints, args.out)
-    keep(args, joints, kind="control", stream=sys.stderr, title=f"{args.prompt} · {options.method} ({', '.join(report['controls'])})"[:200],
-         recipe={"prompt": args.prompt, "seed": args.seed, "steps": args.steps, "guidance": args.guidance,
-                 "seconds": args.seconds, "model": model_info(report["base"]),
-                 "operation": {"control": {"method": options.method, "controls": report["controls"],
-                                           "weights": report.get("weights")}, "made_by": "moattn control"}})
+    title = f"{args.prompt} · {options.method} ({', '.join(report['controls'])})"[:200]
+    keep(args, joints, kind="control", stream=sys.stderr, title=title,
+         recipe=cli_recipe(args, made_by="moattn control", prompt=args.prompt, frames=len(joints),
+                           model=run_base.loaded.folder,
+                           control={"method": options.method, "controls": report["controls"],
+                                    "weights": report.get("weights")}))
     if args.render is not None:
         from viz.render import render_file
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from engine.cli.common import RENDER_SUFFIXES, check_outputs, seed_argument
-from engine.library.cli_support import add_library_arguments, keep, model_info
+from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.paths import DUET_DIR, MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 
@@ -118,13 +118,14 @@ def run(args: argparse.Namespace) -> int:
         duet = text_to_duet(model, args.prompt, seconds=args.seconds or TEXT_SECONDS, sample=sample, communicate=communicate,
                             contact=None if args.no_contact else ContactConfig())
     written = write_duet(duet.joints, args.out)
-    recipe = {"prompt": args.prompt, "seed": args.seed, "steps": args.steps, "guidance": guidance,
-              "seconds": duet.frames / 20, "model": model_info(args.model)}
-    first = keep(args, duet.joints[0], kind="duet", stream=sys.stderr, title=f"{args.prompt or 'completed duet'} · person a"[:200],
-                 recipe={**recipe, "operation": {"duet": {"person": "a"}, "made_by": "moattn duet"}})
-    keep(args, duet.joints[1], kind="duet", stream=sys.stderr, title=f"{args.prompt or 'completed duet'} · person b"[:200],
-         parents=[first.entry.id] if first is not None else (),
-         recipe={**recipe, "operation": {"duet": {"person": "b"}, "made_by": "moattn duet"}})
+    named = (args.prompt or "completed duet")[:180]
+    first = None
+    for person, joints in zip("ab", duet.joints):  # person b is kept as made from person a
+        kept = keep(args, joints, kind="duet", stream=sys.stderr, title=f"{named} · person {person}",
+                    parents=[first.entry.id] if first is not None else (),
+                    recipe=cli_recipe(args, made_by="moattn duet", prompt=args.prompt, frames=duet.frames,
+                                      guidance=guidance, duet={"person": person}))
+        first = first or kept
     p = duet.placement
     report = {"out": [str(w) for w in written], "frames": duet.frames, "seconds": duet.frames / 20,
               "communication": communicate,

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
-from engine.library.cli_support import add_library_arguments, keep, model_info
+from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.analysis.counting import COUNTING_METHODS, CountingConfig
 from engine.methods.edit_kinds import KINDS, REGISTRY, kinds_reading
 from engine.methods.edit_options import option_spec
@@ -67,13 +67,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_runtime_arguments(p)
     add_library_arguments(p)
     p.set_defaults(run=run)
-
-
-def _recipe(args: argparse.Namespace, prompt: str | None, frames: int, **operation) -> dict:
-    """What the library keeps of how `moattn edit` made a motion."""
-    return {"prompt": prompt, "seed": args.seed, "steps": args.steps, "guidance": args.guidance,
-            "seconds": frames / 20, "model": model_info(args.model),
-            "operation": {"edit": args.kind, "made_by": "moattn edit", **operation}}
 
 
 def _spans_argument(text: str):
@@ -147,7 +140,8 @@ def run(args: argparse.Namespace) -> int:
         save_motion(joints, args.out)
         if isinstance(source, str):  # a motion was made (a given one is only read)
             keep(args, joints, kind="generate", stream=sys.stderr, title=f"{source} · seed {args.seed}",
-                 recipe=_recipe(args, source, frames, counted=report))
+                 recipe=cli_recipe(args, made_by="moattn edit", prompt=source, frames=frames, edit=args.kind,
+                                   counted=report))
         print(json.dumps(report, indent=2, ensure_ascii=False))
         return 0
 
@@ -158,8 +152,10 @@ def run(args: argparse.Namespace) -> int:
     out = run_edit(loaded, options, frames=frames, sample=sample)
     save_motion(out.after, args.out)
     report["out"] = str(args.out)
-    keep(args, out.after, kind="edit", stream=sys.stderr, title=f"{args.kind}: {options.edited or options.prompt or args.kind}"[:200],
-         recipe=_recipe(args, options.prompt if isinstance(options.prompt, str) else None, frames))
+    title = f"{args.kind}: {options.edited or options.prompt or args.kind}"[:200]
+    prompt = options.prompt if isinstance(options.prompt, str) else None  # None: the edit started from a file
+    keep(args, out.after, kind="edit", stream=sys.stderr, title=title,
+         recipe=cli_recipe(args, made_by="moattn edit", prompt=prompt, frames=frames, edit=args.kind))
     if args.kind == "ground":
         report["spans"] = spans_text(out.extra.get("spans", ()))
     if args.kind == "example":

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, CLIError, check_outputs, seed_argument
 from engine.duration import AUTO, resolve_seconds, seconds_argument
-from engine.library.cli_support import add_library_arguments, keep, model_info
+from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 from engine.units import DEFAULT_GUIDANCE, MAX_SECONDS, MIN_SECONDS
@@ -67,9 +67,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"wrote {out}")
     keep(args, joints, kind="generate", title=f"{args.prompt} · seed {args.seed}",
          features=gen.features[0, :frames],
-         recipe={"prompt": args.prompt, "seed": args.seed, "steps": args.steps, "guidance": args.guidance,
-                 "seconds": None if args.seconds == AUTO else seconds, "model": model_info(args.model),
-                 "operation": {"sampler": args.sampler, "seconds_used": seconds, "made_by": "moattn generate"}})
+         recipe=cli_recipe(args, made_by="moattn generate", prompt=args.prompt,
+                           seconds=None if args.seconds == AUTO else seconds, sampler=args.sampler,
+                           seconds_used=seconds))
     # what was and was not followed: the prompt's intent beside what the detectors see in the motion
     from engine.analysis.followed import follow_generated
 

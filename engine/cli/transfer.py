@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_output_folder, check_outputs, seed_argument
-from engine.library.cli_support import add_library_arguments, keep, model_info
+from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 from engine.methods.transfer_config import ROOT_CHOICES, ROOT_MODES, option_info
@@ -151,12 +151,10 @@ def run_transfer(args: argparse.Namespace) -> int:
     for i, path in enumerate(out_paths(args.out, len(result.followers))):
         save_motion(result.out(i), path)
         outs.append(str(path))
-        keep(args, result.out(i), kind="transfer", stream=sys.stderr, title=f"{report['leader']} ← {report['followers'][i]}"[:200],
-             recipe={"prompt": None, "seed": args.seed, "steps": args.steps, "guidance": args.guidance,
-                     "model": model_info(args.model),
-                     "operation": {"transfer": {"leader": report["leader"], "follower": report["followers"][i],
-                                                "root": report["root"], "directions": report["directions"]},
-                                   "made_by": "moattn transfer"}})
+        pair = {"leader": report["leader"], "follower": report["followers"][i]}
+        keep(args, result.out(i), kind="transfer", stream=sys.stderr, title=f"{pair['leader']} ← {pair['follower']}"[:200],
+             recipe=cli_recipe(args, made_by="moattn transfer", frames=len(result.out(i)),
+                               transfer={**pair, "root": report["root"], "directions": report["directions"]}))
     report["out"] = outs
     if args.render is not None:
         from viz.render import render_file

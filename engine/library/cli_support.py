@@ -17,6 +17,7 @@ from pathlib import Path
 
 from engine.library.store import Added, MotionLibrary
 from engine.library.workspace import DEFAULT_LIMIT_MB, LIMIT_ENV, WORKSPACE_ENV, check_limit_mb
+from engine.units import FPS
 
 
 def add_library_arguments(p: argparse.ArgumentParser) -> None:
@@ -65,6 +66,19 @@ def keep(args: argparse.Namespace, joints, *, kind: str, title: str, recipe: dic
     if added.evicted:
         print(say_evicted(added), file=sys.stderr)
     return added
+
+
+def cli_recipe(args: argparse.Namespace, *, made_by: str, prompt: str | None = None, frames: int | None = None,
+               seconds: float | None = None, guidance: float | None = None, model=None, **operation) -> dict:
+    """The recipe a command keeps with a motion it made: the sampling flags every such command has (``--seed``,
+    ``--steps``, ``--guidance``, ``--model``; ``guidance`` / ``model`` given where the command chose others), the
+    motion's length (``frames``, or ``seconds`` as asked) and what the operation was (``operation``, as given)."""
+    if frames is not None:
+        seconds = frames / FPS
+    return {"prompt": prompt, "seed": args.seed, "steps": args.steps,
+            "guidance": args.guidance if guidance is None else guidance, "seconds": seconds,
+            "model": model_info(args.model if model is None else model),
+            "operation": {**operation, "made_by": made_by}}
 
 
 def say_added(added: Added, library: MotionLibrary) -> str:
