@@ -216,13 +216,16 @@ def launch(playwright, compositing: str = "swiftshader"):
     return playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS + COMPOSITING[compositing])
 
 
-def open_studio(browser, url: str, *, timeout_ms: float = 60000, opening_motion: bool = True):
+def open_studio(browser, url: str, *, timeout_ms: float = 180000, opening_motion: bool = True,
+                viewport: dict | None = None):
     """A page with the studio loaded (player mounted) and the helpers installed.
 
     ``opening_motion``: the server opens every page on a motion (``moattn serve`` shows the example
-    walk); wait until it is drawn, so that it cannot arrive after the first generated one.
+    walk); wait until it is drawn, so that it cannot arrive after the first generated one. ``timeout_ms``: the
+    longest wait for each of these (the server builds a first page in over 60 s on two cores busy with a training
+    run). ``viewport``: the page's size (default ``VIEWPORT``).
     """
-    page = browser.new_page(viewport=VIEWPORT)
+    page = browser.new_page(viewport=viewport or VIEWPORT)
     page.console_messages = []
     page.on("console", lambda m: page.console_messages.append(f"{m.type}: {m.text}"))
     page.on("pageerror", lambda e: page.console_messages.append(f"pageerror: {e}"))
@@ -292,10 +295,11 @@ def generate(page, prompt: str, *, timeout_ms: float = 120000) -> dict:
 
 
 def wait_new_motion(page, key_before: int, *, timeout_ms: float = 180000) -> None:
-    """Wait until the viewer shows another motion than ``key_before`` (a tab's run finished) and all its frames
-    have arrived."""
-    page.wait_for_function(f"window.moattnPlayer.motion_key !== {int(key_before)}", timeout=60000)
+    """Wait until the viewer shows another motion than ``key_before`` (a tab's run finished), all its frames have
+    arrived and it has been drawn (``timeout_ms`` for each: a run on a busy machine takes minutes)."""
+    page.wait_for_function(f"window.moattnPlayer.motion_key !== {int(key_before)}", timeout=timeout_ms)
     wait_all_frames(page, timeout_ms=timeout_ms)
+    page.wait_for_function("window.moattnPlayer.motion_key in window.moattnPlayer.first_draw", timeout=timeout_ms)
 
 
 def wait_all_frames(page, timeout_ms: float = 120000) -> None:
