@@ -7,7 +7,7 @@ VENV := $(ROOT).venv
 PY := $(VENV)/bin/python
 PORT ?= 5006
 
-.PHONY: run test setup chromium gltf-validator
+.PHONY: run test guide setup chromium gltf-validator
 
 setup: $(VENV)/.installed
 
@@ -37,3 +37,7 @@ $(GLTF_VALIDATOR):
 
 test: setup chromium gltf-validator
 	cd $(ROOT) && $(PY) -m pytest -q
+
+# rewrite app/guide/*.png (the user guide's pictures) from the studio itself
+guide: setup chromium
+	cd $(ROOT) && MOATTN_WRITE_GUIDE=1 $(PY) -m pytest -q tests/browser/test_guide_browser.py
