@@ -29,19 +29,63 @@ class MotionSource(Protocol):
     def words(self) -> Sequence[str]: ...
 
 
+@dataclass(frozen=True)
+class ActionFocus:
+    """Oversampling of some corpus actions: a ``share`` of the items is redrawn (deterministically, from corpus
+    indices no plain item uses) until its program holds one of ``actions``, as a segment or an overlay."""
+
+    actions: tuple[str, ...]
+    share: float
+    tries: int = 64
+
+    def __post_init__(self) -> None:
+        from engine.synth.program import ACTIONS
+
+        unknown = [a for a in self.actions if a not in ACTIONS]
+        if unknown:
+            raise ValueError(f"unknown corpus action(s) {', '.join(unknown)}; known: {', '.join(ACTIONS)}")
+        if not self.actions:
+            raise ValueError("focus needs at least one action")
+        if not 0.0 < self.share <= 1.0:
+            raise ValueError(f"focus share must be in (0, 1], got {self.share}")
+
+    def holds(self, program) -> bool:
+        return any(seg.action in self.actions or (seg.overlay is not None and seg.overlay.action in self.actions)
+                   for seg in program.segments)
+
+
+# redrawn items come from corpus indices at and above this one, which no plain training item reaches
+_FOCUS_BASE = 1 << 40
+
+
 class CorpusSource:
     """The procedural corpus, generated on the fly. ``underspecified``: that many extra captions per motion which
     leave attributes out the way people type ("a person waves"; engine.synth.grammar.underspecified_captions),
-    drawn from their own stream so the corpus's captions stay as they are."""
+    drawn from their own stream so the corpus's captions stay as they are. ``focus``: oversample some actions
+    (:class:`ActionFocus`)."""
 
-    def __init__(self, *, split: str = "train", seed: int = 0, underspecified: int = 0):
+    def __init__(self, *, split: str = "train", seed: int = 0, underspecified: int = 0,
+                 focus: ActionFocus | None = None):
         from engine.synth import Corpus
 
         self.corpus = Corpus(split=split, seed=seed)
         self.underspecified = underspecified
+        self.focus = focus
+
+    def corpus_index(self, index: int) -> int:
+        """The corpus item that training item ``index`` reads: itself, or (for the focus share) the first of its
+        own stream of redraws whose program holds a focus action."""
+        focus = self.focus
+        if focus is None or np.random.default_rng([self.corpus.seed, index, 104729]).random() >= focus.share:
+            return index
+        first = _FOCUS_BASE + index * focus.tries
+        for j in range(first, first + focus.tries):
+            if focus.holds(self.corpus.program(j)[0]):
+                return j
+        return index
 
     def get(self, index: int) -> MotionText:
-        s = self.corpus.sample(index)
+        s = self.corpus.sample(self.corpus_index(index))
         captions = tuple(s.captions)
         if self.underspecified:
             from engine.synth.grammar import underspecified_captions

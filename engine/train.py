@@ -26,7 +26,7 @@ import torch.distributed as dist
 from tqdm import tqdm
 
 from engine.checkpoint import export_weights, load_train_state, read_config, save_train_state, write_config
-from engine.data import Batch, CorpusSource, FolderSource, MotionSource, batch_loader
+from engine.data import ActionFocus, Batch, CorpusSource, FolderSource, MotionSource, batch_loader
 from engine.diffusion.losses import masked_losses
 from engine.diffusion.schedule import CosineSchedule
 from engine.model.denoiser import Denoiser, ModelConfig
@@ -58,6 +58,12 @@ class TrainConfig:
     # corpus only: extra captions per motion that leave side, count, speed and style out, as people type them
     # ("a person waves"); with the corpus's 4 full captions, 2 make a third of the captions trained on short
     underspecified: int = 0
+    # corpus only: oversample these actions (comma-separated corpus action names, e.g. "punch,hop,wave,clap"):
+    # a share of the batch items is redrawn until its program has one of them (as a segment or an overlay)
+    focus_actions: str = field(default="", metadata={"help": "corpus actions to oversample, comma-separated "
+                                                            "(e.g. punch,hop,wave,clap)"})
+    focus_share: float = field(default=0.0, metadata={"help": "share of training items redrawn to hold a "
+                                                             "--focus-actions action"})
     grad_clip: float = 1.0
     seed: int = 0
     log_every: int = 20
@@ -104,9 +110,18 @@ def kept_from_checkpoint(given: dict, saved: dict) -> dict[str, tuple]:
 
 def make_source(config: TrainConfig, *, split: str = "train") -> MotionSource:
     if config.data == "corpus":
-        return CorpusSource(split=split, seed=config.seed, underspecified=config.underspecified if split == "train"
-                            else 0)
+        train = split == "train"
+        return CorpusSource(split=split, seed=config.seed, underspecified=config.underspecified if train else 0,
+                            focus=focus_from(config) if train else None)
     return FolderSource(config.data, split=split)
+
+
+def focus_from(config: TrainConfig) -> "ActionFocus | None":
+    """The --focus-actions/--focus-share lever of a config, or None when it is off."""
+    names = tuple(a.strip() for a in config.focus_actions.split(",") if a.strip())
+    if not names or config.focus_share <= 0:
+        return None
+    return ActionFocus(actions=names, share=config.focus_share)
 
 
 def lr_at(step: int, config, *, floor: float = 0.1) -> float:

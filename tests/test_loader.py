@@ -153,3 +153,29 @@ def test_length_groups_with_workers_see_the_same_items():
     one = _take(ToySource(), 8, workers=0, batch_size=4, length_groups=4)
     two = _take(ToySource(), 8, workers=2, batch_size=4, length_groups=4)
     assert sorted(i for b in one for i in _indices(b)) == sorted(i for b in two for i in _indices(b))
+
+
+def test_action_focus_oversamples_its_actions_deterministically():
+    from engine.data import ActionFocus
+    from engine.train import TrainConfig, focus_from, make_source
+
+    focus = ActionFocus(actions=("punch", "hop"), share=0.5)
+    plain, focused = CorpusSource(split="train"), CorpusSource(split="train", focus=focus)
+
+    def share(source):
+        return np.mean([focus.holds(source.corpus.program(source.corpus_index(i))[0]) for i in range(300)])
+
+    assert share(focused) > share(plain) + 0.25  # half the items redrawn until they hold a punch or a hop
+    moved = [i for i in range(300) if focused.corpus_index(i) != i]
+    assert moved and all(focused.corpus_index(i) >= 1 << 40 for i in moved)  # no plain item is read twice
+    assert [focused.corpus_index(i) for i in range(50)] == [focused.corpus_index(i) for i in range(50)]
+    i = moved[0]
+    assert np.array_equal(focused.get(i).features, plain.corpus.sample(focused.corpus_index(i)).features)
+    # the config's flags reach the training source; the test split stays plain
+    config = TrainConfig(focus_actions="punch, hop", focus_share=0.5)
+    assert focus_from(config) == focus and make_source(config).focus == focus
+    assert make_source(config, split="test").focus is None and focus_from(TrainConfig()) is None
+    with pytest.raises(ValueError, match="unknown corpus action.*punches"):
+        ActionFocus(actions=("punches",), share=0.5)
+    with pytest.raises(ValueError, match="share"):
+        ActionFocus(actions=("punch",), share=1.5)
