@@ -158,3 +158,22 @@ def test_lever_screen_rows_score_each_model_on_the_dev_prompts(tiny_model_dir, t
     assert "needs the model folders" in capsys.readouterr().err
     assert main(["bench", "--inversion", "--guidance", "2", "--model", "/nonexistent"]) == 2
     assert "--guidance goes with --adherence or --levers" in capsys.readouterr().err
+
+
+def test_lever_rows_say_which_prompts_a_lever_moved():
+    from engine.evaluation.bench_levers import format_table, prompt_changes
+
+    def row(name, shares):
+        return {"model": name, "step": 10, "action": 0.5, "action_seed_std": 0.02, "count": 0.1, "side": 0.5,
+                "foot_skate": 0.1, "foot_skate_vs_truth": 2.0, "inversion_cm": None, "inversion_noise_std": None,
+                "samples_per_s": 30.0, "refused": 0, "guidance": 2.5, "per_prompt_action": shares}
+
+    result = {"prompts": 3, "seeds": 4, "real_file": None, "rows": [
+        row("control", {"someone walks": 0.0, "a man jumps": 1.0, "a woman squats twice": None}),
+        row("lever", {"someone walks": 0.75, "a man jumps": 0.25, "a woman squats twice": None})]}
+    text = prompt_changes(result)
+    assert "lever against control: 2 prompts moved" in text
+    assert "+ someone walks 0.00 -> 0.75" in text and "- a man jumps 1.00 -> 0.25" in text
+    assert "squats" not in text and text in format_table(result)
+    result["rows"][1]["per_prompt_action"]["someone walks"] = 0.25  # a move of one seed in four is not listed
+    assert "1 prompts moved" in prompt_changes(result)

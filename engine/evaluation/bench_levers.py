@@ -78,6 +78,8 @@ def score_row(folder: Path, config: LeverBenchConfig, *, prompts: Sequence[str],
     for attr in ("action", "count", "side"):
         row[attr] = model[attr]
     row["action_seed_std"] = seed_spread(adherence)
+    # which prompts a lever moves: each prompt's action share (None where the prompt checks no action)
+    row["per_prompt_action"] = {r["prompt"]: r.get("model", {}).get("action") for r in adherence["per_prompt"]}
     row["refused"] = len(adherence["refused"])
     skate = adherence["foot_skate"]
     row["foot_skate"], row["foot_skate_vs_truth"] = skate["model"], skate["ratio"]
@@ -120,6 +122,24 @@ def format_table(result: dict) -> str:
                      f"{_f(r['count'], '.3f'):>7}{_f(r['side'], '.2f'):>6}{_f(r['foot_skate'], '.2f'):>7}"
                      f"{_f(r['foot_skate_vs_truth'], '.1f'):>7}{_f(r['inversion_cm'], '.1f'):>8}"
                      f"{_f(r['inversion_noise_std'], '.2f'):>7}{_f(r['samples_per_s'], '.0f'):>8}{r['refused']:>8}")
+    if len(result["rows"]) > 1 and all("per_prompt_action" in r for r in result["rows"]):
+        lines.append(prompt_changes(result))
+    return "\n".join(lines)
+
+
+def prompt_changes(result: dict, *, control: int = 0, least: float = 0.5) -> str:
+    """Per row against the control row (``rows[control]``): the dev prompts whose action share moved by at least
+    ``least`` (with 4 seeds, two seeds of one prompt), e.g. ``+ someone walks 0.00 -> 0.75``."""
+    rows = result["rows"]
+    base = rows[control].get("per_prompt_action") or {}
+    lines = []
+    for k, r in enumerate(rows):
+        if k == control:
+            continue
+        moved = [(p, base[p], v) for p, v in (r.get("per_prompt_action") or {}).items()
+                 if v is not None and base.get(p) is not None and abs(v - base[p]) >= least]
+        lines.append(f"{r['model']} against {rows[control]['model']}: {len(moved)} prompts moved by >= {least:g}")
+        lines += [f"  {'+' if v > b else '-'} {p} {b:.2f} -> {v:.2f}" for p, b, v in sorted(moved, key=lambda m: m[1] - m[2])]
     return "\n".join(lines)
 
 
