@@ -195,6 +195,14 @@ def collate(
     return Batch(x0=x0, cond=cond, captions=[t.prompt for t in tokenized])
 
 
+def _readable(caption: str, tokenizer: Tokenizer) -> bool:
+    try:
+        tokenizer.encode(caption, strict=True)
+    except PromptError:
+        return False
+    return True
+
+
 def _pick_caption(captions: Sequence[str], tokenizer: Tokenizer, rng: np.random.Generator) -> TokenizedPrompt:
     """A random caption the tokenizer can read exactly (over-long ones, or ones with words outside the vocabulary,
     are passed over: training never reads a word by meaning or leaves one out)."""
@@ -302,10 +310,13 @@ class _BatchStream(torch.utils.data.IterableDataset):
         for j in range(first, first + count):
             index = self.start_index + self.stride * j
             item = self.source.get(index)
-            if np.isfinite(item.features).all():
-                items.append(item)
-            else:  # a broken sample must never reach the model
+            if not np.isfinite(item.features).all():  # a broken sample must never reach the model
                 warnings.warn(f"training sample {index} has non-finite features; skipped", RuntimeWarning)
+            elif not any(_readable(c, self.tokenizer) for c in item.captions):  # e.g. every caption over-long
+                warnings.warn(f"training sample {index}: none of its captions can be tokenised; skipped",
+                              RuntimeWarning)
+            else:
+                items.append(item)
         return items
 
     def _collate(self, items: list[MotionText], rng: np.random.Generator) -> Batch | None:
