@@ -215,3 +215,27 @@ def test_duet_exports_hold_both_people(studio):
         assert zf.read(names[1]).startswith(b"HIERARCHY")
     gif = export_bytes(a, "gif")
     assert gif[:6] in (b"GIF89a", b"GIF87a")
+
+
+def test_the_model_line_is_read_from_the_loaded_models_never_a_recorded_step(tmp_path):
+    """Issue #35: the Duet tab named its base model by the step the block's config recorded (``prior_step``), not
+    by the model actually loaded. The line now reads the loaded prior (its folder and its step: config.json, else
+    its TRAINING.md) and the block's own folder."""
+    from types import SimpleNamespace
+
+    from app.tabs.duet.models import base_step, model_line
+
+    shipped = tmp_path / "duet" / "prior"
+    shipped.mkdir(parents=True)
+    (shipped / "TRAINING.md").write_text("# Shipped model\n\nExported from `runs/base` at training step 4321.\n")
+    prior = SimpleNamespace(config={}, folder=shipped, model=SimpleNamespace(num_layers=6))
+    studio_base = SimpleNamespace(config={"step": 7018}, folder=tmp_path / "model")
+    block = SimpleNamespace(config={"step": 3000, "samples": 48, "prior_step": 5777}, folder=tmp_path / "duet",
+                            prior=prior, denoiser=SimpleNamespace(after=5))
+    assert base_step(prior) == "4321" and base_step(studio_base) == "7018"
+    line = model_line(block, studio_base)
+    assert "5777" not in line, line
+    assert "step 4321" in line and str(shipped) in line and "step 7018" in line and str(tmp_path / "duet") in line
+    block.prior = studio_base
+    studio_base.model = prior.model
+    assert model_line(block, studio_base).endswith("It runs on the studio's base model (step 7018).")

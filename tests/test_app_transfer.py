@@ -304,3 +304,33 @@ def test_the_leaders_own_upload_refuses_an_empty_file_by_name_and_imports_a_moti
                                    "mime_type": ""})
     assert sum(kind == "error" for kind, _ in s.notices) == errors and tab.settings.leader.kind == "motion"
     assert tab.settings.leader.motion == "imported: walk.npy" and "imported: walk.npy" in s.items
+
+
+def test_an_imported_leader_is_described_by_its_own_recipe_never_by_the_earlier_prompt(studio):
+    """Issue #35: switching the leader to an imported motion kept the prompt typed before as the inversion's
+    description, silently. Now the description is that motion's own prompt (when its recipe knows one) or none,
+    the source box says which, and the typed prompt comes back with the prompt mode."""
+    from app.session.items import MotionItem
+    from app.tabs.transfer.job import prepare
+    from engine.synth import Corpus
+
+    s, tab = studio.state, studio.transfer
+    picker, src = tab.leader, tab.settings.leader
+    picker.kind.value = "prompt"
+    picker.prompt.value = "a person walks forward"
+    plain = s.show_motion(Corpus("test").sample(6).joints, title="imported: plain 6")
+    picker.kind.value = "motion"
+    picker.motion.value = plain.name
+    assert src.motion == plain.name and src.prompt == "" and picker.prompt.value == ""
+    assert "without a description" in picker.info.object
+    assert prepare(s, tab.settings).leader.prompt is None  # inverted without text, not with the old prompt
+    known = MotionItem(name="imported: known 7", joints=Corpus("test").sample(7).joints.astype(np.float32),
+                       source="imported", prompt="a person waves")
+    s.add_item(known)
+    picker.motion.value = known.name
+    assert src.prompt == "a person waves" and "“a person waves”" in picker.info.object
+    assert prepare(s, tab.settings).leader.prompt == "a person waves"
+    picker.prompt.value = "a person waves both arms"  # the user's own description is kept while the motion stays
+    assert "“a person waves both arms”" in picker.info.object
+    picker.kind.value = "prompt"
+    assert src.prompt == "a person walks forward" and picker.info.object == ""

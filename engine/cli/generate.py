@@ -59,9 +59,9 @@ def run(args: argparse.Namespace) -> int:
     for out in args.out:
         suffix = out.suffix.lower()
         if suffix in (".png", ".gif", ".mp4"):
-            from viz.render import render_file
+            from viz.export import write_picture  # the studio's exporter: one picture of a motion
 
-            render_file(joints, out)
+            write_picture(joints, out, title=args.prompt)
         else:
             save_motion(joints, out, to="vecs" if args.vecs else "joints")
         print(f"wrote {out}")

@@ -143,3 +143,34 @@ def test_transfer_from_two_prompts(browser, server_url, screens):
         assert not errors, errors
     finally:
         page.close()
+
+
+def test_an_imported_leader_never_keeps_the_earlier_prompt(browser, server_url, screens):
+    """Issue #35: switching the leader to an imported motion kept the prompt typed before as the inversion's
+    description, silently. The leader's own upload now empties the description (a plain import has no prompt) and
+    the box says the motion is inverted without one; back to a prompt, the typed prompt returns."""
+    page = br.open_studio(browser, server_url)
+    try:
+        page.locator(".bk-tab", has_text="Transfer").click()
+        leader = page.locator(".transfer-leader")
+        leader.locator(".source-prompt input").fill("a person walks forward")
+        expect(leader.locator(".source-words .prompt-chips")).to_have_text("a person walks forward", timeout=30000)
+        joints = np.zeros((40, 22, 3), np.float32)
+        joints[:, :, 1] = np.linspace(0.0, 1.7, 22)[None]
+        joints[:, :, 2] = np.linspace(0.0, 1.0, 40)[:, None]
+        buf = io.BytesIO()
+        np.save(buf, joints, allow_pickle=False)
+        leader.locator(".source-upload input[type=file]").set_input_files(
+            files=[{"name": "walk.npy", "mimeType": "application/octet-stream", "buffer": buf.getvalue()}])
+        info = leader.locator(".source-info")
+        expect(info).to_contain_text("without a description", timeout=60000)
+        expect(leader.locator(".source-prompt input")).to_have_value("", timeout=5000)
+        leader.scroll_into_view_if_needed()
+        (screens / "transfer_imported_leader.png").write_bytes(page.locator(".transfer-tab").screenshot())
+        leader.locator(".source-prompt input").fill("a person walks")
+        leader.locator(".source-prompt input").press("Enter")
+        expect(info).to_contain_text("with the description “a person walks”", timeout=30000)
+        leader.locator(".source-kind button", has_text="prompt").click()
+        expect(leader.locator(".source-prompt input")).to_have_value("a person walks forward", timeout=30000)
+    finally:
+        page.close()

@@ -19,6 +19,7 @@ from bokeh.models import (BoxAnnotation, ColorBar, ColumnDataSource, HoverTool, 
 from bokeh.palettes import Category10_10, Viridis256
 from bokeh.plotting import figure
 
+from app.components.how_to_read import reading_caption
 from app.components.jobbar import WRAP_BUTTONS_CSS
 from app.session.items import MAX_ITEMS_WITH_ATTENTION
 from app.session.state import StudioState
@@ -87,8 +88,10 @@ class AttentionExplorer(pn.viewable.Viewer):
         self.row_pane = pn.pane.Bokeh(self.row_fig, margin=(0, 10))
         self.selects = pn.Row(self.layer, self.head, self.step)
         # what is shown only for a motion with attention: hidden (never another motion's axes or cursor) otherwise
-        self.plots = pn.Column(self.words, self.curves_pane, self.selects, self.heatmap_pane, self.row_pane,
-                               margin=0, css_classes=["attention-plots"])
+        self.plots = pn.Column(self.words, self.curves_pane, reading_caption("word_curves", width=WIDTH), self.selects,
+                               self.heatmap_pane, reading_caption("self_attention", width=WIDTH - 60), self.row_pane,
+                               reading_caption("attention_row", width=WIDTH - 60), margin=0,
+                               css_classes=["attention-plots"])
 
         # the maps are rebuilt after the change that caused them has reached the page (served: the next tick), so
         # a new motion's scene is not held back behind them; several changes in one tick rebuild once

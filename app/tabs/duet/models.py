@@ -67,3 +67,35 @@ def example(name: str):
         if name not in _examples:
             raise ValueError(f"no example {name!r}")
         return _examples[name]
+
+
+def base_step(model) -> str:
+    """The training step of a loaded base model: its config.json's ``step``, else the step its TRAINING.md says it
+    was exported at; "?" when neither says."""
+    import re
+
+    step = (getattr(model, "config", None) or {}).get("step")
+    if step is not None:
+        return str(step)
+    try:
+        text = (Path(model.folder) / "TRAINING.md").read_text(errors="replace")[:4000]
+    except (OSError, TypeError, AttributeError):
+        return "?"
+    found = re.search(r"training step (\d+)", text)
+    return found.group(1) if found else "?"
+
+
+def model_line(model, base) -> str:
+    """What the Duet tab says about the duet model it uses, read from the models actually loaded: the block's folder,
+    its layer and training, and the base model it runs on (its folder and step; the studio's own or the copy
+    shipped with the block)."""
+    from engine.methods.control import shown_folder
+
+    c = model.config
+    folder = shown_folder(model.folder) if model.folder is not None else "?"
+    line = (f"ComMDM block after layer {model.denoiser.after} of {model.prior.model.num_layers} ({folder}), "
+            f"trained {c.get('step', '?')} steps on {c.get('samples', '?')} two-person samples.")
+    if model.prior is base:
+        return line + f" It runs on the studio's base model (step {base_step(base)})."
+    return (line + f" It runs on the base model it was trained on (step {base_step(model.prior)}, "
+                   f"{shown_folder(model.prior.folder)}), not on the studio's (step {base_step(base)}).")

@@ -18,7 +18,7 @@ from app.components.words import WORD_CSS, prompt_notes
 from app.components.number_box import FloatBox
 from app.session.state import StudioState
 from app.tabs.duet.job import DuetJob, describe
-from app.tabs.duet.models import duet_model
+from app.tabs.duet.models import duet_model, model_line
 from app.tabs.duet.settings import DuetSettings
 
 HELP = ("Two copies of the base model, one per person, exchange what they are doing through a small trained "
@@ -102,12 +102,7 @@ class DuetTab(pn.viewable.Viewer):
         if model is None:
             self.model_note.object = f'<span class="bad">{html.escape(problem)}</span>'
             return
-        c = model.config
-        own = (f' It runs on the base model it was trained on (step {c.get("prior_step", "?")}, shipped with it), '
-               f'not on the studio\'s.' if model.prior is not s.model else "")
-        self.model_note.object = (f'<span class="note">ComMDM block after layer {model.denoiser.after} of '
-                                  f'{model.prior.model.num_layers}, trained {c.get("step", "?")} steps on '
-                                  f'{c.get("samples", "?")} two-person samples.{html.escape(own)}</span>')
+        self.model_note.object = f'<span class="note">{html.escape(model_line(model, s.model))}</span>'
 
     def _on_result(self, *_):
         r = self.settings.result

@@ -13,11 +13,12 @@ import numpy as np
 import panel as pn
 import param
 from bokeh.events import SelectionGeometry
-from bokeh.models import BoxSelectTool, ColumnDataSource, HoverTool, LinearColorMapper, Range1d
+from bokeh.models import BoxSelectTool, ColumnDataSource, HoverTool, LinearColorMapper, Range1d, Tooltip
 from bokeh.palettes import Viridis256
 from bokeh.plotting import figure
 
 from app.components.guard import SyncGuard
+from app.components.how_to_read import reading_caption
 from app.components.jobbar import WRAP_BUTTONS_CSS, JobBar, text_from_param
 from app.session.state import StudioState
 from app.tabs.edit.job import alignment, count_current, run_edit, swap_example, word_choice
@@ -46,6 +47,9 @@ class EditTab(pn.viewable.Viewer):
                                                  sizing_mode="stretch_width", stylesheets=[WRAP_BUTTONS_CSS])
         self.mode = pn.widgets.RadioButtonGroup.from_param(e.param.mode, color="primary", variant="outline",
                                                            css_classes=["edit-mode"], width=220)
+        for widget in (self.kind, self.mode):  # their tooltip below them: on the right it ran off the screen
+            if isinstance(widget.description, str):
+                widget.description = Tooltip(content=widget.description, position="bottom")
         lo, hi = WEIGHT_RANGES[e.mode]  # the mode's own range (the settings' bounds cover both modes)
         self.weight = pn.widgets.FloatSlider.from_param(e.param.weight, start=lo, end=hi, css_classes=["edit-weight"],
                                                         sizing_mode="stretch_width")
@@ -473,7 +477,9 @@ class EditTab(pn.viewable.Viewer):
             sizing_mode="stretch_width")
         counting = pn.Column("#### Counting", pn.Row(pn.Column(self.count_method, self.readout, self.count_button,
                                                                width=250),
-                                                     self.count_pane), sizing_mode="stretch_width")
+                                                     pn.Column(self.count_pane,
+                                                               reading_caption("counting", width=320), margin=0)),
+                             sizing_mode="stretch_width")
         return pn.Column(self.kind, self.help, settings, self.bar, self.result, pn.layout.Divider(), counting,
                          css_classes=["edit-tab"], sizing_mode="stretch_width")
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from app.session.duets import DuetPair
 from app.session.items import MotionItem
+from viz.export import VIDEO_SIZE, write_picture  # noqa: F401 (VIDEO_SIZE: the exports' size, read by tests)
 
 
 EXPORTS = {
@@ -22,10 +23,6 @@ EXPORTS = {
 }
 
 
-VIDEO_SIZE = (640, 480)  # GIF and MP4 (width, height)
-GIF_FPS = 20.0  # frames a second kept in a GIF (the motion's 20, or fewer for a smaller file)
-# x264's preset: "veryfast" gives the file size of its default in half the time; "ultrafast" files are 3x larger
-MP4_PRESET = "veryfast"
 
 
 def slug(text: str, limit: int = 40) -> str:
@@ -120,22 +117,10 @@ def export_bytes(item: MotionItem, fmt: str, *, selection: dict | None = None) -
 
 
 def video_bytes(motions, fmt: str, *, title: str, offsets: dict | None = None) -> bytes:
-    """A GIF or MP4 of ``motions`` (one (T, 22, 3) or role -> motion) as the Export buttons make it: VIDEO_SIZE,
-    the full ``title`` (wrapped, never cut), a frame counter, the camera following the body, at real speed.
-
-    Drawn by ``viz.flat`` (2D, a few ms a frame; no VTK, so no VTK_LOCK), GIF at GIF_FPS with one palette, MP4
-    (H.264) at 20 fps with x264's MP4_PRESET.
-    """
-    from engine.units import FPS
-    from viz.flat import FlatRenderer, write_gif, write_mp4
-
-    renderer = FlatRenderer(motions, size=VIDEO_SIZE, offsets=offsets, follow=True, title=title, frame_label=True)
+    """A GIF or MP4 of ``motions`` (one (T, 22, 3) or role -> motion) as the Export buttons make it: written by
+    ``viz.export.write_picture`` (the exporter ``moattn generate --out x.gif`` uses too), VIDEO_SIZE, the full
+    ``title`` (wrapped, never cut), a frame counter, the camera following the body, at real speed."""
+    if fmt not in ("gif", "mp4"):
+        raise ValueError(f"{fmt!r} is not a video export (gif, mp4)")
     with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / f"export.{fmt}"
-        if fmt == "gif":
-            write_gif(renderer, path, fps=FPS, every=max(1, round(FPS / GIF_FPS)))
-        elif fmt == "mp4":
-            write_mp4(renderer, path, fps=FPS, preset=MP4_PRESET)
-        else:
-            raise ValueError(f"{fmt!r} is not a video export (gif, mp4)")
-        return path.read_bytes()
+        return write_picture(motions, Path(tmp) / f"export.{fmt}", title=title, offsets=offsets).read_bytes()

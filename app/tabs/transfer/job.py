@@ -304,6 +304,22 @@ def show_roles(state, settings: TransferSettings) -> None:
         state.also = _outs(view.names)
 
 
+def own_description(state, name: str) -> str:
+    """The prompt a session motion was made from, as its recipe keeps it ('' when none is known: a plain import):
+    what the inversion of that motion is described by when it becomes a source (never an earlier source's prompt)."""
+    item = state.items.get(name) if name else None
+    if item is None:
+        return ""
+    text = item.prompt or (item.settings.prompt if item.settings is not None else "")
+    library = getattr(state, "library", None)
+    if not text and library is not None and item.library_id:
+        try:
+            text = str(library.recipe(item.library_id).get("prompt") or "")
+        except Exception:  # a damaged entry: read without text
+            text = ""
+    return text.strip()
+
+
 def describe_inversion(error: dict | None) -> str:
     """The round-trip error of an inverted source in metres ('' for a generated one)."""
     if not error:

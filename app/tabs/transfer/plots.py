@@ -16,6 +16,7 @@ from bokeh.models import ColumnDataSource, FactorRange, FixedTicker, HoverTool, 
 from bokeh.palettes import Viridis256
 from bokeh.plotting import figure
 
+from app.components.how_to_read import reading_caption
 from app.session.state import StudioState
 from app.tabs.transfer.colors import ROLES, cluster_colors, cluster_palette, focused, index_colors, n_clusters
 from app.tabs.transfer.settings import TransferSettings
@@ -141,7 +142,8 @@ class TransferPlots(pn.viewable.Viewer):
         # until a frame is picked the plot has nothing to show: a hint stands in for it (not an empty box)
         self.query_hint = pn.pane.Markdown(QUERY_HINT, css_classes=["per-query-hint"], margin=(0, 10),
                                            styles={"font-size": "12px", "color": "#555"})
-        self.query_box = pn.Column(pn.pane.Bokeh(self.query, margin=(0, 10)), visible=False, margin=0)
+        self.query_box = pn.Column(pn.pane.Bokeh(self.query, margin=(0, 10)),
+                                   reading_caption("per_query", width=WIDTH), visible=False, margin=0)
 
     # ------------------------------------------------------------------ state -> views
     def _on_result(self, *_):
@@ -274,8 +276,10 @@ class TransferPlots(pn.viewable.Viewer):
     def __panel__(self):
         return pn.Column(
             "#### Q vs K clusters", self.legend, pn.pane.Bokeh(self.strips, margin=(0, 10)),
+            reading_caption("qk_clusters", width=WIDTH),
             "#### Correspondences", pn.pane.Bokeh(self.film, margin=(0, 10)),
+            reading_caption("correspondences", width=WIDTH),
             "#### Attention maps", pn.Row(*(pn.pane.Bokeh(f, margin=(0, 2)) for f in self.maps.values())),
-            self.query_hint, self.query_box, self.sites,
+            reading_caption("qk_maps", width=WIDTH), self.query_hint, self.query_box, self.sites,
             css_classes=["transfer-plots"], sizing_mode="stretch_width")
 

@@ -17,11 +17,18 @@ from app.components.jobbar import JobBar, text_from_param
 from app.components.number_box import FloatBox
 from app.components.words import WORD_CSS, word_chips
 from app.session.state import StudioState
-from app.tabs.transfer.job import TransferJob, describe_inversion, show_roles
+from app.tabs.transfer.job import TransferJob, describe_inversion, own_description, show_roles
 from app.tabs.transfer.plots import TransferPlots
 from app.tabs.transfer.settings import SourceSettings, TransferSettings
 
 NO_MOTION = "(import a motion)"
+
+
+def _md(text: str) -> str:
+    """A user's text inside Markdown, shown as typed (quoted, its markup characters escaped)."""
+    return "“" + "".join("\\" + ch if ch in "\\`*_{}[]()#+-.!|~" else ch for ch in html.escape(text)) + "”"
+
+
 HELP = {"leader": "**Leader**: what and when (outline, timing).", "follower": "**Follower**: how (motifs)."}
 
 
@@ -49,8 +56,11 @@ class SourcePicker(pn.viewable.Viewer):
                                      styles={"font-size": "12px", "color": "#444"})
         self.motion.param.watch(lambda e: setattr(src, "motion", "" if e.new == NO_MOTION else e.new), "value")
         self.upload.param.watch(self._on_upload, ["value", "filename"])
+        self._typed = src.prompt if src.kind == "prompt" else ""  # the prompt typed in prompt mode (back when chosen)
+        src.param.watch(self._on_source, ["kind", "motion"])  # (before _on_kind: the widgets follow)
         src.param.watch(self._on_kind, ["kind", "motion"])
         src.param.watch(self._on_words, ["reading", "kind"])
+        src.param.watch(self._on_info, "prompt")
         self.state.param.watch(self._on_items, "items")
         self.settings.param.watch(self._on_info, "result")
         self._on_items()
@@ -84,6 +94,19 @@ class SourcePicker(pn.viewable.Viewer):
         picked = self.source.motion
         self.motion.value = picked if picked in names else (names[-1] if names else NO_MOTION)
 
+    def _on_source(self, *events) -> None:
+        """A new imported motion as the source: its description is that motion's own prompt (its recipe) or none,
+        never the prompt typed before; back to a prompt, the typed prompt returns."""
+        src = self.source
+        changed = {e.name: e for e in events}
+        if "kind" in changed and changed["kind"].old == "prompt":
+            self._typed = src.prompt
+        if src.kind == "prompt":
+            if "kind" in changed:
+                src.prompt = self._typed
+            return
+        src.prompt = own_description(self.state, src.motion)
+
     def _on_kind(self, *_):
         src = self.source
         is_prompt = src.kind == "prompt"
@@ -106,7 +129,9 @@ class SourcePicker(pn.viewable.Viewer):
             return
         item = self.state.items.get(src.motion)
         text = "Import a BVH or .npy motion here or in the sidebar." if item is None else (
-            f"{item.n_frames} frames ({item.n_frames / 20:.1f} s), DDIM-inverted when the transfer runs.")
+            f"{item.n_frames} frames ({item.n_frames / 20:.1f} s), DDIM-inverted when the transfer runs "
+            + (f"with the description **{_md(src.prompt.strip())}**." if src.prompt.strip() else
+               "**without a description** (read without text)."))
         if view is not None and item is not None and view.inversion.get(src.role):
             text += f" Last run: **{describe_inversion(view.inversion[src.role])}**."
         self.info.object = text
