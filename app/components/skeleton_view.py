@@ -1,4 +1,4 @@
-"""``SkeletonView``: the studio's 3-D viewer, drawn in the browser (``skeleton_view.js``; no CDN, no WebGL).
+"""``SkeletonView``: the studio's 3-D viewer, drawn in the browser (``viewer3d/*.js``; no CDN, no WebGL).
 
 The server sets ``scene`` (``app.viewer.scene.scene_message``) once per change of what is shown; the
 page draws every frame, orbit, pan and zoom itself, interpolating poses between the motion's frames.
@@ -10,6 +10,17 @@ itself (``cursor_ids``: Bokeh ``Span`` ids) and tells the server the frame only 
 playback costs the server nothing. ``window.moattnPlayer`` exposes counters for tests and
 ``moattn bench --app``: ``draws``, ``distinct``, ``draw_ms``, ``n_frames``, ``motion_key``,
 ``first_draw`` / ``preview_first`` (performance.now() per key), ``previews``, ``camera``.
+
+The page's code is in ``viewer3d/``, one file a job: ``decode.js`` (payload -> frames), ``camera.js`` (orbit, zoom,
+projection, limits), ``draw.js`` (sky, floor, paths, bones and joints), ``legend.js`` (the colour legend),
+``player.js`` (time, play/pause, cursors), ``controls.js`` (the elements) and ``main.js`` (the glue: ``render``).
+Panel's ``JSComponent`` sends ``_esm`` to the page as the text of one ES module, which the page compiles from a
+string: a relative ``import "./camera.js"`` inside it has nothing to resolve against (no URL the server serves, and
+the studio runs offline), and ``_importmap`` only names URLs. So :func:`viewer_source` joins the files here, read from
+the package, in a fixed order (``MODULES``), each a script fragment that declares one namespace object (``const
+Camera = (() => {...; return {fit, zoom, ...}})()``) used by the files after it; only ``main.js`` exports. The skeleton
+(parents, pelvis, head, sizes), the floor and the field of view come in the scene payload
+(``app.viewer.scene.skeleton_payload``): none is written in the JavaScript.
 """
 from __future__ import annotations
 
@@ -17,6 +28,16 @@ from pathlib import Path
 
 import panel as pn
 import param
+
+JS_FOLDER = Path(__file__).with_name("viewer3d")
+# each file uses only the namespaces of the files before it; main.js (render) comes last
+MODULES: tuple[str, ...] = ("decode", "camera", "draw", "legend", "player", "controls", "main")
+
+
+def viewer_source(folder: Path = JS_FOLDER) -> str:
+    """The viewer's ES module: the ``MODULES`` files of ``folder`` joined in order, each under a comment naming it."""
+    parts = [f"// ---- viewer3d/{name}.js\n{(folder / f'{name}.js').read_text(encoding='utf-8')}" for name in MODULES]
+    return "\n".join(parts)
 
 
 class SkeletonView(pn.custom.JSComponent):
@@ -28,7 +49,7 @@ class SkeletonView(pn.custom.JSComponent):
     show_path = param.Boolean(default=True, doc="draw root paths and guides")
     cursor_ids = param.List(default=[], item_type=str, doc="Bokeh Span ids the page moves with the playhead")
 
-    _esm = Path(__file__).with_name("skeleton_view.js")
+    _esm = viewer_source()  # a string, not a path: see the module's docstring
 
     _stylesheets = ["""
 .moattn-viewer3d { display: flex; flex-direction: column; gap: 4px; width: 100%; }

@@ -6,8 +6,8 @@
 * per-frame colours set by a tab (Transfer's Q/K clusters, Compose's intervals and handshakes, Duet's given prefix):
   one swatch per colour, named when the colour is one the tab uses, else by the frames it covers.
 
-The legend travels in the scene message (``legend``) and the page draws it (``skeleton_view.js``), so it is part of
-the picture (and of its PNG).
+The legend travels in the scene message (``legend``) and the page draws it (``app/components/viewer3d/legend.js``),
+so it is part of the picture (and of its PNG).
 """
 from __future__ import annotations
 

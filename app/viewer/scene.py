@@ -1,10 +1,13 @@
 """What the in-browser 3-D viewer draws: a ``SceneSpec`` (motions by role and how to show them), and the
 compact message the browser receives for it.
 
-The browser draws the skeletons itself (``app/components/skeleton_view.js``), so the server sends a
+The browser draws the skeletons itself (``app/components/viewer3d/``), so the server sends a
 scene once per change, never per frame: joints as little-endian float32 (offsets applied), colours
 as uint8 per joint or per frame, the drawn guides, and optionally the denoising history (the x̂0
 motion of every sampling step, int16 millimetres). A 10-s motion is ~70 KB; three are ~200 KB.
+Every message also describes what the page cannot know by itself (:func:`skeleton_payload`): the skeleton (its
+parents, which joints are the pelvis and the head, the sizes of joints and bones), the floor's tile and colours and
+the field of view; the page's JavaScript holds no copy of them.
 
 Colours and layout come from ``viz`` (the same palette, left/right shading, plasma word colours and
 side-by-side offsets as the exported pictures), so the browser and the files agree.
@@ -18,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.generation import Denoising
-from engine.skeleton import PARENTS
+from engine.skeleton import JOINT_INDEX, JOINT_NAMES, PARENTS
 from engine.units import FPS
 
 SPACING = 0.6  # metres between side-by-side skeletons (as in the exported pictures)
@@ -27,6 +30,7 @@ HEAD_RADIUS = 0.07
 BONE_RADIUS = 0.02
 ELEVATION = 18.0  # degrees above the horizon of the default view
 AZIMUTH_FROM_FACING = 30.0  # the default 3/4 front view, degrees from the body's facing
+FLOOR_TILE = 0.5  # metres: the checker floor's tiles (as in the exported pictures)
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,7 +105,7 @@ def scene_message(spec: SceneSpec | None, *, key: int, job: tuple[float, float] 
     from viz.colors import ROLE_PALETTE, color_to_rgb, default_joint_colors
 
     if spec is None:
-        return {"key": key, "roles": [], "n_frames": 0, "title": ""}
+        return {"key": key, "roles": [], "n_frames": 0, "title": "", **skeleton_payload()}
     shifts = offsets(spec)
     roles = []
     for i, (role, joints) in enumerate(spec.motions):
@@ -144,20 +148,38 @@ def scene_message(spec: SceneSpec | None, *, key: int, job: tuple[float, float] 
     return message
 
 
+def skeleton_payload() -> dict:
+    """What the page draws with and cannot know by itself, in every message: the skeleton (``parents``: joint ->
+    parent, -1 for the root; ``pelvis`` and ``head``: joint indices; ``radii`` in metres; joint ``names``), the
+    frame rate, the checker floor (``tile`` in metres, two RGB ``colors``) and the vertical field of view (degrees)."""
+    from viz.colors import FLOOR_COLORS
+    from viz.flat import VIEW_ANGLE
+
+    return {"fps": FPS,
+            "skeleton": {"parents": list(PARENTS), "names": list(JOINT_NAMES), "pelvis": JOINT_INDEX["pelvis"],
+                         "head": JOINT_INDEX["head"],
+                         "radii": {"joint": JOINT_RADIUS, "head": HEAD_RADIUS, "bone": BONE_RADIUS}},
+            "floor": {"tile": FLOOR_TILE, "colors": [list(c) for c in FLOOR_COLORS]},
+            "fov": VIEW_ANGLE}
+
+
 def _geometry(first_pose: np.ndarray) -> dict:
-    """What every message shares: skeleton, sizes, the default 3/4 front view of ``first_pose`` (22, 3)."""
+    """What every message with a motion shares: :func:`skeleton_payload` and the default 3/4 front view of
+    ``first_pose`` (22, 3)."""
     from viz.camera import facing_azimuth
 
-    return {"fps": FPS, "parents": list(PARENTS),
-            "radii": {"joint": JOINT_RADIUS, "head": HEAD_RADIUS, "bone": BONE_RADIUS},
+    return {**skeleton_payload(),
             "azimuth": facing_azimuth(np.asarray(first_pose, dtype=np.float64)) + AZIMUTH_FROM_FACING,
             "elevation": ELEVATION}
 
 
 def preview_message(joints: np.ndarray, *, key: int, step: int, num_steps: int, title: str) -> dict:
     """One live x̂0 motion (T, 22, 3) while sampling: a custom message that stands in for the scene until the
-    result arrives."""
+    result arrives; coloured as the first role of a scene."""
+    from viz.colors import ROLE_PALETTE, default_joint_colors
+
     joints = np.asarray(joints, dtype=np.float64)
     mm = np.clip(np.round(joints * 1000.0), -32767, 32767)
     return {"type": "preview", "key": key, "step": int(step), "num_steps": int(num_steps), "title": title,
-            "n_frames": int(len(joints)), "joints_mm": b64(mm, "i2"), **_geometry(joints[0])}
+            "n_frames": int(len(joints)), "joints_mm": b64(mm, "i2"),
+            "joint_colors": default_joint_colors(ROLE_PALETTE[0]).reshape(-1).tolist(), **_geometry(joints[0])}

@@ -16,7 +16,7 @@ from app.bench import browser as br
 
 pytestmark = pytest.mark.timeout(400)
 
-FLOOR = ((232, 232, 228), (206, 208, 204))  # the checker floor's two colours (skeleton_view.js)
+FLOOR = ((232, 232, 228), (206, 208, 204))  # the checker floor's two colours (viz.colors.FLOOR_COLORS, in the payload)
 
 
 def _img(png: bytes) -> np.ndarray:
