@@ -99,8 +99,8 @@ class EditTab(pn.viewable.Viewer):
         self.spans_text.param.watch(lambda ev: self._on_spans_typed(ev.new), "value")
         self.clear_spans.on_click(lambda _: self.set_spans([]))
         e.param.watch(self._on_spans, "spans")
-        e.param.watch(lambda *_: self._write_span_curve(), ["word", "occurrence"])
-        s.param.watch(lambda *_: self._write_span_curve(), "current")
+        e.param.watch(self._post_span_curve, ["word", "occurrence"])
+        s.param.watch(self._post_span_curve, "current")
         e.param.watch(self._on_kind, "kind")
         e.param.watch(self._on_mode, "mode")
         e.param.watch(self._on_alignment, "edited")
@@ -220,6 +220,11 @@ class EditTab(pn.viewable.Viewer):
                           "a span")
         curve = item.attention.word_curve(hits[e.occurrence])
         return curve, f"'{e.word}' in {item.name}: drag across the frames to add a span"
+
+    def _post_span_curve(self, *_) -> None:
+        """Posted: the shown motion and the word may change on a job's thread, and Bokeh models are written on the
+        page's (a write outside the document lock was a Traceback in the server log)."""
+        self.state.post(self._write_span_curve)
 
     def _write_span_curve(self) -> None:
         n = self._frames_total()
