@@ -12,3 +12,4 @@ MIN_SECONDS = 1.0  # the shortest motion the studio and the CLI generate
 # the default sampling config (engine.generate.SampleConfig and every bench and tab read these)
 DEFAULT_STEPS = 50
 DEFAULT_GUIDANCE = 2.5  # classifier-free guidance scale (MotionCLR's)
+EDIT_SECONDS = 4.0  # the length of a motion `moattn edit` generates to edit
