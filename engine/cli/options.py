@@ -94,12 +94,12 @@ def add_options(parser: argparse.ArgumentParser, cls, *, skip: Iterable[str] = (
     for s in chosen:
         text = (helps or {}).get(s.name) or (describe_with(s) if describe_with else describe(s, (notes or {}).get(s.name, "")))
         names, kw = argument(s, help=text, given_only=given_only)
-        target = parser
-        if exclusive := meta[s.name].get("exclusive"):
-            target = groups.setdefault(f"x:{exclusive}", parser.add_mutually_exclusive_group())
-        elif title := meta[s.name].get("group"):
-            target = groups.setdefault(title, parser.add_argument_group(title))
-        target.add_argument(*names, **kw)
+        exclusive, title = meta[s.name].get("exclusive"), meta[s.name].get("group")
+        if exclusive and exclusive not in groups:
+            groups[exclusive] = parser.add_mutually_exclusive_group()
+        elif title and title not in groups:
+            groups[title] = parser.add_argument_group(title)
+        (groups[exclusive] if exclusive else groups[title] if title else parser).add_argument(*names, **kw)
     return chosen
 
 
