@@ -19,8 +19,10 @@ from __future__ import annotations
 
 import math
 import numbers
+import re
 from collections.abc import Callable, Sequence
 from dataclasses import MISSING, dataclass, field, fields
+from pathlib import Path
 from typing import Any
 
 # metadata keys an option may carry (beyond help); their meaning, see `option`
@@ -99,11 +101,6 @@ class Spec:
         return self.flag[2:].replace("-", "_")
 
     @property
-    def said(self) -> str:
-        """How a command line names it in an error: the flag, and the label where one is declared."""
-        return f"{self.flag}: {self.label.lower()}" if self.label and not self.positional else self.flag
-
-    @property
     def has_default(self) -> bool:
         return self.default is not MISSING
 
@@ -143,6 +140,16 @@ def _check_number(value, bounds, *, label: str, unit: str, whole: bool) -> None:
         raise ValueError(f"{label} must be {said}{' ' + unit if unit else ''}, got {value:g}")
 
 
+_TYPES = {"int": int, "float": float, "str": str, "Path": Path}
+
+
+def _annotated(annotation) -> type | None:
+    """The value type an annotation names first (``int | None`` -> int, ``tuple[float, float]`` -> float)."""
+    text = annotation if isinstance(annotation, str) else getattr(annotation, "__name__", str(annotation))
+    words = [w for w in re.split(r"[^\w]+", text) if w and w not in ("tuple", "Optional", "None", "list")]
+    return _TYPES.get(words[0]) if words else None
+
+
 def specs(cls) -> list[Spec]:
     """Every declared option of the dataclass ``cls`` (fields whose metadata has a help), in declaration order."""
     out = []
@@ -155,6 +162,8 @@ def specs(cls) -> list[Spec]:
         given = {k: m[k] for k in _KEYS if m.get(k) is not None}
         if "flag" in given:
             given["flag_name"] = given.pop("flag")
+        if "type" not in given and "parse" not in given and (default is None or default is MISSING):
+            given["type"] = _annotated(f.type)  # a None default: the value's type from the annotation
         if "choices" in given:  # a callable: read when asked (a registry that may grow)
             given["choices"] = tuple(given["choices"]() if callable(given["choices"]) else given["choices"])
         out.append(Spec(name=f.name, default=default, help=m["help"], **given))

@@ -11,7 +11,7 @@ from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs
 from engine.cli.options import add_options, add_sample_options, from_args
 from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.analysis.counting import CountingConfig
-from engine.methods.edit_kinds import KINDS, REGISTRY, kinds_reading
+from engine.methods.edit_kinds import INPUTS, KINDS, REGISTRY, kinds_reading
 from engine.methods.edit_options import EditOptions
 from engine.options import option
 from engine.methods.spans import spans_text
@@ -39,9 +39,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "before/after render (.gif/.mp4/.png). Kinds: "
                        + " ".join(f"{name}: {k.help}" for name, k in REGISTRY.items()))
     # the edit's options, declared once on EditOptions (the Edit tab reads the same fields)
-    add_options(p, EditOptions, notes={"weight": weight_range_text(),
-                                       **{n: _reads(n) for n in ("word", "edited", "fraction", "style", "count",
-                                                                 "chunk_frames")}})
+    reads = {n: _reads(n) for n in INPUTS if n not in ("weight", "mode", "frames", "seed") and kinds_reading(n)}
+    add_options(p, EditOptions, notes={"weight": weight_range_text(), **reads})
     p.add_argument("--from-frame", type=int, default=None, help="first frame the edit touches (one span; or --frames)")
     p.add_argument("--to-frame", type=int, default=None,
                    help="frame after the last one the edit touches (default: the motion's end)")
@@ -77,7 +76,7 @@ def options_from_args(args: argparse.Namespace):
     if args.kind in ("example", "style", "count"):
         source = _source(args.prompt, "a prompt or a motion file" if args.kind == "count"
                          else "an example prompt or file" if args.kind == "example" else "a content prompt or file")
-    return from_args(EditOptions, args, prompt=source, frames=span, seed=args.seed,
+    return from_args(EditOptions, args, check=False, prompt=source, frames=span, seed=args.seed,
                      style=_source(args.style, "--style") if args.kind == "style" else None)
 
 

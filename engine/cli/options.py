@@ -7,8 +7,8 @@ made from a dataclass, and read back into it.
   True default and a ``--no-...`` flag turns it off. Metadata ``group`` puts a flag in an argument group,
   ``exclusive`` in a mutually exclusive one.
 - :func:`from_args` builds the options class from the parsed flags (plus values the command computed), each
-  flag's value checked against its declared bounds first, named by its flag (and label): ``--chunk-frames: chunk
-  size (frames) must be between 4 and 100, got 200``.
+  flag's value checked against its declared bounds first, named by its flag: ``--directions must be between 1 and 8,
+  got 0`` (``check=False``: the class's own validate names it).
 - :class:`SampleOptions`: the flags every sampling command shares (seed, steps, guidance, model); the defaults
   are engine.units's and engine.paths's.
 """
@@ -33,7 +33,7 @@ def describe(spec: Spec, note: str = "") -> str:
         lo, hi = spec.bounds
         unit = f" {spec.unit}" if spec.unit else ""
         parts.append(f"{lo:g} or more{unit}" if hi == float("inf") else f"{lo:g} to {hi:g}{unit}")
-    if spec.has_default and spec.default is not None and not isinstance(spec.default, bool) or spec.none:
+    if spec.has_default and spec.default not in (None, "") and not isinstance(spec.default, bool) or spec.none:
         parts.append(f"default {spec.default_text()}")
     parts += [n for n in (spec.note, note) if n]
     return f"{spec.help} ({'; '.join(parts)})" if parts else spec.help
@@ -64,7 +64,7 @@ def argument(spec: Spec, *, help: str, given_only: bool = False) -> tuple[tuple[
     if isinstance(default, bool) and spec.action is None:
         turn_off = default and spec.flag.startswith("--no-")
         kw["action"] = "store_false" if turn_off else "store_true" if not default else argparse.BooleanOptionalAction
-        kw["default"] = None if given_only and not turn_off else default
+        kw["default"] = None if given_only and kw["action"] is argparse.BooleanOptionalAction else default
         return (spec.flag,), kw
     element = default[0] if isinstance(default, tuple) and default else default
     parse = spec.parse or spec.type or (Path if isinstance(element, Path) else
@@ -117,14 +117,16 @@ def check_args(args: argparse.Namespace, cls, *, skip: Iterable[str] = ()) -> No
     """Every parsed option of ``cls`` within its declared bounds and choices: one line naming its flag."""
     by_name = {s.name: s for s in specs(cls)}
     for name, value in values(args, cls, skip=skip).items():
-        by_name[name].check(value, what=by_name[name].said)
+        by_name[name].check(value, what=by_name[name].flag)
 
 
-def from_args(cls, args: argparse.Namespace, *, skip: Iterable[str] = (), **given):
-    """``cls`` from the parsed flags: each flag's value checked (named by its flag), then ``given`` (values the
-    command computed, e.g. a source file loaded) in place of the flags of those names."""
+def from_args(cls, args: argparse.Namespace, *, skip: Iterable[str] = (), check: bool = True, **given):
+    """``cls`` from the parsed flags: each flag's value checked (named by its flag; ``check=False``: left to the
+    class's own validate), then ``given`` (values the command computed, e.g. a source file loaded) in place of the
+    flags of those names."""
     skip = (*skip, *given)
-    check_args(args, cls, skip=skip)
+    if check:
+        check_args(args, cls, skip=skip)
     return cls(**values(args, cls, skip=skip), **given)
 
 
