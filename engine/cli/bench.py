@@ -27,7 +27,6 @@ import argparse
 import json
 import sys
 from dataclasses import replace
-from pathlib import Path
 
 from engine.cli.options import add_options
 from engine.evaluation.bench_options import BenchOptions

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import MISSING, dataclass, fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -92,7 +92,8 @@ def add_options(parser: argparse.ArgumentParser, cls, *, skip: Iterable[str] = (
     groups: dict[str, Any] = {}
     meta = {f.name: f.metadata for f in fields(cls)}
     for s in chosen:
-        text = (helps or {}).get(s.name) or (describe_with(s) if describe_with else describe(s, (notes or {}).get(s.name, "")))
+        text = (helps or {}).get(s.name) or (describe_with(s) if describe_with
+                                             else describe(s, (notes or {}).get(s.name, "")))
         names, kw = argument(s, help=text, given_only=given_only)
         exclusive, title = meta[s.name].get("exclusive"), meta[s.name].get("group")
         if exclusive and exclusive not in groups:
@@ -128,11 +129,6 @@ def from_args(cls, args: argparse.Namespace, *, skip: Iterable[str] = (), check:
     if check:
         check_args(args, cls, skip=skip)
     return cls(**values(args, cls, skip=skip), **given)
-
-
-def defaults(cls) -> dict[str, Any]:
-    """Option name -> declared default (MISSING left out)."""
-    return {s.name: s.default for s in specs(cls) if s.default is not MISSING}
 
 
 @dataclass(frozen=True, kw_only=True)

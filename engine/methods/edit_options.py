@@ -9,7 +9,7 @@ through :mod:`engine.methods.edits`. Counting is not an edit (see ``edits.count_
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass
 
 from typing import TYPE_CHECKING, Any
 
