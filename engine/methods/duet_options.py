@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from engine.options import option
+from engine.options import option, validate
 from engine.paths import DUET_DIR
 from engine.units import DEFAULT_GUIDANCE, DUET_COMPLETE_SECONDS, DUET_PREFIX_SECONDS, DUET_SECONDS
 
@@ -35,6 +35,9 @@ class DuetOptions:
     guidance: float | None = option(None, help=f"classifier-free guidance scale (default {DEFAULT_GUIDANCE:g}; 1.0 "
                                     "with --prefix and no prompt)")
     duet_model: Path = option(DUET_DIR, help="the ComMDM block trained on that prior")
+
+    def __post_init__(self) -> None:
+        validate(self)  # every declared bound and choice, one line naming the option
 
     def guidance_used(self) -> float:
         """The guidance scale: the one given, else none (1.0) for a completion without text, else the default."""

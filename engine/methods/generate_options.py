@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from engine.duration import AUTO, seconds_argument
-from engine.options import option
+from engine.options import option, validate
 from engine.units import MAX_SECONDS, MIN_SECONDS
 
 SAMPLERS = ("ddim", "ddpm")
@@ -20,3 +20,6 @@ class GenerateOptions:
                                   f"{MAX_SECONDS:g}), or auto: predicted from the prompt (default: auto)")
     sampler: str = option("ddim", choices=SAMPLERS, help="the sampler: DDIM (deterministic; the default) or DDPM (stochastic)")
     vecs: bool = option(False, help="write .npy outputs as 263-dim features instead of joints")
+
+    def __post_init__(self) -> None:
+        validate(self)  # every declared bound and choice, one line naming the option

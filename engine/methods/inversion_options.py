@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from engine.options import option
+from engine.options import option, validate
 from engine.units import DEFAULT_STEPS
 
 
@@ -16,3 +16,6 @@ class InversionConfig:
     steps: int = option(DEFAULT_STEPS, bounds=(1, 1000), whole=True, help="DDIM steps of the inversion")
     refine: int = option(2, help="fixed-point iterations per inversion step (0 = plain DDIM)")
     guidance: float = 1.0
+
+    def __post_init__(self) -> None:
+        validate(self)  # every declared bound and choice, one line naming the option
