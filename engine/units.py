@@ -12,3 +12,8 @@ MIN_SECONDS = 1.0  # the shortest motion the studio and the CLI generate
 # the default sampling config (engine.generate.SampleConfig and every bench and tab read these)
 DEFAULT_STEPS = 50
 DEFAULT_GUIDANCE = 2.5  # classifier-free guidance scale (MotionCLR's)
+EDIT_SECONDS = 4.0  # the length of a motion `moattn edit` generates to edit
+
+# a duet (ComMDM): from a prompt; a completion: the prefix given, the seconds completed
+DUET_SECONDS = 5.0
+DUET_PREFIX_SECONDS, DUET_COMPLETE_SECONDS = 1.0, 3.0

@@ -4,6 +4,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from engine.options import option
 from scipy.ndimage import gaussian_filter, gaussian_filter1d
 from scipy.signal import find_peaks
 
@@ -49,7 +51,9 @@ class CountingConfig:
     All return the same smoothed, pooled map (``processed``) for display.
     """
 
-    method: str = "lag"
+    method: str = option("lag", choices=tuple(COUNTING_METHODS), flag="--count-method",
+                         help="count: how the self-attention map becomes a count: "
+                              + "; ".join(f"{name}: {text}" for name, text in COUNTING_METHODS.items()))
     sigma: float = 0.8  # Gaussian filter on the map
     downsample: int = 4  # average pooling factor
     height_factor: float = 3.0  # rows: a peak must exceed this times the row mean

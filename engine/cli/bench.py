@@ -27,9 +27,9 @@ import argparse
 import json
 import sys
 from dataclasses import replace
-from pathlib import Path
 
-from engine.paths import DUET_DIR, EVALUATOR_DIR, MODEL_DIR
+from engine.cli.options import add_options
+from engine.evaluation.bench_options import BenchOptions
 from engine.runtime import add_runtime_arguments, runtime_from_args
 
 
@@ -37,82 +37,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="benchmarks: --app (studio in Chromium), --soak (browser sessions for minutes), "
                        "--edits (MotionCLR), --inversion, --transfer (MoMo), --compose / --control (PriorMDM), --duet (ComMDM)",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    mode = p.add_mutually_exclusive_group()
-    mode.add_argument("--app", action="store_true", help="click -> first frame, playback fps, layer switch in Chromium")
-    mode.add_argument("--soak", action="store_true",
-                      help="--sessions browser sessions for --minutes against one server: server errors, memory, "
-                           "threads, worst time to result, cross-talk")
-    mode.add_argument("--edits", action="store_true", help="score the MotionCLR edits against corpus ground truth")
-    mode.add_argument("--inversion", action="store_true",
-                      help="inversion round-trip error (m) and noise std: corpus, shared real files, given files")
-    mode.add_argument("--transfer", action="store_true", help="MoMo transfer vs ground truth and baselines")
-    mode.add_argument("--compose", action="store_true", help="DoubleTake vs first take vs naive concatenation")
-    mode.add_argument("--duet", action="store_true", help="ComMDM vs the prior twice on held-out two-person duets")
-    mode.add_argument("--adherence", action="store_true",
-                      help="prompt adherence (action, count, side, direction, order) of the model and the ground truth")
-    mode.add_argument("--sampling", action="store_true",
-                      help="sampling speed per step count with adherence and FID, and attention-recording overhead")
-    mode.add_argument("--levers", action="store_true",
-                      help="lever screen: one row per model folder given as FILES, scored on the dev prompt set")
-    p.add_argument("--guidance", type=float, default=None,
-                   help="--adherence / --levers: classifier-free guidance scale (default: the sampling default)")
-    p.add_argument("--real", type=Path, default=None,
-                   help="--levers: the real motion file whose inversion round trip each row reports")
-    p.add_argument("--lengths", choices=("auto", "truth"), default=None,
-                   help="--adherence: the model's lengths, auto (predicted from the prompt, what a user gets; default) "
-                        "or truth (each seed's ground-truth length)")
-    mode.add_argument("--exports", action="store_true",
-                      help="seconds to export a 9.8-s motion as the studio's Export buttons do (GIF, MP4, GLB, BVH, npy)")
-    mode.add_argument("--train", action="store_true",
-                      help="training step speed and GFLOP/s vs the matmul peak (two model shapes), and the corpus "
-                           "generator's samples/s with DataLoader workers")
-    p.add_argument("--control", action="store_true", help="control models and blending vs inpainting (PriorMDM)")
-    p.add_argument("--model", type=Path, default=MODEL_DIR, help=f"model folder (default {MODEL_DIR})")
-    p.add_argument("--duet-model", type=Path, default=DUET_DIR, help=f"--duet: the ComMDM block (default {DUET_DIR})")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_options(p, BenchOptions, describe_with=lambda spec: spec.help)  # declared once: engine/evaluation/bench_options.py
     add_runtime_arguments(p)  # --device, --precision: used by --train (the other benchmarks run on the CPU for now)
-    app = p.add_argument_group("--app")
-    app.add_argument("--prompt", default="a person jumps twice")
-    app.add_argument("--seconds", type=float, default=3.0, help="playback measuring window")
-    app.add_argument("--log", type=Path, default=None, help="write the server's output here (also --soak)")
-    app.add_argument("--compositing", choices=["swiftshader", "software", "both"], default="both",
-                     help="Chromium compositing: SwiftShader GPU emulation, CPU (--disable-gpu), or both (default)")
-    soak = p.add_argument_group("--soak")
-    soak.add_argument("--sessions", type=int, default=None, help="browser sessions at once (default 5)")
-    soak.add_argument("--minutes", type=float, default=None, help="how long the sessions go on (default 10)")
-    edits = p.add_argument_group("--edits / --inversion / --transfer")
-    edits.add_argument("--quick", action="store_true", help="fewer samples and steps")
-    edits.add_argument("--evaluator", type=Path, default=EVALUATOR_DIR)
-    edits.add_argument("--calibrate", action="store_true",
-                       help="--edits: measure per layer whether emphasis grows the action (calibration prompts, not "
-                            "the benchmark's) instead of benchmarking")
-    edits.add_argument("--write", action="store_true", help="--calibrate: store the chosen layers in the model's config.json; "
-                       "--control: record the drawn root + wrist figures beside the control models (bench.json: the "
-                       "studio's Control tab opens on blending only when they have it ahead of inpainting)")
-    edits.add_argument("--samples", type=int, default=None,
-                       help="--inversion: corpus test motions (default 16, quick 6); --transfer: in-distribution pairs; "
-                            "--duet: held-out duets per interaction (default 3, quick 1)")
-    edits.add_argument("--ood-pairs", type=int, default=None, help="--transfer: held-out pairs")
-    edits.add_argument("--seeds", type=int, default=None,
-                       help="--duet: seeds per held-out duet (default 1); --adherence: seeds per prompt (default 4, "
-                            "quick 2)")
-    edits.add_argument("--drawn", type=int, default=None,
-                       help="--control: drawn paths per control (default 9, quick 3; 0: true paths only)")
-    edits.add_argument("--prompts", type=Path, default=None,
-                       help="--adherence / --sampling: a file of prompts, one per line (default: the shipped set of "
-                            "prompts people type)")
-    edits.add_argument("--steps", type=int, default=None,
-                       help="sampling steps for every benchmark but --app and --train (default: the benchmark's "
-                            "preset, 50; --quick: its own; --soak: 10); --train: timed training steps per row (default 5)")
-    edits.add_argument("--ddpm", action="store_true",
-                       help="--sampling: add the DDPM-1000 row, the slow baseline (12.5 x the steps of the DDIM rows "
-                            "together; left out by default)")
-    edits.add_argument("--full", action="store_true",
-                       help="--sampling: the thorough run: 16 prompts, FID on 64 motions, 3 repeats, 500 validation "
-                            "motions and the DDPM row (over half an hour on 2 cores; default: 8 prompts, FID on 32)")
-    edits.add_argument("--no-real-data", action="store_true",
-                       help="--inversion: skip the motion files of the shared real-data folder (../shared/data/real/)")
-    edits.add_argument("files", nargs="*", type=Path, help="--inversion: real motions (.bvh/.npy) to invert as well")
     p.set_defaults(run=run)
 
 

@@ -4,15 +4,27 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
-from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
+from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs
+from engine.cli.options import add_options, add_sample_options
 from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.methods.doubletake_config import (DoubleTakeConfig, SecondTake, check_option, option_info, options,
                                               parse_handshakes)
-from engine.paths import MODEL_DIR
+from engine.options import option
 from engine.runtime import add_runtime_arguments, runtime_from_args
-from engine.units import DEFAULT_GUIDANCE
+
+
+@dataclass(frozen=True, kw_only=True)
+class ComposeFiles:
+    """`moattn compose`'s own settings: the intervals, first take only, the output files."""
+
+    intervals: tuple[str, ...] = option(positional=True, nargs="+", metavar="PROMPT:SECONDS",
+                                        help="an interval: its prompt and its length in seconds (up to 9.8)")
+    first_take_only: bool = option(False, help="skip the second take")
+    out: Path = option(required=True, type=Path, help="the long motion (.npy or .bvh)")
+    render: Path | None = option(None, type=Path, help="a render (.gif, .mp4 or .png)")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -20,31 +32,25 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        description="Generate a long motion from intervals, each 'PROMPT:SECONDS' (up to 9.8 s), "
                        "joined by handshakes (PriorMDM's DoubleTake). Consecutive intervals share the handshake "
                        "frames, so the motion lasts the sum of the intervals minus one handshake per transition.")
-    p.add_argument("intervals", nargs="+", metavar="PROMPT:SECONDS")
+    add_options(p, ComposeFiles)
     # every option's default, bounds and help: engine.methods.doubletake_config (the studio's Compose tab reads it too)
     hand = option_info(DoubleTakeConfig, "handshake")
     p.add_argument("--handshake", default=None, metavar="FRAMES[,FRAMES...]",
                    help=f"{hand.help}: one value for every transition or one per transition, e.g. 20,30,15; in "
                         f"seconds with an s (1s); {hand.bounds[0]:g} to {hand.bounds[1]:g} frames (default "
                         f"{hand.default})")
-    p.add_argument("--first-take-only", action="store_true", help="skip the second take")
-    for info in options(SecondTake):
-        kind = float if isinstance(info.default, float) else int
-        p.add_argument(f"--{info.flag}", dest=_dest(info), type=kind, default=None,
-                       help=f"second take: {info.help}; {info.bounds[0]:g} to {info.bounds[1]:g}"
-                            f"{' ' + info.unit if info.unit else ''} (default {info.default_text()})")
-    p.add_argument("--second-take-text", action="store_true",
-                   help="second take: denoise each transition with 'A, then B' (default: without text, as the "
-                        "authors' code)")
-    p.add_argument("--seed", type=seed_argument, default=0)
-    p.add_argument("--steps", type=int, default=50)
-    p.add_argument("--guidance", type=float, default=DEFAULT_GUIDANCE)
-    p.add_argument("--model", type=Path, default=MODEL_DIR)
-    p.add_argument("--out", type=Path, required=True, help="the long motion (.npy or .bvh)")
-    p.add_argument("--render", type=Path, default=None, help="a render (.gif, .mp4 or .png)")
+    add_options(p, SecondTake, given_only=True, describe_with=_second_take_help)
+    add_sample_options(p)
     add_runtime_arguments(p)
     add_library_arguments(p)
     p.set_defaults(run=run)
+
+
+def _second_take_help(spec) -> str:
+    if spec.bounds is None:
+        return f"second take: {spec.help}"
+    unit = f" {spec.unit}" if spec.unit else ""
+    return f"second take: {spec.help}; {spec.bounds[0]:g} to {spec.bounds[1]:g}{unit} (default {spec.default_text()})"
 
 
 def _dest(info) -> str:

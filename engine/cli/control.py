@@ -9,15 +9,31 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
-from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
+from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs
+from engine.cli.options import add_options, add_sample_options
 from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.methods.control_options import (CONTROLS, LABELS, ControlOptions, WRITE_COMMAND, bench_verdict,
                                             option_info)
-from engine.paths import CONTROL_DIR, MODEL_DIR
+from engine.options import option
+from engine.paths import CONTROL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
-from engine.units import DEFAULT_GUIDANCE, DEFAULT_STEPS
+
+
+@dataclass(frozen=True, kw_only=True)
+class ControlFiles:
+    """`moattn control`'s own settings besides ControlOptions: the prompt, the path files' shorthands, the folders."""
+
+    prompt: str = option(required=True, help="what the person does")
+    inpaint: bool = option(False, help="the same as --method inpainting (the baseline)")
+    weights: tuple[float, ...] | None = option(
+        None, nargs="+", metavar="W", help="the blend weights at once, in the order root, left wrist, right wrist of "
+        "the paths given (instead of the --*-weight flags)")
+    controls: Path = option(CONTROL_DIR, help="control model folders")
+    out: Path = option(required=True, type=Path, help="the motion (.npy or .bvh), in the path's world frame")
+    render: Path | None = option(None, help="a render (.gif, .mp4 or .png)")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -30,30 +46,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "(scaled to sum 1); --method inpainting (or --inpaint) uses the base model with plain "
                        f"inpainting instead. The report says which of the two the control bench has ahead "
                        f"(`{WRITE_COMMAND}` records it).")
-    p.add_argument("--prompt", required=True)
+    add_options(p, ControlFiles, only=("prompt",))
     for name in CONTROLS:
         p.add_argument(f"--{name.replace('_', '-')}", type=Path, default=None, metavar="PATH.json",
                        help=f"{LABELS[name].removesuffix(' path')} path JSON")
-    method = option_info(ControlOptions, "method")
-    p.add_argument(method.flag, choices=method.choices, default=None, help=f"{method.help} (default {method.default})")
-    p.add_argument("--inpaint", action="store_true", help="the same as --method inpainting (the baseline)")
-    for name in CONTROLS:
-        info = option_info(ControlOptions, ControlOptions.weight_field(name))
-        p.add_argument(info.flag, type=float, default=None, metavar="W",
-                       help=f"{info.help} (default {info.default:g}; blending only)")
-    p.add_argument("--weights", type=float, nargs="+", default=None, metavar="W",
-                   help="the blend weights at once, in the order root, left wrist, right wrist of the paths given "
-                        "(instead of the --*-weight flags)")
-    seconds = option_info(ControlOptions, "seconds")
-    p.add_argument(seconds.flag, type=float, default=seconds.default,
-                   help=f"{seconds.help} ({seconds.bounds[0]:g} to {seconds.bounds[1]:g} s; default {seconds.default:g})")
-    p.add_argument("--seed", type=seed_argument, default=0)
-    p.add_argument("--steps", type=int, default=DEFAULT_STEPS)
-    p.add_argument("--guidance", type=float, default=DEFAULT_GUIDANCE)
-    p.add_argument("--model", type=Path, default=MODEL_DIR)
-    p.add_argument("--controls", type=Path, default=CONTROL_DIR, help=f"control model folders (default {CONTROL_DIR})")
-    p.add_argument("--out", type=Path, required=True, help="the motion (.npy or .bvh), in the path's world frame")
-    p.add_argument("--render", type=Path, default=None, help="a render (.gif, .mp4 or .png)")
+    # the method, the blend weights and the length: declared on ControlOptions (the Control tab reads them too)
+    add_options(p, ControlOptions, only=("method",), given_only=True)
+    add_options(p, ControlFiles, only=("inpaint",))
+    add_options(p, ControlOptions, skip=("method", "seconds"), given_only=True,
+                notes={ControlOptions.weight_field(n): "blending only" for n in CONTROLS})
+    add_options(p, ControlFiles, only=("weights",))
+    add_options(p, ControlOptions, only=("seconds",))
+    add_sample_options(p)
+    add_options(p, ControlFiles, skip=("prompt", "inpaint", "weights"))
     add_runtime_arguments(p)
     add_library_arguments(p)
     p.set_defaults(run=run)

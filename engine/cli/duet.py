@@ -4,14 +4,25 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from engine.cli.common import RENDER_SUFFIXES, check_outputs, seed_argument
+from engine.cli.common import RENDER_SUFFIXES, check_outputs
+from engine.cli.options import add_options, add_sample_options, from_args
 from engine.library.cli_support import add_library_arguments, cli_recipe, keep
-from engine.paths import DUET_DIR, MODEL_DIR
+from engine.methods.duet_options import DuetOptions
+from engine.options import option
 from engine.runtime import add_runtime_arguments, runtime_from_args
+
+
+@dataclass(frozen=True, kw_only=True)
+class DuetFiles:
+    """`moattn duet`'s output files."""
+
+    out: Path = option(required=True, type=Path, help="the duet (.npy, or .bvh for one file per person)")
+    render: Path | None = option(None, help="a render of both people (.gif, .mp4 or .png)")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -20,24 +31,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "shake hands'), or with --prefix complete the next seconds of a two-person motion (text "
                        "optional). --out FILE.npy holds joints (2, T, 22, 3) in one frame; FILE.bvh writes "
                        "FILE_a.bvh and FILE_b.bvh (one skeleton each, same frame).")
-    p.add_argument("prompt", nargs="?", default=None, help="what the two people do (optional with --prefix)")
-    p.add_argument("--out", type=Path, required=True, help="the duet (.npy, or .bvh for one file per person)")
-    p.add_argument("--seconds", type=float, default=None,
-                   help="length (default 5 s; with --prefix: seconds completed after the prefix, default 3)")
-    p.add_argument("--prefix", type=Path, nargs="+", default=None, metavar="FILE",
-                   help="a duet .npy (2, T, 22, 3), or two motions (.bvh/.npy), person a then person b")
-    p.add_argument("--prefix-seconds", type=float, default=None, help="seconds of the prefix kept (default 1)")
-    p.add_argument("--no-communication", action="store_true",
-                   help="the baseline: the prior run twice without the block (fixed placement)")
-    p.add_argument("--no-contact", action="store_true",
-                   help="no contact guidance (by default, a prompt read as a trained interaction with contacts, "
-                   "e.g. a handshake, has the hands guided to touch when the training examples do)")
-    p.add_argument("--seed", type=seed_argument, default=0)
-    p.add_argument("--steps", type=int, default=50)
-    p.add_argument("--guidance", type=float, default=None, help="default 2.5 (1.0 with --prefix and no prompt)")
-    p.add_argument("--model", type=Path, default=MODEL_DIR, help="the base model (the prior)")
-    p.add_argument("--duet-model", type=Path, default=DUET_DIR, help="the ComMDM block trained on that prior")
-    p.add_argument("--render", type=Path, default=None, help="a render of both people (.gif, .mp4 or .png)")
+    add_options(p, DuetOptions, describe_with=lambda spec: spec.help)  # each help says its default
+    add_sample_options(p, skip=("guidance",), helps={"model": "the base model (the prior)"})
+    add_options(p, DuetFiles)
     add_runtime_arguments(p)
     add_library_arguments(p)
     p.set_defaults(run=run)
@@ -100,23 +96,25 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("the prompt is empty: describe what the two people do, e.g. 'two people shake hands'")
     if args.prompt is None and args.prefix is None:
         raise ValueError("give a prompt (e.g. 'two people shake hands') or --prefix FILE")
-    model = load_trained(args.duet_model, args.model, runtime=runtime_from_args(args))
+    options = from_args(DuetOptions, args)
+    model = load_trained(options.duet_model, args.model, runtime=runtime_from_args(args))
     notes = []
     if args.prompt is not None:  # a prompt with nothing readable fails before any sampling; other words are noted
         notes = model.tokenizer.encode(args.prompt).notes()
         if notes:
             print(f"notes: {'; '.join(notes)}", file=sys.stderr)
-    guidance = args.guidance if args.guidance is not None else (1.0 if args.prompt is None else 2.5)
+    guidance = options.guidance_used()
     sample = SampleConfig(steps=args.steps, guidance=guidance, seed=args.seed)
-    communicate = not args.no_communication
+    communicate = options.communication
     if args.prefix is not None:
         a, b = read_prefix(args.prefix)
         given = args.prefix_seconds if args.prefix_seconds is not None else PREFIX_SECONDS
         duet = complete(model, a, b, prefix_seconds=given, prompt=args.prompt,
                         seconds=args.seconds or COMPLETE_SECONDS, sample=sample, communicate=communicate)
     else:
-        duet = text_to_duet(model, args.prompt, seconds=args.seconds or TEXT_SECONDS, sample=sample, communicate=communicate,
-                            contact=None if args.no_contact else ContactConfig())
+        duet = text_to_duet(model, args.prompt, seconds=args.seconds or TEXT_SECONDS, sample=sample,
+                            communicate=communicate, contact=ContactConfig() if options.contact else None,
+                            spacing=options.spacing)
     written = write_duet(duet.joints, args.out)
     named = (args.prompt or "completed duet")[:180]
     first = None
@@ -124,11 +122,12 @@ def run(args: argparse.Namespace) -> int:
         kept = keep(args, joints, kind="duet", stream=sys.stderr, title=f"{named} · person {person}",
                     parents=[first.entry.id] if first is not None else (),
                     recipe=cli_recipe(args, made_by="moattn duet", prompt=args.prompt, frames=duet.frames,
-                                      guidance=guidance, duet={"person": person}))
+                                      guidance=guidance,
+                                      duet={"person": person, **({} if options.spacing else {"spacing": False})}))
         first = first or kept
     p = duet.placement
     report = {"out": [str(w) for w in written], "frames": duet.frames, "seconds": duet.frames / 20,
-              "communication": communicate,
+              "communication": communicate, "spacing": duet.spacing is not None,
               "placement_of_b_from_a": {"x_m": round(p.x, 3), "z_m": round(p.z, 3),
                                         "facing_deg": round(float(np.degrees(p.yaw)), 1)},
               "contacts": [{**c.to_json(), "interaction": duet.interaction} for c in duet.contacts]}

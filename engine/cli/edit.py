@@ -4,22 +4,33 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
-from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs, seed_argument
+from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs
+from engine.cli.options import add_options, add_sample_options, from_args
 from engine.library.cli_support import add_library_arguments, cli_recipe, keep
-from engine.analysis.counting import COUNTING_METHODS, CountingConfig
-from engine.methods.edit_kinds import KINDS, REGISTRY, kinds_reading
-from engine.methods.edit_options import option_spec
-from engine.methods.spans import parse_spans, spans_text
-from engine.paths import MODEL_DIR
+from engine.analysis.counting import CountingConfig
+from engine.methods.edit_kinds import INPUTS, KINDS, REGISTRY, kinds_reading
+from engine.methods.edit_options import EditOptions
+from engine.options import option
+from engine.methods.spans import spans_text
 from engine.runtime import add_runtime_arguments, runtime_from_args
+from engine.units import EDIT_SECONDS
 from engine.methods.motionclr import weight_range_text
-from engine.units import DEFAULT_GUIDANCE
 
 
 def _reads(field: str) -> str:
     return "read by " + ", ".join(kinds_reading(field))
+
+
+@dataclass(frozen=True, kw_only=True)
+class EditFiles:
+    """`moattn edit`'s own settings: the length of a generated motion, the output files."""
+
+    seconds: float = option(EDIT_SECONDS, help="length of the motion generated to edit, in seconds")
+    out: Path = option(Path("edited.npy"), help="edited motion (.npy or .bvh)")
+    render: Path | None = option(None, type=Path, help="before/after render (.gif, .mp4 or .png)")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -27,53 +38,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        description="Run an attention edit and write the edited motion (.npy/.bvh) and a side-by-side "
                        "before/after render (.gif/.mp4/.png). Kinds: "
                        + " ".join(f"{name}: {k.help}" for name, k in REGISTRY.items()))
-    p.add_argument("kind", choices=KINDS)
-    p.add_argument("prompt", nargs="?", default=None,
-                   help="the prompt (the reference prompt for replace); a .bvh/.npy file works as the example/content")
-    p.add_argument("--word", help=f"the word the edit acts on ({_reads('word')})")
-    p.add_argument("--weight", type=float, default=0.3, help=f"emphasis weight ({weight_range_text()})")
-    p.add_argument("--mode", choices=("add", "mul"), default="add")
-    p.add_argument("--frames", type=_spans_argument, default=None, metavar="START:END[,START:END...]",
-                   help="the frame span(s) [start, end) the edit touches, e.g. 10:20; ground takes several, e.g. "
-                        "10:30,50:70,90:110,130:150 (four jumps at chosen times)")
+    # the edit's options, declared once on EditOptions (the Edit tab reads the same fields)
+    reads = {n: _reads(n) for n in INPUTS if n not in ("weight", "mode", "frames", "seed") and kinds_reading(n)}
+    add_options(p, EditOptions, notes={"weight": weight_range_text(), **reads})
     p.add_argument("--from-frame", type=int, default=None, help="first frame the edit touches (one span; or --frames)")
     p.add_argument("--to-frame", type=int, default=None,
                    help="frame after the last one the edit touches (default: the motion's end)")
-    p.add_argument("--edited", help=f"the edited prompt; its words are aligned to the prompt's as prompt-to-prompt "
-                                    f"aligns them, and the alignment is printed ({_reads('edited')})")
-    p.add_argument("--fraction", type=float, default=0.5,
-                   help=f"the part of the motion moved to the end ({_reads('fraction')})")
-    p.add_argument("--style", help=f"the style source, a prompt or .bvh/.npy ({_reads('style')})")
-    p.add_argument("--count", type=int, default=4, help=f"how many outputs ({_reads('count')})")
-    chunk = option_spec("chunk_frames")
-    p.add_argument(chunk.flag, type=int, default=chunk.default, metavar="FRAMES",
-                   help=f"{chunk.help} ({chunk.bounds[0]} to {chunk.bounds[1]}; default {chunk.default}; "
-                        f"{_reads('chunk_frames')})")
-    p.add_argument("--count-method", choices=tuple(COUNTING_METHODS), default=CountingConfig.method,
-                   help="count: how the self-attention map becomes a count: "
-                        + "; ".join(f"{name}: {text}" for name, text in COUNTING_METHODS.items()))
-    p.add_argument("--step-window", type=float, nargs=2, default=None, metavar=("START", "END"),
-                   help="fractions of the sampling steps the edit acts in (default: the method's)")
-    p.add_argument("--layers", type=int, nargs="+", default=None, metavar="LAYER",
-                   help="layers the edit acts in (default: all; emphasize: the layers calibrated for the model, "
-                        "see moattn bench --edits --calibrate)")
-    p.add_argument("--seconds", type=float, default=4.0)
-    p.add_argument("--seed", type=seed_argument, default=0)
-    p.add_argument("--steps", type=int, default=50)
-    p.add_argument("--guidance", type=float, default=DEFAULT_GUIDANCE)
-    p.add_argument("--model", type=Path, default=MODEL_DIR)
-    p.add_argument("--out", type=Path, default=Path("edited.npy"), help="edited motion (.npy or .bvh)")
-    p.add_argument("--render", type=Path, default=None, help="before/after render (.gif, .mp4 or .png)")
+    add_options(p, CountingConfig, only=("method",))
+    add_options(p, EditFiles)
+    add_sample_options(p)
     add_runtime_arguments(p)
     add_library_arguments(p)
     p.set_defaults(run=run)
-
-
-def _spans_argument(text: str):
-    try:
-        return parse_spans(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _source(text: str | None, what: str):
@@ -89,8 +65,6 @@ def _source(text: str | None, what: str):
 
 def options_from_args(args: argparse.Namespace):
     """The command line's options as the shared ``EditOptions`` (the Edit tab builds the same object)."""
-    from engine.methods.edit_options import EditOptions
-
     span = args.frames
     if args.from_frame is not None or args.to_frame is not None:
         if span is not None:
@@ -102,12 +76,8 @@ def options_from_args(args: argparse.Namespace):
     if args.kind in ("example", "style", "count"):
         source = _source(args.prompt, "a prompt or a motion file" if args.kind == "count"
                          else "an example prompt or file" if args.kind == "example" else "a content prompt or file")
-    return EditOptions(kind=args.kind, prompt=source, word=args.word, weight=args.weight, mode=args.mode, frames=span,
-                       edited=args.edited, fraction=args.fraction,
-                       style=_source(args.style, "--style") if args.kind == "style" else None, count=args.count,
-                       chunk_frames=args.chunk_frames,
-                       step_window=tuple(args.step_window) if args.step_window is not None else None,
-                       layers=tuple(args.layers) if args.layers else None, seed=args.seed)
+    return from_args(EditOptions, args, check=False, prompt=source, frames=span, seed=args.seed,
+                     style=_source(args.style, "--style") if args.kind == "style" else None)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -127,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
     report: dict = {"kind": args.kind}
     if args.kind == "count":
         source = options.prompt
-        run = edits.CountingRun(counting=CountingConfig(method=args.count_method))
+        run = edits.CountingRun(counting=from_args(CountingConfig, args))
         if isinstance(source, str):
             count, gen = edits.count_generated(loaded, source, frames=frames, sample=sample, run=run)
             joints = gen.joints[0]

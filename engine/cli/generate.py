@@ -6,29 +6,23 @@ import json
 import sys
 from pathlib import Path
 
-from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, CLIError, check_outputs, seed_argument
-from engine.duration import AUTO, resolve_seconds, seconds_argument
+from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, CLIError, check_outputs
+from engine.cli.options import add_options, add_sample_options
+from engine.duration import AUTO, resolve_seconds
 from engine.library.cli_support import add_library_arguments, cli_recipe, keep
-from engine.paths import MODEL_DIR
+from engine.methods.generate_options import GenerateOptions
 from engine.runtime import add_runtime_arguments, runtime_from_args
-from engine.units import DEFAULT_GUIDANCE, MAX_SECONDS, MIN_SECONDS
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("generate", help="generate a motion from a prompt (.npy joints/vecs, .bvh, .png/.gif/.mp4)",
                        description="Generate motions from a text prompt and write them (the extension of each --out "
                        "decides: .npy joints, .bvh, .png/.gif/.mp4 renders; --vecs writes 263-dim features to .npy).")
-    p.add_argument("prompt", help='e.g. "a person jumps twice"')
+    add_options(p, GenerateOptions, only=("prompt",))
     p.add_argument("--out", type=Path, action="append", default=None,
                    help="output file; repeat for several (none: the motion is only kept in the library)")
-    p.add_argument("--seconds", type=seconds_argument, default=AUTO,
-                   help=f"length in seconds ({MIN_SECONDS:g} to {MAX_SECONDS:g}), or auto: predicted from the prompt (default: auto)")
-    p.add_argument("--seed", type=seed_argument, default=0)
-    p.add_argument("--steps", type=int, default=50)
-    p.add_argument("--guidance", type=float, default=DEFAULT_GUIDANCE)
-    p.add_argument("--sampler", choices=("ddim", "ddpm"), default="ddim")
-    p.add_argument("--model", type=Path, default=MODEL_DIR)
-    p.add_argument("--vecs", action="store_true", help="write .npy outputs as 263-dim features instead of joints")
+    add_options(p, GenerateOptions, skip=("prompt",), describe_with=lambda spec: spec.help)
+    add_sample_options(p)
     add_library_arguments(p)
     add_runtime_arguments(p)
     p.set_defaults(run=run)

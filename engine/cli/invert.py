@@ -3,25 +3,34 @@ from __future__ import annotations
 
 import argparse
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 from engine.cli.common import check_outputs
+from engine.cli.options import add_options, add_sample_options, from_args
 from engine.cli.convert import add_window_args, load_window
-from engine.paths import MODEL_DIR
+from engine.methods.inversion_options import InversionConfig
+from engine.options import option
 from engine.runtime import add_runtime_arguments, runtime_from_args
+
+
+@dataclass(frozen=True, kw_only=True)
+class InvertFiles:
+    """`moattn invert`'s input and outputs."""
+
+    input: Path = option(positional=True, help=".bvh or .npy motion (at most the model's 9.8 s: pick a longer file's "
+                         "window with --start/--seconds)")
+    out: Path | None = option(None, help="save the noise as .npy (1, T, 263)")
+    json: bool = option(False, help="print the report as JSON")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("invert", help="DDIM-invert a motion (BVH/.npy) to noise and measure the round trip",
                        description="Motion -> noise -> motion with the model; prints the joint error in metres.")
-    p.add_argument("input", type=Path, help=".bvh or .npy motion (at most the model's 9.8 s: pick a longer file's "
-                   "window with --start/--seconds)")
-    p.add_argument("--model", type=Path, default=MODEL_DIR)
-    p.add_argument("--prompt", default="", help="a caption of the motion (default: unconditional)")
-    p.add_argument("--steps", type=int, default=50)
-    p.add_argument("--refine", type=int, default=2, help="fixed-point iterations per inversion step (0 = plain DDIM)")
-    p.add_argument("--out", type=Path, default=None, help="save the noise as .npy (1, T, 263)")
-    p.add_argument("--json", action="store_true")
+    add_options(p, InvertFiles, only=("input",))
+    add_sample_options(p, only=("model",))
+    add_options(p, InversionConfig)
+    add_options(p, InvertFiles, skip=("input",))
     add_window_args(p, what="the part of the input to invert")
     add_runtime_arguments(p)
     p.set_defaults(run=run)
@@ -32,10 +41,10 @@ def run(args: argparse.Namespace) -> int:
 
     from engine.checkpoint import load_model
     from engine.io.window import seconds_of
-    from engine.methods.inversion import InversionConfig, invert, roundtrip_error
+    from engine.methods.inversion import invert, roundtrip_error
 
     check_outputs([args.out], (".npy",))
-    config = InversionConfig(prompt=args.prompt, steps=args.steps, refine=args.refine)
+    config = from_args(InversionConfig, args)
     loaded = load_model(args.model, runtime=runtime_from_args(args))
     joints = load_window(args.input, args, max_frames=loaded.model.config.max_frames)
     report = {"input": str(args.input), "start_s": args.start or 0.0, "seconds": seconds_of(len(joints)),

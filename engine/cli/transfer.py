@@ -6,47 +6,25 @@ import json
 import sys
 from pathlib import Path
 
-from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_output_folder, check_outputs, seed_argument
+from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_output_folder, check_outputs
+from engine.cli.options import add_options, add_sample_options, from_args
 from engine.library.cli_support import add_library_arguments, cli_recipe, keep
-from engine.paths import MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
-from engine.methods.transfer_config import ROOT_CHOICES, ROOT_MODES, option_info
-from engine.units import DEFAULT_GUIDANCE, DEFAULT_STEPS
+from engine.methods.transfer_config import GENERATED_SECONDS, QKAnalysisOptions, TransferConfig, TransferSources
+from engine.options import spec
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--leader", required=True, help="the leader: a prompt, or a .bvh/.npy motion to invert")
-    p.add_argument("--leader-prompt", default=None, help="describes an imported leader (guides its inversion)")
-    p.add_argument("--follower", action="append", required=True,
-                   help="a follower: a prompt or a .bvh/.npy motion (repeat for several followers)")
-    p.add_argument("--follower-prompt", action="append", default=None,
-                   help="describes an imported follower (repeat in the order of --follower)")
-    p.add_argument("--seconds", type=float, default=None,
-                   help="length of generated leaders/followers (default 5); with --start also the window cut from "
-                        "leader/follower files (default: to the end, at most the model's 9.8 s)")
-    p.add_argument("--start", type=float, default=None, metavar="SECONDS",
-                   help="cut leader/follower files to a window starting this many seconds in (its length: --seconds); "
-                        "without it a file is taken whole")
+    add_options(p, TransferSources)
     p.add_argument("--layers", type=int, nargs=2, default=None, metavar=("FIRST", "LAST"),
                    help="mixed layers, inclusive 0-based range (default: every layer but the first)")
-    start, end = option_info("start"), option_info("end")
+    start, end = spec(TransferConfig, "start"), spec(TransferConfig, "end")
     p.add_argument("--step-window", type=float, nargs=2, default=(start.default, end.default),
                    metavar=("START", "END"),
                    help=f"fractions of the sampling steps that mix, each in [{start.bounds[0]:g}, {start.bounds[1]:g}] "
                         f"(default {start.default} {end.default}; paper: steps 90 -> 10 of 100)")
-    root = option_info("root")
-    p.add_argument("--root", choices=ROOT_MODES, default=root.default,
-                   help=f"what the output takes from the leader's root (default: {root.default}, chosen by `moattn "
-                        "bench --transfer`): " + "; ".join(f"{m}: {h}" for m, (_, h) in ROOT_CHOICES.items()))
-    p.add_argument("--keep-feet", action="store_true", help=option_info("feet").help)
-    directions = option_info("directions")
-    p.add_argument("--directions", type=int, default=directions.default, metavar="N",
-                   help=f"{directions.help} ({directions.bounds[0]:g}-{directions.bounds[1]:g}, default "
-                        f"{directions.default})")
-    p.add_argument("--seed", type=seed_argument, default=0)
-    p.add_argument("--steps", type=int, default=DEFAULT_STEPS)
-    p.add_argument("--guidance", type=float, default=DEFAULT_GUIDANCE)
-    p.add_argument("--model", type=Path, default=MODEL_DIR)
+    add_options(p, TransferConfig)  # --root, --keep-feet, --directions: declared on the method's config
+    add_sample_options(p)
     add_runtime_arguments(p)
 
 
@@ -66,14 +44,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "maps.png (leader, follower and mixed maps, per-query rows) and analysis.json.")
     _common(a)
     a.add_argument("--out", type=Path, required=True, help="folder for the figures")
-    a.add_argument("--per-prompt", type=int, default=2, help="motions per built-in prompt to fit the clusters on")
-    a.add_argument("--components", type=int, default=10, help="PCA dimensions (paper: 10)")
-    a.add_argument("--clusters", type=int, default=10, help="K-Means clusters (paper: 10)")
-    a.add_argument("--query-frames", type=int, nargs="+", default=None, help="leader frames for per-query maps")
+    add_options(a, QKAnalysisOptions)
     a.set_defaults(run=run_analyze)
-
-
-GENERATED_SECONDS = 5.0  # a prompt's leader/follower without --seconds
 
 
 def sources(args: argparse.Namespace, *, max_frames: int | None = None):
@@ -104,16 +76,13 @@ def sources(args: argparse.Namespace, *, max_frames: int | None = None):
 
 
 def config_from_args(args: argparse.Namespace):
-    from engine.methods.momo import TransferConfig
-
     layers = None
     if args.layers is not None:
         first, last = args.layers
         if last < first:
             raise ValueError(f"--layers {first} {last}: the last layer comes before the first")
         layers = tuple(range(first, last + 1))
-    return TransferConfig(start=args.step_window[0], end=args.step_window[1], layers=layers, root=args.root,
-                          feet=args.keep_feet, directions=args.directions)
+    return from_args(TransferConfig, args, start=args.step_window[0], end=args.step_window[1], layers=layers)
 
 
 def _run(args: argparse.Namespace, *, record: bool):
@@ -122,10 +91,10 @@ def _run(args: argparse.Namespace, *, record: bool):
     from engine.analysis.qk import qk_record
     from engine.methods.momo import transfer
 
+    config = config_from_args(args)  # a flag out of bounds fails before the model loads
     loaded = load_model(args.model, runtime=runtime_from_args(args))
     leader, followers = sources(args, max_frames=loaded.model.config.max_frames)
     sample = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed)
-    config = config_from_args(args)
     result = transfer(loaded, leader, followers, config, sample=sample, record=qk_record() if record else None)
     report = {"leader": leader.label, "followers": [f.label for f in followers], "root": config.root,
               "directions": config.directions,

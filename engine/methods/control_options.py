@@ -23,6 +23,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from engine.options import option as declared
 from engine.units import MAX_SECONDS, MIN_SECONDS
 
 CONTROLS = ("root", "left_wrist", "right_wrist")
@@ -34,11 +35,12 @@ METHOD_HELP = {"blending": "the fine-tuned control models, one per control, blen
 
 def option(default, *, help: str, bounds: tuple[float, float] | None = None,  # noqa: A002 (help, as argparse)
            soft: tuple[float, float] | None = None, step: float | None = None, choices: tuple[str, ...] | None = None,
-           unit: str = ""):
+           unit: str = "", metavar: str | None = None):
     """A field with its declared ``bounds`` (inclusive; the rule that checks them names them), the range a widget
-    offers (``soft``, default the bounds), a widget ``step``, ``choices`` for a word option, ``help`` and ``unit``."""
-    return field(default=default, metadata={"option": True, "help": help, "bounds": bounds, "soft": soft or bounds,
-                                            "step": step, "choices": choices, "unit": unit})
+    offers (``soft``, default the bounds), a widget ``step``, ``choices`` for a word option, ``help`` and ``unit``
+    (an :func:`engine.options.option`: the command line's flag is generated from it)."""
+    return declared(default, help=help, bounds=bounds, soft=soft, step=step, choices=choices, unit=unit,
+                    metavar=metavar)
 
 
 @dataclass(frozen=True)
@@ -122,11 +124,11 @@ class ControlOptions:
                                  "frames_for)")
     method: str = option("blending", choices=METHODS, help="blending: the fine-tuned control models blended "
                          "(DiffusionBlending); inpainting: the base model with the controls inpainted (the baseline)")
-    root_weight: float = option(1.0, bounds=WEIGHT_BOUNDS, soft=(0.0, 1.0), step=0.05,
+    root_weight: float = option(1.0, bounds=WEIGHT_BOUNDS, soft=(0.0, 1.0), step=0.05, metavar="W",
                                 help="blend weight of the root path's control model (scaled with the others to sum 1)")
-    left_wrist_weight: float = option(1.0, bounds=WEIGHT_BOUNDS, soft=(0.0, 1.0), step=0.05,
+    left_wrist_weight: float = option(1.0, bounds=WEIGHT_BOUNDS, soft=(0.0, 1.0), step=0.05, metavar="W",
                                       help="blend weight of the left wrist's control model")
-    right_wrist_weight: float = option(1.0, bounds=WEIGHT_BOUNDS, soft=(0.0, 1.0), step=0.05,
+    right_wrist_weight: float = option(1.0, bounds=WEIGHT_BOUNDS, soft=(0.0, 1.0), step=0.05, metavar="W",
                                        help="blend weight of the right wrist's control model")
 
     def __post_init__(self) -> None:

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
 from typing import Any
 
+from engine.options import option as declared
 from engine.units import FPS
 
 
@@ -38,7 +39,7 @@ class OptionInfo:
 def option_info(cls, name: str) -> OptionInfo:
     """The declared default, bounds, help and unit of one option of ``cls`` (SecondTake or DoubleTakeConfig)."""
     for f in fields(cls):
-        if f.name == name and "bounds" in f.metadata:
+        if f.name == name and f.metadata.get("bounds") is not None:
             m = f.metadata
             return OptionInfo(name, f.default, m["bounds"], m["help"], m["unit"], m["flag"] or name.replace("_", "-"),
                               m["none"])
@@ -47,7 +48,7 @@ def option_info(cls, name: str) -> OptionInfo:
 
 def options(cls) -> list[OptionInfo]:
     """Every declared option of ``cls``, in declaration order."""
-    return [option_info(cls, f.name) for f in fields(cls) if "bounds" in f.metadata]
+    return [option_info(cls, f.name) for f in fields(cls) if f.metadata.get("bounds") is not None]
 
 
 def check_option(cls, name: str, value, *, what: str | None = None) -> None:
@@ -97,7 +98,8 @@ class SecondTake:
                                  "interval up to its other handshake, as in the paper, cropped to the model's "
                                  "frames; the code before the paper's sandwich used 30)")
     # the authors' code denoises sandwiches without text; True: each with "A, then B" (doubletake.transition_prompts)
-    text: bool = False
+    text: bool = declared(False, flag="--second-take-text",
+                          help="denoise each transition with 'A, then B' (default: without text, as the authors' code)")
 
     def __post_init__(self) -> None:
         for name in ("renoise", "hard", "soft", "ramp", "eta"):

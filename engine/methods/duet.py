@@ -27,8 +27,9 @@ from engine.model.denoiser import Condition
 from engine.representation import features_to_joints, joints_to_features
 from engine.text import TokenizedPrompt, Tokenizer
 
-PREFIX_SECONDS, COMPLETE_SECONDS = 1.0, 3.0  # a completion: the prefix given, the seconds completed
-TEXT_SECONDS = 5.0  # a duet from a prompt (moattn duet and the studio's Duet tab read these)
+# a completion: the prefix given, the seconds completed; a duet from a prompt (one home: engine.units)
+from engine.units import DUET_COMPLETE_SECONDS as COMPLETE_SECONDS, DUET_PREFIX_SECONDS as PREFIX_SECONDS  # noqa: E402
+from engine.units import DUET_SECONDS as TEXT_SECONDS  # noqa: E402
 PRIOR_FOLDER = "prior"  # a duet folder's own copy of the base model its block was trained on
 
 

@@ -9,7 +9,7 @@ through :mod:`engine.methods.edits`. Counting is not an edit (see ``edits.count_
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass
 
 from typing import TYPE_CHECKING, Any
 
@@ -17,15 +17,10 @@ if TYPE_CHECKING:  # imported lazily below: the CLI reads KINDS without loading 
     from engine.methods.windows import Window
 
 from engine.methods.edit_kinds import EDIT_KINDS, KINDS, REGISTRY  # noqa: F401 (the registry's names, re-exported)
-from engine.methods.spans import Span, as_spans, check_spans
+from engine.methods.spans import Span, as_spans, check_spans, parse_spans
+from engine.options import option, spec, validate
 
 Source = Any  # a prompt (str), or joints (T, 22, 3) of a real motion (DDIM-inverted by the edit)
-
-
-def _option(default, *, bounds: tuple[int, int] | None = None, label: str, help: str):
-    """A user option declared once: its default, bounds, label and help (the CLI's flag and the tab's widget read
-    them through :func:`option_spec`)."""
-    return field(default=default, metadata={"bounds": bounds, "label": label, "help": help})
 
 
 @dataclass(frozen=True)
@@ -41,8 +36,7 @@ class OptionSpec:
         return "--" + self.name.replace("_", "-")
 
     def check(self, value) -> None:
-        if self.bounds is not None and not self.bounds[0] <= value <= self.bounds[1]:
-            raise ValueError(f"{self.label.lower()} must be between {self.bounds[0]} and {self.bounds[1]}, got {value}")
+        spec(EditOptions, self.name).check(value, what=self.label.lower())
 
 
 @dataclass(frozen=True)
@@ -57,24 +51,35 @@ class EditOptions:
     (all layers; emphasize: the layers calibrated for the model, see :func:`default_window`).
     """
 
-    kind: str
-    prompt: Source | None = None
-    word: str | None = None
+    kind: str = option(positional=True, choices=lambda: KINDS, help="the edit")
+    prompt: Source | None = option(None, positional=True, nargs="?", help="the prompt (the reference prompt for "
+                                   "replace); a .bvh/.npy file works as the example/content")
+    word: str | None = option(None, help="the word the edit acts on")
     occurrence: int = 0
-    weight: float = 0.3
-    mode: str = "add"
-    frames: Span | tuple[Span, ...] | None = None
-    edited: str | None = None
-    fraction: float = 0.5
-    style: Source | None = None
-    count: int = 4
-    chunk_frames: int = _option(
-        20, bounds=(4, 100), label="Chunk size (frames)",
+    weight: float = option(0.3, help="emphasis weight")
+    mode: str = option("add", choices=("add", "mul"), help="how the weight acts on the word's attention: added or "
+                       "multiplied")
+    frames: Span | tuple[Span, ...] | None = option(
+        None, parse=parse_spans, metavar="START:END[,START:END...]",
+        help="the frame span(s) [start, end) the edit touches, e.g. 10:20; ground takes several, e.g. "
+             "10:30,50:70,90:110,130:150 (four jumps at chosen times)")
+    edited: str | None = option(None, help="the edited prompt; its words are aligned to the prompt's as "
+                                "prompt-to-prompt aligns them, and the alignment is printed")
+    fraction: float = option(0.5, help="the part of the motion moved to the end")
+    style: Source | None = option(None, help="the style source, a prompt or .bvh/.npy")
+    count: int = option(4, help="how many outputs")
+    chunk_frames: int = option(
+        20, bounds=(4, 100), whole=True, label="Chunk size (frames)", metavar="FRAMES",
         help="example-based: the example's self-attention queries are cut into chunks of this many frames and "
              "shuffled per output (paper: 1 s = 20 frames). Shorter chunks give more varied outputs, longer ones "
              "keep more of the example's order; a chunk as long as the motion copies it")
-    step_window: tuple[float, float] | None = None
-    layers: tuple[int, ...] | None = None
+    step_window: tuple[float, float] | None = option(
+        None, nargs=2, type=float, metavar=("START", "END"), none="the method's",
+        help="fractions of the sampling steps the edit acts in")
+    layers: tuple[int, ...] | None = option(
+        None, nargs="+", type=int, metavar="LAYER",
+        help="layers the edit acts in (default: all; emphasize: the layers calibrated for the model, see moattn bench "
+             "--edits --calibrate)")
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -85,7 +90,7 @@ class EditOptions:
             if not spans:
                 raise ValueError("no frame span given")
             object.__setattr__(self, "frames", spans[0] if len(spans) == 1 else spans)
-        option_spec("chunk_frames").check(self.chunk_frames)
+        validate(self, names=lambda s: (s.label or s.name).lower())
 
     @property
     def spans(self) -> tuple[Span, ...]:
@@ -95,11 +100,12 @@ class EditOptions:
 
 def option_spec(name: str) -> OptionSpec:
     """The declaration of an ``EditOptions`` field: default, bounds, label, help."""
-    found = {f.name: f for f in fields(EditOptions)}.get(name)
-    if found is None or "help" not in found.metadata:
-        raise KeyError(f"{name!r} is not a declared edit option")
-    m = found.metadata
-    return OptionSpec(name=name, default=found.default, bounds=m["bounds"], label=m["label"], help=m["help"])
+    try:
+        found = spec(EditOptions, name)
+    except KeyError:
+        raise KeyError(f"{name!r} is not a declared edit option") from None
+    return OptionSpec(name=name, default=found.default, bounds=found.bounds, label=found.label or name,
+                      help=found.help)
 
 
 #: edit kinds whose default layers come from the model's calibration (``config.json`` "edits")

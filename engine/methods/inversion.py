@@ -11,18 +11,9 @@ from engine.checkpoint import LoadedModel
 from engine.diffusion import ClassifierFreeGuidance, CosineSchedule, ddim, ddim_invert, final
 from engine.diffusion.sampler import CLEAN
 from engine.io.window import pick_window
+from engine.methods.inversion_options import InversionConfig  # noqa: F401 (declared torch-free; its home here)
 from engine.model.denoiser import Condition
 from engine.representation import features_to_joints, joints_to_features
-
-
-@dataclass(frozen=True)
-class InversionConfig:
-    """``prompt`` describes the motion ("" = unconditional); guidance 1.0 keeps DDIM invertible."""
-
-    prompt: str = ""
-    steps: int = 50
-    refine: int = 2
-    guidance: float = 1.0
 
 
 @dataclass

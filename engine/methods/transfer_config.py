@@ -8,8 +8,10 @@ ValueError). The root modes carry their own label and help (:data:`ROOT_CHOICES`
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
 from typing import Any, Literal
+
+from engine.options import option
 
 # mode -> (label in the studio, help). The default is chosen by ``moattn bench --transfer`` (see ROOT_DEFAULT).
 ROOT_CHOICES: dict[str, tuple[str, str]] = {
@@ -30,11 +32,6 @@ ROOT_MODES = tuple(ROOT_CHOICES)
 # vs 0.11); the pose error is the same (gt_mpjpe_local 0.096 vs 0.095 m).
 ROOT_DEFAULT = "trajectory"
 MAX_DIRECTIONS = 8
-
-
-def option(default, *, label: str, help: str, bounds: tuple[float, float] | None = None):  # noqa: A002 (argparse)
-    """A config field with its label, help and (numbers) bounds (inclusive)."""
-    return field(default=default, metadata={"label": label, "help": help, "bounds": bounds})
 
 
 @dataclass(frozen=True)
@@ -60,23 +57,23 @@ class TransferConfig:
     generated one sampled once per seed, and the batch holds each copy (one stream each).
     """
 
-    start: float = option(0.1, bounds=(0.0, 1.0), label="First step that mixes (fraction of the run)",
+    start: float = option(0.1, bounds=(0.0, 1.0), cli=False, label="First step that mixes (fraction of the run)",
                           help="fraction of the sampling run where mixing starts (paper: step 90 of 100 = 0.1)")
-    end: float = option(0.9, bounds=(0.0, 1.0), label="Last step that mixes (fraction of the run)",
+    end: float = option(0.9, bounds=(0.0, 1.0), cli=False, label="Last step that mixes (fraction of the run)",
                         help="fraction of the sampling run where mixing ends (paper: step 10 of 100 = 0.9)")
     layers: tuple[int, ...] | None = None
     root: Literal["trajectory", "rotation", "none"] = option(
-        ROOT_DEFAULT, label="Root of the out",
+        ROOT_DEFAULT, choices=ROOT_MODES, label="Root of the out", note="chosen by `moattn bench --transfer`",
         help="what the output takes from the leader's root: " + "; ".join(f"{m}: {h}" for m, (_, h) in
                                                                          ROOT_CHOICES.items()))
     hard: bool = False
-    feet: bool = option(False, label="keep the leader's footwork (feet and contacts; not in the paper)",
+    feet: bool = option(False, flag="--keep-feet", label="keep the leader's footwork (feet and contacts; not in the paper)",
                         help="also keep the leader's footwork (not in the paper): its foot-contact labels and the feet "
                              "and ankles' root-relative positions are inpainted at every step, so the output steps "
                              "exactly where and when the leader does and the follower shows in the rest of the body "
                              "(its own gait style and walk -> run changes are given up)")
     directions: int = option(
-        1, bounds=(1, MAX_DIRECTIONS), label="Follower directions (the paper's direction trick)",
+        1, bounds=(1, MAX_DIRECTIONS), whole=True, metavar="N", label="Follower directions (the paper's direction trick)",
         help="the paper's direction trick: each output attends over this many copies of its follower, concatenated "
              "in time, so each leader frame finds the copy heading its way: a generated follower is sampled once per "
              "seed, an imported one turned about the vertical axis (its heading turning by 360/N degree steps over "
@@ -120,3 +117,34 @@ def check_option(name: str, value, *, what: str | None = None) -> None:
     lo, hi = info.bounds
     if not lo <= value <= hi:
         raise ValueError(f"{label} must be between {lo:g} and {hi:g}, got {value:g}")
+
+
+GENERATED_SECONDS = 5.0  # a prompt's leader/follower without --seconds
+
+
+@dataclass(frozen=True, kw_only=True)
+class TransferSources:
+    """Where a transfer's leader and followers come from: prompts, or motion files (a window of them)."""
+
+    leader: str = option(required=True, help="the leader: a prompt, or a .bvh/.npy motion to invert")
+    leader_prompt: str | None = option(None, help="describes an imported leader (guides its inversion)")
+    follower: tuple[str, ...] = option(required=True, action="append",
+                                       help="a follower: a prompt or a .bvh/.npy motion (repeat for several followers)")
+    follower_prompt: tuple[str, ...] | None = option(
+        None, action="append", type=str, help="describes an imported follower (repeat in the order of --follower)")
+    seconds: float | None = option(None, type=float, help=f"length of generated leaders/followers (default "
+                                   f"{GENERATED_SECONDS:g}); with --start also the window cut from leader/follower "
+                                   "files (default: to the end, at most the model's 9.8 s)")
+    start: float | None = option(None, type=float, metavar="SECONDS",
+                                 help="cut leader/follower files to a window starting this many seconds in (its "
+                                      "length: --seconds); without it a file is taken whole")
+
+
+@dataclass(frozen=True, kw_only=True)
+class QKAnalysisOptions:
+    """`moattn analyze-qk`'s own settings (MoMo's Q/K analysis figures)."""
+
+    per_prompt: int = option(2, help="motions per built-in prompt to fit the clusters on")
+    components: int = option(10, help="PCA dimensions (paper: 10)")
+    clusters: int = option(10, help="K-Means clusters (paper: 10)")
+    query_frames: tuple[int, ...] | None = option(None, nargs="+", type=int, help="leader frames for per-query maps")

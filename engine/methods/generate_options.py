@@ -1,0 +1,25 @@
+"""`moattn generate`'s options, declared once (torch-free: the parser reads them without loading the model code).
+The sampling settings every command shares (seed, steps, guidance, model) are engine.cli.options.SampleOptions."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from engine.duration import AUTO, seconds_argument
+from engine.options import option, validate
+from engine.units import MAX_SECONDS, MIN_SECONDS
+
+SAMPLERS = ("ddim", "ddpm")
+
+
+@dataclass(frozen=True, kw_only=True)
+class GenerateOptions:
+    """Text -> motion: the prompt, its length, the sampler, and what a .npy output holds."""
+
+    prompt: str = option(positional=True, help='e.g. "a person jumps twice"')
+    seconds: float | str = option(AUTO, parse=seconds_argument, help=f"length in seconds ({MIN_SECONDS:g} to "
+                                  f"{MAX_SECONDS:g}), or auto: predicted from the prompt (default: auto)")
+    sampler: str = option("ddim", choices=SAMPLERS, help="the sampler: DDIM (deterministic; the default) or DDPM (stochastic)")
+    vecs: bool = option(False, help="write .npy outputs as 263-dim features instead of joints")
+
+    def __post_init__(self) -> None:
+        validate(self)  # every declared bound and choice, one line naming the option

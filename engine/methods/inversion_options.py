@@ -1,0 +1,21 @@
+"""DDIM inversion's settings, declared once (torch-free: `moattn invert`'s flags are generated from them; the
+method is engine.methods.inversion, which re-exports :class:`InversionConfig`)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from engine.options import option, validate
+from engine.units import DEFAULT_STEPS
+
+
+@dataclass(frozen=True)
+class InversionConfig:
+    """``prompt`` describes the motion ("" = unconditional); guidance 1.0 keeps DDIM invertible."""
+
+    prompt: str = option("", help="a caption of the motion (default: unconditional)")
+    steps: int = option(DEFAULT_STEPS, bounds=(1, 1000), whole=True, help="DDIM steps of the inversion")
+    refine: int = option(2, help="fixed-point iterations per inversion step (0 = plain DDIM)")
+    guidance: float = 1.0
+
+    def __post_init__(self) -> None:
+        validate(self)  # every declared bound and choice, one line naming the option
