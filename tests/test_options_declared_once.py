@@ -149,3 +149,13 @@ def test_moattn_duet_no_spacing(tmp_path, tiny_model_dir, tiny_duet_dir, capsys)
         runs[name] = (json.loads(capsys.readouterr().out), np.load(out))
     assert runs["spaced"][0]["spacing"] is True and runs["raw"][0]["spacing"] is False
     np.testing.assert_array_equal(runs["spaced"][1][0], runs["raw"][1][0])
+
+
+def test_the_edit_tab_and_the_cli_share_the_example_count():
+    """#34: the number of example-based outputs was 4 in `moattn edit` and 3 in the Edit tab."""
+    from app.tabs.edit.settings import EditSettings
+    from engine.methods.edit_options import option_spec
+
+    spec = option_spec("count")
+    assert EditSettings().count == spec.default and EditSettings.param.count.bounds == spec.bounds
+    assert EditSettings.param.count.label == spec.label

@@ -67,7 +67,8 @@ class EditOptions:
                                 "prompt-to-prompt aligns them, and the alignment is printed")
     fraction: float = option(0.5, help="the part of the motion moved to the end")
     style: Source | None = option(None, help="the style source, a prompt or .bvh/.npy")
-    count: int = option(4, help="how many outputs")
+    count: int = option(3, bounds=(1, 6), whole=True, label="Number of examples",
+                        help="example-based: how many outputs")
     chunk_frames: int = option(
         20, bounds=(4, 100), whole=True, label="Chunk size (frames)", metavar="FRAMES",
         help="example-based: the example's self-attention queries are cut into chunks of this many frames and "

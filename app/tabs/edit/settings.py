@@ -10,6 +10,7 @@ from engine.methods.edit_options import option_spec
 from engine.methods.motionclr import WEIGHT_RANGES, weight_range_text
 
 _CHUNK = option_spec("chunk_frames")  # declared once, with the edit options (the CLI's --chunk-frames reads it too)
+_COUNT = option_spec("count")  # the number of example-based outputs: one default for the tab and `moattn edit --count`
 
 #: label shown in the tab -> ``moattn edit`` kind, and each kind's help: both from the engine's registry
 KIND_LABELS = {k.label: name for name, k in REGISTRY.items()}
@@ -36,7 +37,7 @@ class EditSettings(param.Parameterized):
     layers = param.List(default=[], item_type=int, doc="layers the edit acts in ([] = all)")
     fraction = param.Number(default=0.5, bounds=(0.05, 0.95), step=0.05, label="Shift: part moved to the end",
                             doc="shift: the part moved to the end")
-    count = param.Integer(default=3, bounds=(1, 6), label="Number of examples", doc="example-based: how many outputs")
+    count = param.Integer(default=_COUNT.default, bounds=_COUNT.bounds, label=_COUNT.label, doc=_COUNT.help)
     chunk_frames = param.Integer(default=_CHUNK.default, bounds=_CHUNK.bounds, label=_CHUNK.label, doc=_CHUNK.help)
     edited = param.String(default="", label="Edited prompt (the action swapped; words may be added or dropped)",
                           doc="replace: the edited prompt, its words aligned to the prompt's as prompt-to-prompt "
