@@ -169,11 +169,13 @@ def _state_from_model_folder(folder: Path, batch_size: int) -> tuple[dict, dict]
 
 
 def train(config: TrainConfig, *, resume: bool = False, progress: bool = True, source: MotionSource | None = None,
-          init_from: str | Path | None = None, given: tuple[str, ...] = (), fresh_schedule: bool = False) -> dict:
+          init_from: str | Path | None = None, given: tuple[str, ...] | None = None,
+          fresh_schedule: bool = False) -> dict:
     """Run one training job to ``config.steps`` (or until SIGTERM / ``max_minutes``), see :class:`TrainingRun`.
 
-    ``given``: the config fields the caller set explicitly (the CLI's flags); a continued base run says which of
-    them it does not apply. ``fresh_schedule`` (with ``init_from``): a fine-tune of the base model with this call's
+    ``given``: the config fields the caller set explicitly (the CLI's flags; None: a library call, which means every
+    field of ``config``); a continued base run says which of them it does not apply, and keeps its own schedule
+    length unless ``steps`` is among them. ``fresh_schedule`` (with ``init_from``): a fine-tune of the base model with this call's
     hyper-parameters (learning rate, warm-up, levers), steps counted from 0; the architecture is the base's."""
     run = TrainingRun(config, progress=progress, source=source)
     try:
@@ -230,7 +232,7 @@ class TrainingRun:
             dist.barrier()
 
     # -- start: where the weights, hyper-parameters and vocabulary come from ---------------------------------------
-    def start(self, *, resume: bool, init_from: str | Path | None, given: tuple[str, ...],
+    def start(self, *, resume: bool, init_from: str | Path | None, given: tuple[str, ...] | None,
               fresh_schedule: bool) -> None:
         config, out = self.config, self.out
         words = tuple(self.source.words())
@@ -268,11 +270,13 @@ class TrainingRun:
             state.update(step=0, next_index=0)
         else:
             # the run's hyper-parameters come from the checkpoint; how to run it now comes from the call
-            kept = kept_from_checkpoint({k: getattr(config, k) for k in given}, saved["train"])
+            kept = kept_from_checkpoint({k: getattr(config, k) for k in given or ()}, saved["train"])
             for name, (want, value) in kept.items() if self.main else ():
                 print(f"--{name.replace('_', '-')} {want} is not applied: a continued run keeps its saved {name} "
                       f"({value})", file=sys.stderr)
-            how = {k: getattr(config, k) for k in _RUNTIME_FIELDS}
+            # ... except the schedule's length, which a call changes only by naming --steps (a resume without it once
+            # jumped a run's cosine from 11000 to the default 20000 steps and left its lr high)
+            how = {k: getattr(config, k) for k in _RUNTIME_FIELDS if k != "steps" or given is None or "steps" in given}
             # fields the checkpoint predates (new levers) take the call's value
             config = TrainConfig.from_json({**config.to_json(), **saved["train"], **how, "out": str(out)})
         normalizer = Normalizer.load(stats_folder)

@@ -244,3 +244,18 @@ def test_max_minutes_stops_with_a_checkpoint(tmp_path):
     assert result["step"] < 100000
     state = torch.load(tmp_path / "run" / "train_state.pt", weights_only=True)
     assert state["step"] == result["step"]
+
+
+def test_a_resume_keeps_its_schedule_length_unless_steps_is_named(tmp_path):
+    """A resumed run called without --steps (given=() as the CLI passes it) keeps its own cosine: it once took the
+    default 20000 steps and left the learning rate high (session 24)."""
+    from engine.train import lr_at
+
+    train(config(tmp_path, steps=30), source=ToySource(), progress=False)
+    defaults = config(tmp_path, steps=TrainConfig().steps)  # what the CLI builds when --steps is not given
+    assert train(defaults, source=ToySource(), progress=False, resume=True, given=("threads",))["step"] == 30
+    saved = json.loads((tmp_path / "run" / "config.json").read_text())["train"]
+    assert saved["steps"] == 30 and lr_at(29, TrainConfig(**{**saved, "model": TINY})) < 0.2 * saved["lr"]
+    # naming --steps lengthens it
+    assert train(config(tmp_path, steps=40), source=ToySource(), progress=False, resume=True,
+                 given=("steps",))["step"] == 40
