@@ -465,7 +465,7 @@ def test_cli_and_tab_share_the_option_mapping():
                               "--layers", "1", "0"])
     options = options_from_args(args)
     assert options == EditOptions(kind="emphasize", prompt="a person jumps twice", word="jumps", weight=0.5,
-                                  frames=(10, 30), step_window=(0.2, 0.8), layers=(1, 0), count=4)
+                                  frames=(10, 30), step_window=(0.2, 0.8), layers=(1, 0))  # count: the declared default
     cfg = build_config(options, frames=60)
     assert cfg.frames == (10, 30) and cfg.window.layers == (0, 1) and (cfg.window.start, cfg.window.end) == (0.2, 0.8)
     erase = build_config(EditOptions(kind="erase", word="jumps"), frames=60)
