@@ -464,3 +464,12 @@ def switch_timings(page, changes: list[tuple[str, str]], *, timeout_ms: float = 
         out.append(float(dt))
         page.wait_for_timeout(150)
     return out
+
+
+#: the word curves (as the page holds them) draw ``word`` thicker than every other word
+WORD_PICKED_JS = """(word) => {
+  const d = window.moattnTest.plotData('cross-curves');
+  if (!d || !d.word) return false;
+  const i = d.word.indexOf(word);
+  return i >= 0 && d.width.every((w, k) => k === i || w < d.width[i]);
+}"""

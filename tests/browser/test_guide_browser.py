@@ -118,14 +118,6 @@ def _run(page, button: str, done, key_before: int) -> None:
     br.wait_new_motion(page, key_before, timeout_ms=RUN)
 
 
-#: the word curves (as the page holds them) draw ``word`` thicker than every other word
-WORD_PICKED_JS = """(word) => {
-  const d = window.moattnTest.plotData('cross-curves');
-  if (!d || !d.word) return false;
-  const i = d.word.indexOf(word);
-  return i >= 0 && d.width.every((w, k) => k === i || w < d.width[i]);
-}"""
-
 #: the Bokeh plot with this css class has this title (the server's answer to a picked frame)
 TITLE_JS = """([cls, pattern]) => {
   const plot = [...Bokeh.documents[0].all_models].find(m => (m.css_classes || []).includes(cls) && m.renderers);
@@ -163,7 +155,7 @@ def test_generate(page, generated, screens):
 
 def test_attention(page, generated, screens):
     page.locator(".word-buttons button", has_text="jumps").click()
-    page.wait_for_function(WORD_PICKED_JS, arg="jumps", timeout=SHOWN)  # the server highlights its curve
+    page.wait_for_function(br.WORD_PICKED_JS, arg="jumps", timeout=SHOWN)  # the server highlights its curve
     heat = page.locator(".self-heatmap")
     box = br.stable_box(heat)
     br.tap(heat, 200 / box["width"], (30 + 0.5 * 290) / box["height"])  # a row half-way down: a frame mid-motion

@@ -34,15 +34,6 @@ def _skeleton_pixels(img: np.ndarray) -> int:
     return int(((b - r > 60) & (b > 120)).sum())
 
 
-#: the word curves (as the page holds them) draw ``word`` thicker than every other word
-WORD_PICKED_JS = """(word) => {
-  const d = window.moattnTest.plotData('cross-curves');
-  if (!d || !d.word) return false;
-  const i = d.word.indexOf(word);
-  return i >= 0 && d.width.every((w, k) => k === i || w < d.width[i]);
-}"""
-
-
 def _notification(page, text: str, timeout_ms: float = 30000) -> str:
     toast = page.locator(".notyf__message", has_text=text).last
     toast.wait_for(state="visible", timeout=timeout_ms)
@@ -292,7 +283,7 @@ def _acceptance(browser, url, screens, tag):
     br.wait_all_frames(page, timeout_ms=180000)
     page.locator(".word-buttons button", has_text="jumps").click()
     # the server has picked the word: its curve is drawn thicker than the others
-    page.wait_for_function(WORD_PICKED_JS, arg="jumps", timeout=30000)
+    page.wait_for_function(br.WORD_PICKED_JS, arg="jumps", timeout=30000)
     br.painted(page)
     _save(screens, f"acceptance_{tag}.png", page.screenshot(full_page=True))
     heat = page.locator(".self-heatmap")
