@@ -61,15 +61,17 @@ _FOCUS_BASE = 1 << 40
 class CorpusSource:
     """The procedural corpus, generated on the fly. ``underspecified``: that many extra captions per motion which
     leave attributes out the way people type ("a person waves"; engine.synth.grammar.underspecified_captions),
-    drawn from their own stream so the corpus's captions stay as they are. ``focus``: oversample some actions
+    drawn from their own stream so the corpus's captions stay as they are; ``plain_verbs`` is the chance that such a
+    caption says the action's plain verb ("walks", not "treads"). ``focus``: oversample some actions
     (:class:`ActionFocus`)."""
 
-    def __init__(self, *, split: str = "train", seed: int = 0, underspecified: int = 0,
+    def __init__(self, *, split: str = "train", seed: int = 0, underspecified: int = 0, plain_verbs: float = 0.0,
                  focus: ActionFocus | None = None):
         from engine.synth import Corpus
 
         self.corpus = Corpus(split=split, seed=seed)
         self.underspecified = underspecified
+        self.plain_verbs = plain_verbs
         self.focus = focus
 
     def corpus_index(self, index: int) -> int:
@@ -91,7 +93,8 @@ class CorpusSource:
             from engine.synth.grammar import underspecified_captions
 
             rng = np.random.default_rng([s.program.seed, index, 7919])
-            captions += tuple(underspecified_captions(s.program, rng, n=self.underspecified))
+            captions += tuple(underspecified_captions(s.program, rng, n=self.underspecified,
+                                                            plain=self.plain_verbs))
         return MotionText(features=s.features, captions=captions)
 
     def words(self) -> Sequence[str]:

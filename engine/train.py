@@ -58,6 +58,8 @@ class TrainConfig:
     # corpus only: extra captions per motion that leave side, count, speed and style out, as people type them
     # ("a person waves"); with the corpus's 4 full captions, 2 make a third of the captions trained on short
     underspecified: int = 0
+    plain_verbs: float = field(default=0.0, metadata={"help": "chance that an --underspecified caption says the "
+                                                             "action's plain verb (walks, punches), not a synonym"})
     # corpus only: oversample these actions (comma-separated corpus action names, e.g. "punch,hop,wave,clap"):
     # a share of the batch items is redrawn until its program has one of them (as a segment or an overlay)
     focus_actions: str = field(default="", metadata={"help": "corpus actions to oversample, comma-separated "
@@ -112,6 +114,7 @@ def make_source(config: TrainConfig, *, split: str = "train") -> MotionSource:
     if config.data == "corpus":
         train = split == "train"
         return CorpusSource(split=split, seed=config.seed, underspecified=config.underspecified if train else 0,
+                            plain_verbs=config.plain_verbs,
                             focus=focus_from(config) if train else None)
     return FolderSource(config.data, split=split)
 

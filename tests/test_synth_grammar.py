@@ -100,3 +100,28 @@ def test_underspecified_captions_leave_attributes_out_with_corpus_words_only():
     plain, extra = CorpusSource(split="train").get(3), CorpusSource(split="train", underspecified=2).get(3)
     assert extra.captions[: len(plain.captions)] == plain.captions and len(extra.captions) == len(plain.captions) + 2
     assert CorpusSource(split="train", underspecified=2).get(3).captions == extra.captions  # deterministic
+
+
+def test_plain_verbs_make_the_plain_verb_common_in_underspecified_captions():
+    """--plain-verbs: the action's plain verb ("walks") in most short captions; 0 leaves the captions as they were."""
+    import numpy as np
+
+    from engine.synth import Corpus
+    from engine.synth.grammar import VERBS, underspecified_captions
+
+    corpus = Corpus("train")
+    walks = {0.0: 0, 0.8: 0}
+    total = 0
+    for i in range(300):
+        program = corpus.program(i)[0]
+        if program.segments[0].action != "walk":
+            continue
+        total += 1
+        for plain in walks:
+            text = underspecified_captions(program, np.random.default_rng([i, 1]), n=1, plain=plain)[0]
+            walks[plain] += " walks" in text.split(",")[0].split(" then ")[0]
+        assert underspecified_captions(program, np.random.default_rng([i, 1]), n=2) == underspecified_captions(
+            program, np.random.default_rng([i, 1]), n=2, plain=0.0)
+    assert total >= 10
+    assert walks[0.8] >= 0.7 * total > walks[0.0] * 2, (walks, total)
+    assert VERBS["walk"][0][0] == "walks" and VERBS["punch"][0][0] == "punches"

@@ -299,13 +299,16 @@ def _counted_noun(seg: Segment, form: int, rng) -> str:
 
 
 def action_phrase(seg: Segment, form: int, rng: np.random.Generator, *, with_count: bool = True,
-                  with_side: bool = True, short: bool = False) -> str:
+                  with_side: bool = True, short: bool = False, plain: float = 0.0) -> str:
     """Verb phrase for a segment; form 0 = third person ("walks"), 1 = gerund ("walking"). ``with_count`` and
-    ``with_side`` False leave the count and the side unsaid; ``short`` prefers a one-word verb."""
+    ``with_side`` False leave the count and the side unsaid; ``short`` prefers a one-word verb; ``plain`` is the
+    chance of the action's plain verb (the first of its table: "walks", "punches") instead of a synonym."""
     a = seg.action
     counted = with_count and a in COUNT_NOUNS and rng.random() < 0.2
     verbs = VERBS[a]
-    if short:
+    if plain > 0 and not counted and rng.random() < plain:
+        verbs = verbs[:1]
+    elif short:
         verbs = tuple(v for v in verbs if " " not in v[0]) or verbs[:1]
     verb = _counted_noun(seg, form, rng) if counted else _pick(rng, verbs)[form]
     parts = [verb]
@@ -448,12 +451,15 @@ def captions(program: Program, rng: np.random.Generator, *, n: int = 4, held_out
     return out
 
 
-def underspecified_captions(program: Program, rng: np.random.Generator, *, n: int = 2) -> list[str]:
+def underspecified_captions(program: Program, rng: np.random.Generator, *, n: int = 2,
+                            plain: float = 0.0) -> list[str]:
     """Captions that leave attributes out, the way people type ("a person waves" for a left-hand wave, twice).
 
     Side, count, speed, intensity and style are each dropped at random, keeping the meaning: an unstated side
     covers either hand, an unstated count any count. About a third are bare subject-and-verb captions of two to
-    four words ("someone kicks"). Only words of the phrase tables are used, so :func:`vocabulary` is unchanged.
+    four words ("someone kicks"). ``plain``: the chance that a segment's verb is the action's plain one ("walks",
+    not "treads"), as people mostly type it. Only words of the phrase tables are used, so :func:`vocabulary` is
+    unchanged.
     """
     from dataclasses import replace as _replace
 
@@ -478,7 +484,7 @@ def underspecified_captions(program: Program, rng: np.random.Generator, *, n: in
         parts = []
         for i, (seg, keep_count, say_side) in enumerate(segments):
             join = "" if i == 0 else _pick(rng, (", then ", " and then ", ", after that "))
-            phrase = action_phrase(seg, 0, rng, with_count=keep_count, with_side=say_side, short=bare)
+            phrase = action_phrase(seg, 0, rng, with_count=keep_count, with_side=say_side, short=bare, plain=plain)
             if seg.overlay is not None:
                 phrase += " while " + action_phrase(seg.overlay, 1, rng, with_count=False, with_side=False)
             parts.append(join + phrase)
