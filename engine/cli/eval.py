@@ -30,6 +30,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--quick", action="store_true", help="128 samples per split, 20 steps (under 5 minutes on 2 cores)")
     p.add_argument("--samples", type=int, default=None, help="samples per split (overrides the preset)")
     p.add_argument("--steps", type=int, default=None, help="sampling steps (overrides the preset)")
+    p.add_argument("--guidance", type=float, default=None,
+                   help="classifier-free guidance scale (default: the sampling default; 1: none)")
     p.add_argument("--splits", default=None,
                    help="comma-separated splits (default: test,ood for the corpus, test for --data)")
     p.add_argument("--gt-only", action="store_true", help="only the ground-truth rows (no model needed)")
@@ -82,6 +84,10 @@ def run_eval(args: argparse.Namespace) -> int:
         config = replace(config, samples=args.samples)
     if args.steps:
         config = replace(config, steps=args.steps)
+    if args.guidance is not None:
+        if not 0.0 <= args.guidance <= 20.0:
+            raise SystemExit(f"moattn eval: --guidance must be between 0 and 20, got {args.guidance:g}")
+        config = replace(config, guidance=args.guidance)
     evaluator = load_evaluator(args.evaluator, runtime=runtime)
     loaded = None if args.gt_only else load_model(args.model, runtime=runtime)
     splits = [s.strip() for s in (args.splits or ("test,ood" if data is None else "test")).split(",") if s.strip()]
