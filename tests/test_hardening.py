@@ -457,9 +457,11 @@ def test_several_outputs_are_all_checked_before_the_first_is_written(tmp_path, c
 def test_render_suffixes_match_viz():
     from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES
     from engine.io import SUPPORTED_SUFFIXES
+    from viz.export import PICTURE_SUFFIXES
     from viz.render import SUPPORTED_EXTENSIONS
 
-    assert set(RENDER_SUFFIXES) == set(SUPPORTED_EXTENSIONS) and set(MOTION_SUFFIXES) == set(SUPPORTED_SUFFIXES)
+    assert set(RENDER_SUFFIXES) == set(SUPPORTED_EXTENSIONS) == set(PICTURE_SUFFIXES)
+    assert set(MOTION_SUFFIXES) == set(SUPPORTED_SUFFIXES)
 
 
 def test_generate_with_the_tiny_model_writes_every_output(tiny, tmp_path):

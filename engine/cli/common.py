@@ -10,7 +10,7 @@ from pathlib import Path
 SEED_LIMIT = 2**32  # seeds are 0 <= seed < 2**32: derived seeds (seed * 7919 + step, seed * 1009 + slot, seed + 17)
 #                     must stay within torch.manual_seed's 64-bit range; numpy's default_rng takes them too
 MOTION_SUFFIXES: tuple[str, ...] = (".npy", ".bvh")  # engine.io.SUPPORTED_SUFFIXES
-RENDER_SUFFIXES: tuple[str, ...] = (".png", ".gif", ".mp4")  # viz.render.SUPPORTED_EXTENSIONS (not imported: slow)
+RENDER_SUFFIXES: tuple[str, ...] = (".png", ".gif", ".mp4")  # viz.export.PICTURE_SUFFIXES (not imported: slow)
 
 
 class CLIError(Exception):

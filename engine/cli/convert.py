@@ -1,4 +1,4 @@
-"""`moattn convert` and `moattn render`: thin wrappers over engine.io and viz.render."""
+"""`moattn convert` and `moattn render`: thin wrappers over engine.io and viz.export (the studio's exporter)."""
 from __future__ import annotations
 
 import argparse
@@ -26,12 +26,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
     render = sub.add_parser(
         "render",
-        help="render a motion to PNG (one frame), GIF or MP4",
-        description="Render a .bvh or .npy motion with the pyvista skeleton scene.",
+        help="render a motion to PNG (one frame), GIF or MP4 with the studio's exporter",
+        description="Render a .bvh or .npy motion with the studio's exporter (viz/export.py, the same picture as "
+                    "the studio's Export buttons and `moattn generate --out`): 640x480, the camera following the "
+                    "body from a 3/4 front view, the title (wrapped, never cut) upper left and a frame counter "
+                    "upper right; a GIF or MP4 holds every frame at the motion's real speed (20 fps), a PNG one "
+                    "frame (--frame). Earlier versions drew with the pyvista scene: a fixed camera, no title or "
+                    "counter, and GIFs at 480x360.",
     )
     render.add_argument("input", type=Path, help="input .bvh or .npy")
     render.add_argument("--out", type=Path, required=True, help="output .png, .gif or .mp4")
     render.add_argument("--frame", type=int, default=None, help="frame to draw for a .png (default 0)")
+    render.add_argument("--title", default=None,
+                        help="text drawn upper left (default: the input's file name; '' for none)")
     render.set_defaults(run=run_render)
 
 
@@ -82,15 +89,20 @@ def keep_import(args: argparse.Namespace, joints, path: Path, *, title: str | No
 
 
 def run_render(args: argparse.Namespace) -> int:
-    from engine.cli.common import RENDER_SUFFIXES, check_outputs
+    from engine.cli.common import RENDER_SUFFIXES, CLIError, check_outputs
     from engine.io import load_motion
 
     check_outputs([args.out], RENDER_SUFFIXES)
-    joints = load_motion(args.input)
-    from viz.render import render_file
-
+    suffix = args.out.suffix.lower()
+    if args.frame is not None and suffix != ".png":
+        raise CLIError(f"--frame picks the frame of a .png; a {suffix} holds every frame: drop --frame")
+    joints = load_motion(args.input)  # a missing, unreadable or empty motion is refused here (one-line error)
     if args.frame is not None and not 0 <= args.frame < len(joints):
-        raise ValueError(f"--frame {args.frame} is outside the motion's {len(joints)} frames")
-    render_file(joints, args.out, frame=args.frame)
-    print(f"wrote {args.out}")
+        raise CLIError(f"--frame {args.frame} is outside the motion's {len(joints)} frames (0..{len(joints) - 1})")
+    from viz.export import write_picture  # the studio's exporter: one picture of a motion
+
+    title = args.input.name if args.title is None else args.title
+    write_picture(joints, args.out, title=title, frame=args.frame or 0)
+    n = 1 if suffix == ".png" else len(joints)
+    print(f"wrote {args.out} ({n} frame{'' if n == 1 else 's'})")
     return 0
