@@ -174,3 +174,13 @@ def test_windows():
         Window(0.6, 0.5)
     with pytest.raises(ValueError):
         Window().bind(0)
+
+
+def test_guidance_in_a_limited_interval_is_the_conditional_prediction_outside_it():
+    model, cond = tiny_model(), condition()
+    x, t = inputs()  # t = 400 in every slot
+    plain = model(x, t, cond)
+    full = ClassifierFreeGuidance(model, scale=2.5)(x, t, cond)
+    assert not torch.allclose(plain, full)
+    assert torch.equal(ClassifierFreeGuidance(model, scale=2.5, interval=(500, 1000))(x, t, cond), plain)
+    assert torch.equal(ClassifierFreeGuidance(model, scale=2.5, interval=(0, 401))(x, t, cond), full)

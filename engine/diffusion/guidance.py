@@ -19,10 +19,14 @@ class ClassifierFreeGuidance:
 
     denoiser: object
     scale: float = 2.5
+    # the timesteps [low, high) where the scale applies; elsewhere the conditional prediction alone (guidance in a
+    # limited interval, Kynkäänniemi et al. 2024). The default covers every timestep.
+    interval: tuple[int, int] = (0, 1_000_000)
 
     def __call__(self, x: torch.Tensor, t: torch.Tensor, cond: Condition, *, step: int = 0,
                  controller: AttentionController | None = None) -> torch.Tensor:
-        if self.scale == 1.0:
+        low, high = self.interval
+        if self.scale == 1.0 or not bool(((t >= low) & (t < high)).any()):
             return self.denoiser(x, t, cond, step=step, controller=controller)
         both = self.denoiser(torch.cat([x, x]), torch.cat([t, t]), cond.with_uncond(), step=step, controller=controller)
         x0_cond, x0_uncond = both.chunk(2)
