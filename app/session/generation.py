@@ -12,13 +12,15 @@ from typing import ClassVar
 import numpy as np
 import param
 
+from app.components.option_params import param_for
 from app.generation import Checked, GenerationResult, GenerationSettings, PromptReading, check, prompt_analysis, \
     run_generation
 from app.session.items import MotionItem
 from app.session.jobs import Delivery, JobDescription, Worker
 from app.session.viewer_rule import Preview
 from engine.duration import resolve_seconds
-from engine.units import DEFAULT_GUIDANCE, FPS, MAX_SECONDS, MIN_SECONDS
+from engine.sampling_options import SampleOptions
+from engine.units import FPS, MAX_SECONDS, MIN_SECONDS
 
 
 @dataclass
@@ -106,10 +108,10 @@ class GenerateBox(param.Parameterized):
     prompt = param.String(default="a person jumps twice", doc="what to generate")
     seconds = param.Number(default=None, allow_None=True, step=0.5,
                            doc=f"duration in seconds ({MIN_SECONDS:g} to {MAX_SECONDS:g}); empty: predicted from the prompt (auto)")
-    seed = param.Integer(default=0, softbounds=(0, None), doc="noise seed (same seed, same motion)")
-    steps = param.Integer(default=50, bounds=(1, 1000), doc="sampling steps (DDIM)")
-    guidance = param.Number(default=DEFAULT_GUIDANCE, bounds=(0.0, 20.0), step=0.5,
-                            doc="classifier-free guidance scale")
+    # the sampling settings every command shares, declared once (engine.sampling_options: `--seed`, `--steps`, ...)
+    seed = param_for(SampleOptions, "seed")
+    steps = param_for(SampleOptions, "steps")
+    guidance = param_for(SampleOptions, "guidance")
     record_steps = param.Integer(default=10, bounds=(0, 1000), label="Recorded steps",
                                  doc="sampling steps whose attention is recorded (0 = none)")
 

@@ -7,8 +7,8 @@ import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
-SEED_LIMIT = 2**32  # seeds are 0 <= seed < 2**32: derived seeds (seed * 7919 + step, seed * 1009 + slot, seed + 17)
-#                     must stay within torch.manual_seed's 64-bit range; numpy's default_rng takes them too
+from engine.sampling_options import SEED_LIMIT, parse_seed  # noqa: F401 (SEED_LIMIT: re-exported, declared there)
+
 MOTION_SUFFIXES: tuple[str, ...] = (".npy", ".bvh")  # engine.io.SUPPORTED_SUFFIXES
 RENDER_SUFFIXES: tuple[str, ...] = (".png", ".gif", ".mp4")  # viz.export.PICTURE_SUFFIXES (not imported: slow)
 
@@ -31,15 +31,12 @@ class Parser(argparse.ArgumentParser):
 
 
 def seed_argument(text: str) -> int:
-    """argparse type of every ``--seed``: a whole number 0 <= seed < 2**32 (SEED_LIMIT)."""
+    """argparse type of every ``--seed``: a whole number 0 <= seed < 2**32 (SEED_LIMIT; the rule:
+    :func:`engine.sampling_options.parse_seed`)."""
     try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"a seed is a whole number, got {text[:40]!r}") from None
-    if not 0 <= value < SEED_LIMIT:
-        raise argparse.ArgumentTypeError(
-            f"seed {text[:40]} is out of range: a seed is a whole number from 0 to {SEED_LIMIT - 1}")
-    return value
+        return parse_seed(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def check_outputs(paths: Iterable[Path | str | None], suffixes: Sequence[str], *, flag: str = "--out",

@@ -17,7 +17,6 @@ from engine.options import option
 from engine.methods.spans import spans_text
 from engine.runtime import add_runtime_arguments, runtime_from_args
 from engine.units import EDIT_SECONDS
-from engine.methods.motionclr import weight_range_text
 
 
 def _reads(field: str) -> str:
@@ -40,7 +39,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        + " ".join(f"{name}: {k.help}" for name, k in REGISTRY.items()))
     # the edit's options, declared once on EditOptions (the Edit tab reads the same fields)
     reads = {n: _reads(n) for n in INPUTS if n not in ("weight", "mode", "frames", "seed") and kinds_reading(n)}
-    add_options(p, EditOptions, notes={"weight": weight_range_text(), **reads})
+    add_options(p, EditOptions, notes=reads)
     p.add_argument("--from-frame", type=int, default=None, help="first frame the edit touches (one span; or --frames)")
     p.add_argument("--to-frame", type=int, default=None,
                    help="frame after the last one the edit touches (default: the motion's end)")

@@ -9,21 +9,20 @@ made from a dataclass, and read back into it.
 - :func:`from_args` builds the options class from the parsed flags (plus values the command computed), each
   flag's value checked against its declared bounds first, named by its flag: ``--directions must be between 1 and 8,
   got 0`` (``check=False``: the class's own validate names it).
-- :class:`SampleOptions`: the flags every sampling command shares (seed, steps, guidance, model); the defaults
-  are engine.units's and engine.paths's.
+- :class:`SampleOptions` (declared in :mod:`engine.sampling_options`, which the studio's Generate box reads too):
+  the flags every sampling command shares (seed, steps, guidance, model); the defaults are engine.units's and
+  engine.paths's.
 """
 from __future__ import annotations
 
 import argparse
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, fields
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
-from engine.cli.common import seed_argument
-from engine.options import Spec, option, specs
-from engine.paths import MODEL_DIR
-from engine.units import DEFAULT_GUIDANCE, DEFAULT_STEPS
+from engine.options import Spec, specs
+from engine.sampling_options import SampleOptions  # noqa: F401 (re-exported: declared there, the studio reads it too)
 
 
 def describe(spec: Spec, note: str = "") -> str:
@@ -129,16 +128,6 @@ def from_args(cls, args: argparse.Namespace, *, skip: Iterable[str] = (), check:
     if check:
         check_args(args, cls, skip=skip)
     return cls(**values(args, cls, skip=skip), **given)
-
-
-@dataclass(frozen=True, kw_only=True)
-class SampleOptions:
-    """What every sampling command shares: the seed, the DDIM steps, the guidance scale and the model folder."""
-
-    seed: int = option(0, parse=seed_argument, help="the random seed, 0 to 2**32 - 1")
-    steps: int = option(DEFAULT_STEPS, bounds=(1, 1000), whole=True, help="sampling steps")
-    guidance: float = option(DEFAULT_GUIDANCE, bounds=(0.0, 20.0), help="classifier-free guidance scale (1: none)")
-    model: Path = option(MODEL_DIR, help="the model folder")
 
 
 def add_sample_options(parser: argparse.ArgumentParser, **kw) -> list[Spec]:

@@ -35,12 +35,12 @@ METHOD_HELP = {"blending": "the fine-tuned control models, one per control, blen
 
 def option(default, *, help: str, bounds: tuple[float, float] | None = None,  # noqa: A002 (help, as argparse)
            soft: tuple[float, float] | None = None, step: float | None = None, choices: tuple[str, ...] | None = None,
-           unit: str = "", metavar: str | None = None):
+           unit: str = "", metavar: str | None = None, label: str | None = None):
     """A field with its declared ``bounds`` (inclusive; the rule that checks them names them), the range a widget
-    offers (``soft``, default the bounds), a widget ``step``, ``choices`` for a word option, ``help`` and ``unit``
-    (an :func:`engine.options.option`: the command line's flag is generated from it)."""
+    offers (``soft``, default the bounds), a widget ``step``, ``choices`` for a word option, ``help``, ``unit`` and
+    the studio's ``label`` (an :func:`engine.options.option`: the command line's flag is generated from it)."""
     return declared(default, help=help, bounds=bounds, soft=soft, step=step, choices=choices, unit=unit,
-                    metavar=metavar)
+                    metavar=metavar, label=label)
 
 
 @dataclass(frozen=True)
@@ -122,8 +122,9 @@ class ControlOptions:
     seconds: float = option(6.0, bounds=(MIN_SECONDS, MAX_SECONDS), step=0.5, unit="s",
                             help="length of the motion (the paths are resampled to it; checked by the engine's "
                                  "frames_for)")
-    method: str = option("blending", choices=METHODS, help="blending: the fine-tuned control models blended "
-                         "(DiffusionBlending); inpainting: the base model with the controls inpainted (the baseline)")
+    method: str = option("blending", choices=METHODS, label="Method",
+                         help="blending: the fine-tuned control models blended (DiffusionBlending); inpainting: the "
+                              "base model with the controls inpainted (the baseline)")
     root_weight: float = option(1.0, bounds=WEIGHT_BOUNDS, soft=(0.0, 1.0), step=0.05, metavar="W",
                                 help="blend weight of the root path's control model (scaled with the others to sum 1)")
     left_wrist_weight: float = option(1.0, bounds=WEIGHT_BOUNDS, soft=(0.0, 1.0), step=0.05, metavar="W",

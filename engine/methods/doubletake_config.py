@@ -98,7 +98,7 @@ class SecondTake:
                                  "interval up to its other handshake, as in the paper, cropped to the model's "
                                  "frames; the code before the paper's sandwich used 30)")
     # the authors' code denoises sandwiches without text; True: each with "A, then B" (doubletake.transition_prompts)
-    text: bool = declared(False, flag="--second-take-text",
+    text: bool = declared(False, flag="--second-take-text", label="with text ('A, then B')",
                           help="denoise each transition with 'A, then B' (default: without text, as the authors' code)")
 
     def __post_init__(self) -> None:

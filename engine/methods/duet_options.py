@@ -7,24 +7,30 @@ from pathlib import Path
 
 from engine.options import option, validate
 from engine.paths import DUET_DIR
-from engine.units import DEFAULT_GUIDANCE, DUET_COMPLETE_SECONDS, DUET_PREFIX_SECONDS, DUET_SECONDS
+from engine.units import (DEFAULT_GUIDANCE, DUET_COMPLETE_SECONDS, DUET_PREFIX_SECONDS, DUET_SECONDS, MAX_SECONDS,
+                          MIN_SECONDS)
 
 
 @dataclass(frozen=True, kw_only=True)
 class DuetOptions:
     """Two people from one prompt (``prompt``), or the completion of a two-person prefix (``prefix``)."""
 
-    prompt: str | None = option(None, positional=True, nargs="?",
-                                help="what the two people do (optional with --prefix)")
-    seconds: float | None = option(None, help=f"length (default {DUET_SECONDS:g} s; with --prefix: seconds completed "
-                                   f"after the prefix, default {DUET_COMPLETE_SECONDS:g})")
+    prompt: str | None = option(None, positional=True, nargs="?", label="Prompt (both people)",
+                                help="what the two people do (both read it; optional when completing a prefix)")
+    # soft: the lengths a box offers (the engine's frames_for checks the length a duet is made with)
+    seconds: float | None = option(None, soft=(MIN_SECONDS, MAX_SECONDS), step=0.5, label="Seconds",
+                                   help=f"length in seconds from a prompt (default {DUET_SECONDS:g}), or the seconds "
+                                        f"completed after a prefix (default {DUET_COMPLETE_SECONDS:g})")
     prefix: tuple[Path, ...] | None = option(
         None, nargs="+", metavar="FILE",
         help="a duet .npy (2, T, 22, 3), or two motions (.bvh/.npy), person a then person b")
-    prefix_seconds: float | None = option(None, help=f"seconds of the prefix kept (default {DUET_PREFIX_SECONDS:g})")
+    prefix_seconds: float | None = option(None, soft=(0.1, 5.0), step=0.5, label="Given (s)",
+                                          help=f"seconds of the prefix kept (default {DUET_PREFIX_SECONDS:g})")
     communication: bool = option(True, flag="--no-communication",
+                                 label="communication block (ComMDM); off: the base model twice",
                                  help="the baseline: the prior run twice without the block (fixed placement)")
     contact: bool = option(True, flag="--no-contact",
+                           label="contact guidance: hands touch when the training examples do",
                            help="no contact guidance (by default, a prompt read as a trained interaction with "
                                 "contacts, e.g. a handshake, has the hands guided to touch when the training "
                                 "examples do)")

@@ -8,6 +8,7 @@ through :mod:`engine.methods.edits`. Counting is not an edit (see ``edits.count_
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -21,6 +22,17 @@ from engine.methods.spans import Span, as_spans, check_spans, parse_spans
 from engine.options import option, spec, validate
 
 Source = Any  # a prompt (str), or joints (T, 22, 3) of a real motion (DDIM-inverted by the edit)
+
+# The one statement of the emphasis weight's range, per mode (the CLI, the Edit tab and the checks read it;
+# engine.methods.motionclr.ReweightConfig checks the mode's own range).
+# Measured on the shipped model ("a person jumps twice", emphasis on "jumps", 3 seeds): the trunk's largest
+# pitch is 36 deg unedited, 55 deg at add +0.5 or mul x3, and 68 deg ("bent double") at add +1.0.
+WEIGHT_RANGES: dict[str, tuple[float, float]] = {"add": (-0.5, 0.5), "mul": (0.0, 3.0)}
+WEIGHT_BOUNDS = (min(lo for lo, _ in WEIGHT_RANGES.values()), max(hi for _, hi in WEIGHT_RANGES.values()))
+
+
+def weight_range_text() -> str:
+    return "; ".join(f"{mode}: {lo:g} to {hi:g}" for mode, (lo, hi) in WEIGHT_RANGES.items())
 
 
 @dataclass(frozen=True)
@@ -55,17 +67,22 @@ class EditOptions:
     prompt: Source | None = option(None, positional=True, nargs="?", help="the prompt (the reference prompt for "
                                    "replace); a .bvh/.npy file works as the example/content")
     word: str | None = option(None, help="the word the edit acts on")
-    occurrence: int = 0
-    weight: float = option(0.3, help="emphasis weight")
-    mode: str = option("add", choices=("add", "mul"), help="how the weight acts on the word's attention: added or "
-                       "multiplied")
+    occurrence: int = option(0, bounds=(0, math.inf), whole=True,
+                             help="which appearance of the word in the prompt, counted from 0")
+    weight: float = option(0.3, bounds=WEIGHT_BOUNDS, step=0.05, label="Weight", help="emphasis weight",
+                           note=f"{weight_range_text()}; mul > 1 emphasises")
+    mode: str = option("add", choices=tuple(WEIGHT_RANGES), label="Mode",
+                       help="how the weight acts on the word's attention: added or multiplied")
     frames: Span | tuple[Span, ...] | None = option(
         None, parse=parse_spans, metavar="START:END[,START:END...]",
         help="the frame span(s) [start, end) the edit touches, e.g. 10:20; ground takes several, e.g. "
              "10:30,50:70,90:110,130:150 (four jumps at chosen times)")
-    edited: str | None = option(None, help="the edited prompt; its words are aligned to the prompt's as "
-                                "prompt-to-prompt aligns them, and the alignment is printed")
-    fraction: float = option(0.5, help="the part of the motion moved to the end")
+    edited: str | None = option(None, label="Edited prompt (the action swapped; words may be added or dropped)",
+                                help="the edited prompt; its words are aligned to the prompt's as prompt-to-prompt "
+                                     "aligns them, and the alignment is shown")
+    # the range a slider offers: ShiftConfig refuses 0 and 1 themselves (an open interval, which bounds cannot say)
+    fraction: float = option(0.5, soft=(0.05, 0.95), step=0.05, label="Shift: part moved to the end",
+                             help="the part of the motion moved to the end")
     style: Source | None = option(None, help="the style source, a prompt or .bvh/.npy")
     count: int = option(3, bounds=(1, 6), whole=True, label="Number of examples",
                         help="example-based: how many outputs")

@@ -1,5 +1,5 @@
 """`moattn generate`'s options, declared once (torch-free: the parser reads them without loading the model code).
-The sampling settings every command shares (seed, steps, guidance, model) are engine.cli.options.SampleOptions."""
+The sampling settings every command shares (seed, steps, guidance, model) are engine.sampling_options.SampleOptions."""
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -13,7 +13,7 @@ import torch
 
 from engine.attention.context import AttnCtx
 from engine.attention.controller import Controller
-from engine.methods.edit_options import option_spec
+from engine.methods.edit_options import WEIGHT_RANGES, option_spec, weight_range_text  # noqa: F401 (re-exported)
 from engine.methods.mixing import MixConfig, MixedAttention
 from engine.methods.spans import Span, mask_spans, spans_mask
 from engine.methods.windows import BoundWindow, Window
@@ -47,16 +47,6 @@ def halves(ctx: AttnCtx, *roles: str) -> list[tuple[int, ...]]:
 
 
 # ----------------------------------------------------------------------------- (de-)emphasis, erasing
-# The one statement of the emphasis weight's range, per mode (the CLI, the Edit tab and the checks read it).
-# Measured on the shipped model ("a person jumps twice", emphasis on "jumps", 3 seeds): the trunk's largest
-# pitch is 36 deg unedited, 55 deg at add +0.5 or mul x3, and 68 deg ("bent double") at add +1.0.
-WEIGHT_RANGES: dict[str, tuple[float, float]] = {"add": (-0.5, 0.5), "mul": (0.0, 3.0)}
-
-
-def weight_range_text() -> str:
-    return "; ".join(f"{mode}: {lo:g} to {hi:g}" for mode, (lo, hi) in WEIGHT_RANGES.items())
-
-
 @dataclass(frozen=True)
 class ReweightConfig:
     """(De-)emphasise a word: its cross-attention column gets +weight ("add") or ×weight ("mul").

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import param
 
+from app.components.option_params import param_for
 from app.generation import prompt_analysis
 from engine.methods.doubletake_config import DoubleTakeConfig, SecondTake, option_info
 from engine.units import FPS
@@ -37,9 +38,7 @@ class ComposeSettings(param.Parameterized):
     second_take = param.Boolean(default=_ENGINE.second_take is not None,
                                 label="second take (re-denoise the transitions)",
                                 doc="re-denoise each transition with soft masks (the second take)")
-    second_take_text = param.Boolean(default=SecondTake().text, label="with text ('A, then B')",
-                                     doc="the second take denoises each transition with 'A, then B' (default: "
-                                         "without text, as the authors' code)")
+    second_take_text = param_for(SecondTake, "text")
     result = param.Parameter(default=None, doc="ComposeSummary of the last composition")
 
     @classmethod

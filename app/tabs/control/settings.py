@@ -12,6 +12,7 @@ from collections.abc import Callable
 
 import param
 
+from app.components.option_params import param_for
 from app.generation import PromptReading, prompt_analysis
 from app.tabs.control.models import control_models, control_setup
 from app.tabs.control.paths import DEFAULT_ROOT, LABELS, WRIST_DEPTH, WRISTS, thin
@@ -19,7 +20,6 @@ from engine.methods.control_options import BenchVerdict, ControlOptions, bench_v
 from engine.paths import CONTROL_DIR
 
 METHOD_LABELS = {"blending (fine-tuned models)": "blending", "inpainting (base model)": "inpainting"}
-_SECONDS = option_info(ControlOptions, "seconds")
 
 
 class ControlSettings(param.Parameterized):
@@ -27,8 +27,8 @@ class ControlSettings(param.Parameterized):
 
     prompt = param.String(default="a person walks", label="Prompt",
                           doc="what the person does while following the paths")
-    seconds = param.Number(default=_SECONDS.default, softbounds=_SECONDS.bounds, step=_SECONDS.step, label="Seconds",
-                           doc=f"{_SECONDS.help} ({_SECONDS.bounds[0]:g} to {_SECONDS.bounds[1]:g} s)")
+    # no hard bounds: a length out of range reaches the engine, whose frames_for refuses it with its own message
+    seconds = param_for(ControlOptions, "seconds", bounds=None)
     use_root = param.Boolean(default=True, label="follow the root path", doc="follow the root path drawn top-down")
     root_points = param.List(default=list(DEFAULT_ROOT), doc="(x, z) metres on the floor; the motion starts at "
                                                             "the first point, facing the direction of travel")
@@ -45,8 +45,8 @@ class ControlSettings(param.Parameterized):
     weights = param.Dict(default=ControlOptions().weights(),
                          doc="raw blend weight per control; the engine scales those in use to sum 1 and refuses "
                              "negative or all-zero weights")
-    method = param.Selector(default="inpainting", objects=METHOD_LABELS, label="Method",
-                            doc="blending: fine-tuned control models (DiffusionBlending); inpainting: the base model")
+    # the methods, labelled; "inpainting" until :meth:`discover` opens on the one the control bench has ahead
+    method = param_for(ControlOptions, "method", objects=METHOD_LABELS, default="inpainting")
     controls_dir = param.Parameter(default=CONTROL_DIR, doc="folder of the fine-tuned control models")
     available = param.List(default=[], doc="controls with a fine-tuned model in controls_dir")
     problem = param.String(default="", doc="why blending is not offered ('' when it is)")

@@ -8,13 +8,14 @@ from pathlib import Path
 
 import param
 
+from app.components.option_params import param_for
 from app.generation import PromptReading, prompt_analysis
 from app.session.duets import DuetPair
 from app.session.items import MAX_UPLOAD_BYTES, upload_limit_text
 from app.tabs.duet.models import EXAMPLE, duet_vocabulary, example_names
 from engine.methods.duet import COMPLETE_SECONDS, PREFIX_SECONDS, TEXT_SECONDS
+from engine.methods.duet_options import DuetOptions
 from engine.paths import DUET_DIR
-from engine.units import MAX_SECONDS, MIN_SECONDS
 
 MODES = {"text": "from a prompt", "prefix": "complete a prefix"}
 
@@ -25,18 +26,18 @@ class DuetSettings(param.Parameterized):
     Lengths default to the engine's (``engine.methods.duet``: what ``moattn duet`` runs)."""
 
     mode = param.Selector(default="text", objects={label: key for key, label in MODES.items()}, label="Mode")
-    prompt = param.String(default="two people shake hands", label="Prompt (both people)",
-                          doc="what the two people do (both read it)")
-    seconds = param.Number(default=TEXT_SECONDS, softbounds=(MIN_SECONDS, MAX_SECONDS), step=0.5,
-                           label="Seconds", doc="length (from a prompt) or seconds completed after the prefix")
+    # the tab opens on an example prompt (the command line has none unless given)
+    prompt = param_for(DuetOptions, "prompt", default="two people shake hands")
+    # a length, not None: the tab shows the mode's default length (None is "the mode's default" on the command line)
+    seconds = param_for(DuetOptions, "seconds", default=TEXT_SECONDS)
     prefix = param.Selector(default=EXAMPLE + "handshake", objects=[EXAMPLE + "handshake"], label="Prefix (both people)",
                             doc="where the prefix comes from: an example, an upload or a duet of the session")
-    prefix_seconds = param.Number(default=PREFIX_SECONDS, softbounds=(0.1, 5.0), step=0.5,
-                                  label="Given (s)", doc="seconds of the prefix given")
-    communicate = param.Boolean(default=True, label="communication block (ComMDM); off: the base model twice",
-                                doc="ComMDM (the block); off: the prior twice, fixed placement")
-    contact = param.Boolean(default=True, label="contact guidance: hands touch when the training examples do",
-                            doc="guide the hands to touch when the training examples do (text only)")
+    prefix_seconds = param_for(DuetOptions, "prefix_seconds", default=PREFIX_SECONDS)  # the length None stands for
+    # the switches' help is the --no-... flag's (what turning them off does): the checkboxes say what "on" does
+    communicate = param_for(DuetOptions, "communication",
+                            doc="ComMDM (the block); off: the prior twice, fixed placement")
+    contact = param_for(DuetOptions, "contact",
+                        doc="guide the hands to touch when the training examples do (text only)")
     duet_dir = param.Parameter(default=DUET_DIR, doc="folder of the trained ComMDM block")
     uploads = param.Dict(default={}, doc="name -> (2, T, 22, 3) duets uploaded in this session")
     reading = param.ClassSelector(class_=PromptReading, default=PromptReading(),

@@ -1,16 +1,16 @@
-"""The Edit tab's settings (MotionCLR): which edit, the picked word, weights and windows, sources; the last edit."""
+"""The Edit tab's settings (MotionCLR): which edit, the picked word, weights and windows, sources; the last edit.
+
+The edit's options are declared once, on :class:`engine.methods.edit_options.EditOptions` (``moattn edit``'s flags
+come from the same fields): their defaults, bounds, labels and help reach the widgets through ``param_for``."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import param
 
+from app.components.option_params import param_for
 from engine.methods.edit_kinds import REGISTRY, EditKind
-from engine.methods.edit_options import option_spec
-from engine.methods.motionclr import WEIGHT_RANGES, weight_range_text
-
-_CHUNK = option_spec("chunk_frames")  # declared once, with the edit options (the CLI's --chunk-frames reads it too)
-_COUNT = option_spec("count")  # the number of example-based outputs: one default for the tab and `moattn edit --count`
+from engine.methods.edit_options import EditOptions
 
 #: label shown in the tab -> ``moattn edit`` kind, and each kind's help: both from the engine's registry
 KIND_LABELS = {k.label: name for name, k in REGISTRY.items()}
@@ -22,26 +22,21 @@ class EditSettings(param.Parameterized):
     """The Edit tab's settings (one per session, in ``StudioState.tab_settings["edit"]``) and its last edit."""
 
     kind = param.Selector(default="emphasise", objects=list(KIND_LABELS), label="Edit", doc="which edit")
-    word = param.String(default="", doc="the picked word ('' = none picked yet)")
-    occurrence = param.Integer(default=0, bounds=(0, None), doc="which appearance of the word in the prompt")
-    mode = param.Selector(default="add", objects={"add +w": "add", "multiply ×w": "mul"}, label="Mode",
-                          doc="add the weight, or multiply by it")
-    weight = param.Number(default=0.3, bounds=(min(lo for lo, _ in WEIGHT_RANGES.values()),
-                                               max(hi for _, hi in WEIGHT_RANGES.values())), step=0.05,
-                          label="Weight", doc=f"{weight_range_text()} (mul > 1 emphasises)")
+    # '' = no word picked yet (the engine's None: the tab's text never holds None)
+    word = param_for(EditOptions, "word", default="")
+    occurrence = param_for(EditOptions, "occurrence")
+    mode = param_for(EditOptions, "mode", objects={"add +w": "add", "multiply ×w": "mul"})  # the modes, labelled
+    weight = param_for(EditOptions, "weight")
     frames = param.Range(default=None, allow_None=True, doc="frame window [start, end) (None = the kind's default)")
     spans = param.List(default=[], item_type=tuple,
                        doc="ground: the frame spans [(start, end), ...] the word is grounded to, dragged on its "
                            "attention curve or typed ([] = the whole motion)")
-    step_window = param.Range(default=None, allow_None=True, doc="fractions of the sampling run (None = the method's)")
-    layers = param.List(default=[], item_type=int, doc="layers the edit acts in ([] = all)")
-    fraction = param.Number(default=0.5, bounds=(0.05, 0.95), step=0.05, label="Shift: part moved to the end",
-                            doc="shift: the part moved to the end")
-    count = param.Integer(default=_COUNT.default, bounds=_COUNT.bounds, label=_COUNT.label, doc=_COUNT.help)
-    chunk_frames = param.Integer(default=_CHUNK.default, bounds=_CHUNK.bounds, label=_CHUNK.label, doc=_CHUNK.help)
-    edited = param.String(default="", label="Edited prompt (the action swapped; words may be added or dropped)",
-                          doc="replace: the edited prompt, its words aligned to the prompt's as prompt-to-prompt "
-                              "aligns them")
+    step_window = param_for(EditOptions, "step_window")  # None: the method's window
+    layers = param_for(EditOptions, "layers", default=[])  # [] = the kind's default (the engine's None)
+    fraction = param_for(EditOptions, "fraction")
+    count = param_for(EditOptions, "count")
+    chunk_frames = param_for(EditOptions, "chunk_frames")
+    edited = param_for(EditOptions, "edited", default="")  # '' = none typed yet
     source = param.String(default=PROMPT_SOURCE, doc="example / content source: the prompt or a session motion")
     style_source = param.String(default=PROMPT_SOURCE, doc="style source: a prompt or a session motion")
     style_prompt = param.String(default="a person walks", label="Style prompt", doc="style source when it is a prompt")

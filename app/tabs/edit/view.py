@@ -24,7 +24,7 @@ from app.session.state import StudioState
 from app.tabs.edit.job import alignment, count_current, run_edit, swap_example, word_choice
 from app.tabs.edit.settings import KIND_HELP, PROMPT_SOURCE, EditSettings
 from engine.analysis.counting import COUNTING_METHODS
-from engine.methods.motionclr import WEIGHT_RANGES
+from engine.methods.edit_options import WEIGHT_RANGES, option_spec
 from engine.methods.spans import check_spans, parse_spans, spans_text
 
 
@@ -65,7 +65,8 @@ class EditTab(pn.viewable.Viewer):
                                                      sizing_mode="stretch_width")
         self.chunk = pn.widgets.IntSlider.from_param(e.param.chunk_frames, css_classes=["edit-chunk"],
                                                      sizing_mode="stretch_width")
-        self.chunk_help = pn.pane.Markdown(e.param.chunk_frames.doc, margin=(0, 10),
+        # the declared help (the slider shows the range)
+        self.chunk_help = pn.pane.Markdown(option_spec("chunk_frames").help, margin=(0, 10),
                                            styles={"font-size": "11px", "color": "#555"})
         self._build_spans()
         self.edited = text_from_param(e.param.edited, placeholder="a person kicks twice", css_classes=["edit-edited"],
@@ -384,7 +385,7 @@ class EditTab(pn.viewable.Viewer):
 
     def _on_mode(self, *_):
         e = self.settings
-        start, end = WEIGHT_RANGES[e.mode]  # the range the method checks (engine.methods.motionclr)
+        start, end = WEIGHT_RANGES[e.mode]  # the range the method checks (declared in engine.methods.edit_options)
         value = e.weight if start <= e.weight <= end else (2.0 if e.mode == "mul" else 0.3)
 
         self.weight.param.update(start=start, end=end, value=value)  # the widget writes the settings' weight

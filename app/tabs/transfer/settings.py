@@ -6,6 +6,7 @@ from collections.abc import Callable
 
 import param
 
+from app.components.option_params import param_for
 from app.generation import PromptReading, prompt_analysis
 from app.tabs.transfer.colors import paint_clusters
 from engine.methods.transfer_config import ROOT_CHOICES, TransferConfig, option_info
@@ -55,13 +56,11 @@ class TransferSettings(param.Parameterized):
     steps = param.Range(default=(_ENGINE.start, _ENGINE.end), bounds=option_info("start").bounds, step=0.05,
                         label="Steps that mix (fraction of the run)",
                         doc=f"{option_info('start').help}; {option_info('end').help}")
-    root = param.Selector(default=_ENGINE.root, objects=ROOT_LABELS, label=option_info("root").label,
-                          doc=option_info("root").help)
-    directions = param.Integer(default=_ENGINE.directions, bounds=option_info("directions").bounds,
-                               label=option_info("directions").label, doc=option_info("directions").help)
+    root = param_for(TransferConfig, "root", objects=ROOT_LABELS)  # the modes, labelled as declared with them
+    directions = param_for(TransferConfig, "directions")
     color_by = param.Selector(default="roles", objects=list(COLOR_BY), label="Skeleton colours",
                               doc="skeleton colours in the viewer")
-    feet = param.Boolean(default=_ENGINE.feet, label=option_info("feet").label, doc=option_info("feet").help)
+    feet = param_for(TransferConfig, "feet")
     more_followers = param.String(default="", label="More followers (optional): one prompt per line, each gets its "
                                                     "own out",
                                   doc="more follower prompts, one per line: the leader drives each of them too (one "
