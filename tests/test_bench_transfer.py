@@ -184,7 +184,11 @@ def test_cli_transfer_and_analysis(tiny_model_dir, tmp_path, capsys):
     assert report["out"] == [str(tmp_path / "out_1.npy"), str(tmp_path / "out_2.npy")]
     assert np.load(tmp_path / "out_1.npy").shape == (40, 22, 3)
     assert report["leader_inversion_m"]["mean_m"] >= 0 and report["follower_inversion_m"] == [None, None]
-    assert (tmp_path / "t.png").stat().st_size > 1000
+    from PIL import Image
+    from viz.export import VIDEO_SIZE
+
+    with Image.open(tmp_path / "t.png") as im:  # the studio's exporter's picture (leader | followers | outs)
+        assert im.format == "PNG" and im.size == VIDEO_SIZE
     figs = tmp_path / "figs"
     assert main(["analyze-qk", *args[:6], *args[8:], "--out", str(figs), "--per-prompt", "1", "--components", "3",
                  "--clusters", "3"]) == 0

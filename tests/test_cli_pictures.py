@@ -1,10 +1,13 @@
-"""`moattn generate --out x.gif / x.mp4 / x.png` and `moattn render IN --out x.gif / x.mp4 / x.png` write through
-the studio's exporter (issue #35): one render path for a picture of a motion (viz.export, drawn by viz.flat), never
-VTK; the GIF is byte for byte the studio's Export of the same joints and title, at the studio's size."""
+"""`moattn generate --out x.gif / x.mp4 / x.png`, `moattn render IN --out x.gif / x.mp4 / x.png` and the `--render`
+pictures of `edit`, `compose`, `transfer`, `control` and `duet` write through the studio's exporter (issue #35): one
+render path for a picture of a motion (viz.export, drawn by viz.flat), never VTK; the GIF is byte for byte the
+studio's Export of the same joints and title, at the studio's size."""
 from __future__ import annotations
 
 import io
+import json
 import sys
+from types import SimpleNamespace
 
 import imageio.v2 as imageio_v2
 import numpy as np
@@ -13,16 +16,13 @@ from PIL import Image
 
 from app.tabs.files.exports import VIDEO_SIZE, video_bytes
 from tests.conftest import walker
+from viz.export import write_picture as _exporter  # the real one, never the spy
 
 
 def test_generate_writes_its_pictures_with_the_studios_exporter(tmp_path, tiny_model_dir, monkeypatch):
-    import viz.render
     from engine.cli import main
 
-    def no_vtk(*_, **__):
-        raise AssertionError("moattn generate rendered through viz.render (VTK), not the studio's exporter")
-
-    monkeypatch.setattr(viz.render, "render_file", no_vtk)
+    _no_vtk(monkeypatch)
     outs = [tmp_path / "m.npy", tmp_path / "m.gif", tmp_path / "m.png", tmp_path / "m.mp4"]
     prompt = "a person walks forward"
     argv = ["generate", prompt, "--model", str(tiny_model_dir), "--steps", "2", "--seconds", "2", "--no-library"]
@@ -125,3 +125,148 @@ def test_render_refuses_bad_input_in_one_line(tmp_path, monkeypatch, capsys, cas
     assert "\n" not in err and "Traceback" not in err, err
     assert err.startswith("moattn render: error: ") and expected in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == before  # nothing written
+
+
+# ------------------------------------------------------------------- --render of edit, compose, transfer, control, duet
+def _spy_on_the_exporter(monkeypatch) -> list[dict]:
+    """Every call of viz.export.write_picture (which still writes): the motions, path and options it was given.
+    The tests' own pictures are drawn by ``_exporter`` (the function itself), so only the command's calls count."""
+    import viz.export
+
+    calls, real = [], viz.export.write_picture
+
+    def spy(motions, path, **options):
+        calls.append({"motions": motions, "path": path, **options})
+        return real(motions, path, **options)
+
+    monkeypatch.setattr(viz.export, "write_picture", spy)
+    return calls
+
+
+def _gif_of_the_studio(path, n_frames: int) -> None:
+    with Image.open(path) as im:
+        assert im.format == "GIF" and im.size == VIDEO_SIZE and im.n_frames == n_frames
+        assert im.info["duration"] == 50  # 20 fps: the motion's real speed
+
+
+def _is_the_exporters_picture(call: dict, tmp_path) -> None:
+    """The file the command wrote is byte for byte write_picture's picture of the same motions and title."""
+    written = call["path"]
+    again = tmp_path / f"again{written.suffix}"
+    options = {k: v for k, v in call.items() if k not in ("motions", "path")}
+    assert written.read_bytes() == _exporter(call["motions"], again, **options).read_bytes()
+
+
+def test_edit_render_is_the_studios_before_after_picture(tmp_path, tiny_model_dir, monkeypatch, capsys):
+    from engine.cli import main
+
+    _no_vtk(monkeypatch)
+    calls = _spy_on_the_exporter(monkeypatch)
+    out, gif = tmp_path / "edited.npy", tmp_path / "edit.gif"
+    assert main(["edit", "emphasize", "a person jumps", "--word", "jumps", "--weight", "0.5", "--steps", "2",
+                 "--seconds", "1", "--seed", "3", "--model", str(tiny_model_dir), "--out", str(out),
+                 "--render", str(gif), "--no-library"]) == 0
+    assert json.loads(capsys.readouterr().out)["render"] == str(gif)
+    (call,) = calls
+    assert call["path"] == gif and call["title"] == "emphasize: a person jumps" and call.get("offsets") is None
+    before, after = call["motions"]  # before and after, side by side (the exporter's default layout)
+    assert before.startswith("before (") and after.startswith("after (")
+    edited = np.load(out)
+    np.testing.assert_allclose(call["motions"][after], edited, atol=1e-6)  # the edited motion it wrote
+    _gif_of_the_studio(gif, len(edited))
+    _is_the_exporters_picture(call, tmp_path)
+    # two people side by side, not the edited motion alone
+    alone = _exporter(edited, tmp_path / "alone.gif", title=call["title"])
+    assert gif.read_bytes() != alone.read_bytes()
+    # an edit of a motion file is titled with the file's name (it once failed here, after writing --out)
+    calls.clear()
+    np.save(tmp_path / "walk.npy", walker(30))
+    png = tmp_path / "example.png"
+    assert main(["edit", "example", str(tmp_path / "walk.npy"), "--steps", "2", "--model", str(tiny_model_dir),
+                 "--out", str(tmp_path / "example.npy"), "--render", str(png), "--no-library"]) == 0
+    capsys.readouterr()
+    (call,) = calls
+    assert call["path"] == png and call["title"] == "example: walk.npy"
+    with Image.open(png) as im:
+        assert im.format == "PNG" and im.size == VIDEO_SIZE
+    _is_the_exporters_picture(call, tmp_path)
+
+
+def test_duet_render_is_the_studios_duet_export(tmp_path, tiny_model_dir, tiny_duet_dir, monkeypatch, capsys):
+    from app.tabs.files.exports import export_duet_bytes
+    from engine.cli import main
+    from engine.methods.duet import by_person
+
+    _no_vtk(monkeypatch)
+    out, gif = tmp_path / "duet.npy", tmp_path / "duet.gif"
+    models = ["--model", str(tiny_model_dir), "--duet-model", str(tiny_duet_dir), "--no-library"]
+    assert main(["duet", "two people hug", "--out", str(out), "--seconds", "2", "--steps", "3", "--render", str(gif),
+                 *models]) == 0
+    assert json.loads(capsys.readouterr().out)["render"] == str(gif)
+    joints = np.load(out)
+    assert joints.shape == (2, 40, 22, 3)
+    _gif_of_the_studio(gif, 40)
+    # the studio's Duet export of the same two people (one shared space), titled with the prompt
+    assert gif.read_bytes() == export_duet_bytes(SimpleNamespace(joints=joints), "gif", title="two people hug")
+    # both bodies are drawn: not person a alone, nor person b alone, nor the two side by side
+    people = by_person(joints)
+    for other in (joints[0], joints[1], people):
+        assert gif.read_bytes() != _exporter(other, tmp_path / "other.gif", title="two people hug").read_bytes()
+    # a completion (no prompt) as a PNG: frame 0, titled as the duet is kept ("completed duet")
+    more, png = tmp_path / "more.npy", tmp_path / "more.png"
+    assert main(["duet", "--prefix", str(out), "--prefix-seconds", "0.5", "--seconds", "1", "--steps", "3",
+                 "--out", str(more), "--render", str(png), *models]) == 0
+    capsys.readouterr()
+    completed = by_person(np.load(more))
+    expected = _exporter(completed, tmp_path / "ref.png", title="completed duet",
+                         offsets={role: (0.0, 0.0, 0.0) for role in completed})
+    with Image.open(png) as im:
+        assert im.format == "PNG" and im.size == VIDEO_SIZE
+    assert png.read_bytes() == expected.read_bytes()
+
+
+def test_compose_transfer_and_control_render_with_the_studios_exporter(tmp_path, tiny_model_dir, monkeypatch,
+                                                                        capsys):
+    from engine.cli import main
+
+    _no_vtk(monkeypatch)
+    calls = _spy_on_the_exporter(monkeypatch)
+    model = ["--model", str(tiny_model_dir), "--steps", "2", "--no-library"]
+
+    long, gif = tmp_path / "long.npy", tmp_path / "long.gif"
+    assert main(["compose", "a person walks:2", "a person jumps:2", "--out", str(long), "--render", str(gif),
+                 *model]) == 0
+    assert json.loads(capsys.readouterr().out)["render"] == str(gif)
+    (call,) = calls
+    calls.clear()
+    assert call["path"] == gif and call["title"] == "a person walks → a person jumps"
+    np.testing.assert_allclose(call["motions"], np.load(long), atol=1e-6)
+    _gif_of_the_studio(gif, len(np.load(long)))
+    _is_the_exporters_picture(call, tmp_path)
+
+    moved, gif = tmp_path / "moved.npy", tmp_path / "moved.gif"
+    assert main(["transfer", "--leader", "a person walks", "--follower", "a person jumps", "--seconds", "1",
+                 "--out", str(moved), "--render", str(gif), *model]) == 0
+    report = json.loads(capsys.readouterr().out)
+    (call,) = calls
+    calls.clear()
+    assert call["path"] == gif and call["title"] == f"{report['leader']} ← {report['followers'][0]}"
+    assert "a person walks" in call["title"] and "a person jumps" in call["title"]
+    assert list(call["motions"]) == ["leader", "follower 1", "out 1"]  # side by side, as before
+    np.testing.assert_allclose(call["motions"]["out 1"], np.load(moved), atol=1e-6)
+    _gif_of_the_studio(gif, 20)
+    _is_the_exporters_picture(call, tmp_path)
+
+    root = tmp_path / "root.json"
+    root.write_text(json.dumps({"points": [[0, 0], [0, 1], [0.5, 1.5]]}))
+    followed, png = tmp_path / "c.npy", tmp_path / "c.png"
+    assert main(["control", "--prompt", "a person walks", "--root", str(root), "--inpaint", "--seconds", "2",
+                 "--out", str(followed), "--render", str(png), *model]) == 0
+    capsys.readouterr()
+    (call,) = calls
+    calls.clear()
+    assert call["path"] == png and call["title"] == "a person walks · inpainting (root)"
+    np.testing.assert_allclose(call["motions"], np.load(followed), atol=1e-5)
+    with Image.open(png) as im:
+        assert im.format == "PNG" and im.size == VIDEO_SIZE
+    _is_the_exporters_picture(call, tmp_path)

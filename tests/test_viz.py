@@ -1,13 +1,11 @@
-"""Tests of viz/: the skeleton scene (in-place updates, colours, camera) and file renders.
+"""Tests of viz/: the skeleton scene (in-place updates, colours, camera) and its frames as images (for the corpus's
+contact sheets; files are written by the studio's exporter, tested in test_viz_flat.py and test_cli_pictures.py).
 
 Images are checked by statistics against a render of the same scene with the skeleton
 hidden, so a blank or skeleton-less image fails. Sizes are small to keep the file fast.
 """
 from __future__ import annotations
 
-from pathlib import Path
-
-import imageio.v3 as iio
 import numpy as np
 import pytest
 
@@ -17,14 +15,8 @@ from engine.skeleton import JOINT_NAMES, PARENTS  # noqa: E402
 from tests.conftest import walker  # noqa: E402
 from viz.camera import facing_azimuth  # noqa: E402
 from viz.geometry import BONE_CHILDREN, BONE_PARENTS  # noqa: E402
-from viz.render import (  # noqa: E402
-    contact_sheet,
-    render_file,
-    render_frames,
-    render_gif,
-    render_mp4,
-    render_png,
-)
+from viz.render import render_frames  # noqa: E402
+from viz.sheet import contact_sheet  # noqa: E402
 from viz.layout import side_by_side_offsets  # noqa: E402
 from viz.scene import SkeletonScene  # noqa: E402
 
@@ -77,9 +69,8 @@ def assert_figure_visible(image: np.ndarray, background: np.ndarray, *, upright:
 
 
 # ---------------------------------------------------------------------------- PNG / visibility
-def test_png_of_real_frame0_shows_upright_skeleton(real_joints: np.ndarray, tmp_path: Path) -> None:
-    path = render_png(real_joints, tmp_path / "frame0.png", frame=0, size=(320, 240))
-    image = iio.imread(path)
+def test_real_frame0_shows_upright_skeleton(real_joints: np.ndarray) -> None:
+    (image,) = render_frames(real_joints, frames=[0], size=(320, 240))
     assert image.shape == (240, 320, 3) and image.dtype == np.uint8
     background = background_of(real_joints, size=(320, 240))
     mask = assert_figure_visible(image, background)
@@ -113,16 +104,12 @@ def test_floor_and_path_are_drawn() -> None:
     assert skeleton_mask(with_floor, without_path).sum() > 20, "root path not visible"
 
 
-def test_render_file_dispatch_and_bad_extension(tmp_path: Path) -> None:
+def test_render_frames_refuses_frames_outside_the_motion() -> None:
     motion = walker(3)
-    out = render_file(motion, tmp_path / "a" / "pose.PNG", frame=2, size=(96, 80))
-    assert out.exists() and iio.imread(out).shape == (80, 96, 3)
-    for bad in ("pose.jpg", "motion.avi", "noext"):
-        with pytest.raises(ValueError, match="unsupported extension"):
-            render_file(motion, tmp_path / bad)
-        assert not (tmp_path / bad).exists()
-    with pytest.raises(ValueError, match="png only"):
-        render_file(motion, tmp_path / "clip.gif", frame=1)
+    with pytest.raises(IndexError, match=r"frames \[3\] out of range 0..2"):
+        render_frames(motion, frames=[0, 3], size=(64, 48))
+    with pytest.raises(ValueError, match="every must be >= 1"):
+        render_frames(motion, every=0, size=(64, 48))
 
 
 def test_invalid_motion_shapes_raise() -> None:
@@ -132,35 +119,6 @@ def test_invalid_motion_shapes_raise() -> None:
     bad[1, 3, 0] = np.nan
     with pytest.raises(ValueError, match="NaN"):
         SkeletonScene(bad)
-
-
-# ---------------------------------------------------------------------------- GIF / MP4
-def test_gif_has_one_frame_per_pose_and_moves(real_joints: np.ndarray, tmp_path: Path) -> None:
-    clip = real_joints[40:70:3]  # 10 poses of a moving body
-    path = render_gif(clip, tmp_path / "clip.gif", size=(120, 96), fps=20)
-    frames = iio.imread(path, index=None)
-    assert frames.shape[:3] == (len(clip), 96, 120)
-    assert iio.immeta(path)["duration"] == 50
-    rgb = frames[..., :3].astype(np.int32)
-    step_changes = [np.abs(rgb[i + 1] - rgb[i]).sum(axis=2).astype(bool).mean() for i in range(len(clip) - 1)]
-    assert min(step_changes) > 0.001, "consecutive GIF frames should differ (the body moves)"
-    assert np.abs(rgb[-1] - rgb[0]).sum(axis=2).astype(bool).mean() > 0.01
-
-
-def test_gif_every_keeps_real_speed(tmp_path: Path) -> None:
-    path = render_gif(walker(12), tmp_path / "w.gif", every=4, size=(96, 80))
-    assert iio.imread(path, index=None).shape[0] == 3
-    assert iio.immeta(path)["duration"] == 200
-
-
-def test_mp4_is_readable_with_right_frame_count(tmp_path: Path) -> None:
-    motion = walker(9)
-    path = render_file(motion, tmp_path / "w.mp4", size=(121, 95), fps=20)
-    frames = list(iio.imiter(path, plugin="FFMPEG"))
-    assert len(frames) == 9
-    assert frames[0].shape == (96, 122, 3)  # odd sizes rounded up to even
-    assert np.abs(frames[-1].astype(int) - frames[0].astype(int)).mean() > 0.5
-    assert abs(iio.immeta(path, plugin="FFMPEG")["fps"] - 20.0) < 1e-6
 
 
 # ---------------------------------------------------------------------------- in-place updates

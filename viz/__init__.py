@@ -1,9 +1,9 @@
 """Visualisation: pyvista skeleton scenes (built once, updated in place) and renders.
 
-Submodules: ``scene`` (``SkeletonScene``), ``render`` (PNG/GIF/MP4, frame lists), ``flat`` (``FlatRenderer``:
-the same picture drawn in 2D without VTK, for the studio's fast GIF/MP4 exports),
-``sheet`` (contact sheets), ``colors``, ``geometry``, ``camera``. The names below are
-imported lazily so that ``import viz`` does not load VTK.
+Submodules: ``scene`` (``SkeletonScene``), ``render`` (the scene's frames as images, for contact sheets),
+``flat`` (``FlatRenderer``: the same picture drawn in 2D without VTK), ``export`` (``write_picture``: the one
+exporter of GIF/MP4/PNG pictures, the studio's Export and every command's picture), ``sheet`` (contact sheets),
+``colors``, ``geometry``, ``camera``. The names below are imported lazily so that ``import viz`` does not load VTK.
 """
 from __future__ import annotations
 
@@ -12,11 +12,8 @@ from typing import Any
 
 _EXPORTS = {
     "SkeletonScene": "viz.scene",
-    "render_png": "viz.render",
-    "render_gif": "viz.render",
-    "render_mp4": "viz.render",
-    "render_file": "viz.render",
     "render_frames": "viz.render",
+    "write_picture": "viz.export",
     "contact_sheet": "viz.sheet",
     "FlatRenderer": "viz.flat",
 }

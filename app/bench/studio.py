@@ -111,7 +111,7 @@ def bench_app(model_dir: Path, *, prompt: str = "a person jumps twice", play_sec
                                   transfer=transfer)
     first = next(iter(runs.values()))
     export_times = {}
-    if exports:  # the studio's own Export path (server-side pyvista), once: it does not depend on the browser
+    if exports:  # the studio's own Export path (server-side viz.export), once: it does not depend on the browser
         from app.bench.exports import bench_exports
         from engine.checkpoint import load_model
 

@@ -24,7 +24,8 @@ class ComposeFiles:
                                         help="an interval: its prompt and its length in seconds (up to 9.8)")
     first_take_only: bool = option(False, help="skip the second take")
     out: Path = option(required=True, type=Path, help="the long motion (.npy or .bvh)")
-    render: Path | None = option(None, type=Path, help="a render (.gif, .mp4 or .png)")
+    render: Path | None = option(None, type=Path, help="a picture (.gif, .mp4 or .png) by the studio's exporter, "
+                                 "titled with the intervals' prompts")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -104,7 +105,8 @@ def run(args: argparse.Namespace) -> int:
     result = compose(loaded, intervals, config, sample=SampleConfig(steps=args.steps, guidance=args.guidance,
                                                                     seed=args.seed))
     save_motion(result.joints, args.out)
-    keep(args, result.joints, kind="compose", stream=sys.stderr, title=" → ".join(iv.prompt for iv in intervals)[:200],
+    title = " → ".join(iv.prompt for iv in intervals)[:200]
+    keep(args, result.joints, kind="compose", stream=sys.stderr, title=title,
          recipe=cli_recipe(args, made_by="moattn compose", prompt=" / ".join(iv.prompt for iv in intervals),
                            frames=len(result.joints), compose=list(args.intervals), transitions=result.transitions))
     report = {"out": str(args.out), "frames": int(len(result.joints)), "seconds_of_motion": len(result.joints) / 20,
@@ -113,10 +115,10 @@ def run(args: argparse.Namespace) -> int:
               "second_take": config.second_take is not None, "wall_seconds": round(result.seconds, 2)}
     if notes:
         report["notes"] = notes
-    if args.render is not None:
-        from viz.render import render_file
+    if args.render is not None:  # the studio's exporter, titled as kept
+        from viz.export import write_picture
 
-        render_file(result.joints, args.render)
+        write_picture(result.joints, args.render, title=title)
         report["render"] = str(args.render)
     print(json.dumps(report, indent=2))
     return 0

@@ -33,7 +33,8 @@ class ControlFiles:
         "the paths given (instead of the --*-weight flags)")
     controls: Path = option(CONTROL_DIR, help="control model folders")
     out: Path = option(required=True, type=Path, help="the motion (.npy or .bvh), in the path's world frame")
-    render: Path | None = option(None, help="a render (.gif, .mp4 or .png)")
+    render: Path | None = option(None, help="a picture (.gif, .mp4 or .png) by the studio's exporter, titled with "
+                                 "the prompt, method and paths")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -241,10 +242,10 @@ def run(args: argparse.Namespace) -> int:
                            model=run_base.loaded.folder,
                            control={"method": options.method, "controls": report["controls"],
                                     "weights": report.get("weights")}))
-    if args.render is not None:
-        from viz.render import render_file
+    if args.render is not None:  # the studio's exporter, titled as kept
+        from viz.export import write_picture
 
-        render_file(joints, args.render)
+        write_picture(joints, args.render, title=title)
         report["render"] = str(args.render)
     print(json.dumps(report, indent=2))
     return 0

@@ -22,7 +22,8 @@ class DuetFiles:
     """`moattn duet`'s output files."""
 
     out: Path = option(required=True, type=Path, help="the duet (.npy, or .bvh for one file per person)")
-    render: Path | None = option(None, help="a render of both people (.gif, .mp4 or .png)")
+    render: Path | None = option(None, help="a picture of both people in one space (.gif, .mp4 or .png) by the "
+                                 "studio's exporter, titled with the prompt")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -72,11 +73,14 @@ def write_duet(joints: np.ndarray, path: Path) -> list[Path]:
     raise ValueError(f"--out must end in .npy or .bvh, got {path.name!r}")
 
 
-def render_duet(joints: np.ndarray, path: Path, *, title: str | None = None) -> Path:
+def render_duet(joints: np.ndarray, path: Path, *, title: str) -> Path:
+    """(2, T, 22, 3) -> a picture of both people as the studio's Duet export draws them (``viz.export``): one
+    shared space (no side-by-side offsets), person a and person b in their palette colours."""
     from engine.methods.duet import by_person
-    from viz.render import render_together
+    from viz.export import write_picture
 
-    return render_together(by_person(joints), path, title=title)
+    people = by_person(joints)
+    return write_picture(people, path, title=title, offsets={role: (0.0, 0.0, 0.0) for role in people})
 
 
 def run(args: argparse.Namespace) -> int:
@@ -134,6 +138,6 @@ def run(args: argparse.Namespace) -> int:
     if notes:
         report["notes"] = notes
     if args.render is not None:
-        report["render"] = str(render_duet(duet.joints, args.render, title=args.prompt))
+        report["render"] = str(render_duet(duet.joints, args.render, title=named))
     print(json.dumps(report, indent=2))
     return 0

@@ -29,7 +29,8 @@ class EditFiles:
 
     seconds: float = option(EDIT_SECONDS, help="length of the motion generated to edit, in seconds")
     out: Path = option(Path("edited.npy"), help="edited motion (.npy or .bvh)")
-    render: Path | None = option(None, type=Path, help="before/after render (.gif, .mp4 or .png)")
+    render: Path | None = option(None, type=Path, help="before/after picture (.gif, .mp4 or .png) by the studio's "
+                                 "exporter, titled with the edit")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -121,18 +122,20 @@ def run(args: argparse.Namespace) -> int:
     out = run_edit(loaded, options, frames=frames, sample=sample)
     save_motion(out.after, args.out)
     report["out"] = str(args.out)
-    title = f"{args.kind}: {options.edited or options.prompt or args.kind}"[:200]
     prompt = options.prompt if isinstance(options.prompt, str) else None  # None: the edit started from a file
+    source = prompt or (Path(args.prompt).name if args.prompt else None)  # a motion file: named by its file name
+    title = f"{args.kind}: {options.edited or source or args.kind}"[:200]
     keep(args, out.after, kind="edit", stream=sys.stderr, title=title,
          recipe=cli_recipe(args, made_by="moattn edit", prompt=prompt, frames=frames, edit=args.kind))
     if args.kind == "ground":
         report["spans"] = spans_text(out.extra.get("spans", ()))
     if args.kind == "example":
         report.update(chunk_frames=options.chunk_frames, outputs=options.count)
-    if args.render is not None:
-        from viz.render import render_file
+    if args.render is not None:  # the studio's exporter: before and after side by side, titled as kept
+        from viz.export import write_picture
 
-        render_file({f"before ({out.before_role})": out.before, f"after ({out.after_role})": out.after}, args.render)
+        write_picture({f"before ({out.before_role})": out.before, f"after ({out.after_role})": out.after},
+                      args.render, title=title)
         report["render"] = str(args.render)
     print(json.dumps(report, indent=2, ensure_ascii=False))
     return 0

@@ -35,7 +35,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     _common(p)
     p.add_argument("--out", type=Path, required=True,
                    help="output motion (.npy or .bvh); several followers write NAME_1.npy, NAME_2.npy, ...")
-    p.add_argument("--render", type=Path, default=None, help="leader | follower | out render (.gif, .mp4 or .png)")
+    p.add_argument("--render", type=Path, default=None,
+                   help="leader | follower | out picture side by side (.gif, .mp4 or .png) by the studio's exporter, "
+                        "titled 'LEADER ← FOLLOWER'")
     add_library_arguments(p)
     p.set_defaults(run=run_transfer)
     a = sub.add_parser("analyze-qk", help="MoMo's analysis: Q/K clusters, correspondences, attention maps",
@@ -125,14 +127,14 @@ def run_transfer(args: argparse.Namespace) -> int:
              recipe=cli_recipe(args, made_by="moattn transfer", frames=len(result.out(i)),
                                transfer={**pair, "root": report["root"], "directions": report["directions"]}))
     report["out"] = outs
-    if args.render is not None:
-        from viz.render import render_file
+    if args.render is not None:  # the studio's exporter, side by side, titled as kept (every follower named)
+        from viz.export import write_picture
 
         motions = {"leader": result.leader_joints()}
         for i in range(len(result.followers)):
             motions[f"follower {i + 1}"] = result.follower(i)
             motions[f"out {i + 1}"] = result.out(i)
-        render_file(motions, args.render)
+        write_picture(motions, args.render, title=f"{report['leader']} ← {', '.join(report['followers'])}"[:200])
         report["render"] = str(args.render)
     print(json.dumps(report, indent=2))
     return 0
