@@ -15,16 +15,18 @@ from engine.diffusion.sampler import StepHook
 from engine.model.denoiser import Condition
 from engine.representation import features_to_joints
 from engine.text import TokenizedPrompt
-from engine.units import DEFAULT_GUIDANCE, DEFAULT_STEPS, FPS, MAX_SECONDS, MIN_SECONDS  # noqa: F401 (re-exported)
+from engine.units import DEFAULT_GUIDANCE, DEFAULT_GUIDANCE_FROM, DEFAULT_STEPS, FPS, MAX_SECONDS, MIN_SECONDS  # noqa: F401 (re-exported)
 
 
 
 @dataclass(frozen=True)
 class SampleConfig:
-    """How to sample. ``guidance`` 1.0 = no classifier-free guidance; MotionCLR uses 2.5."""
+    """How to sample. ``guidance`` 1.0 = no classifier-free guidance; MotionCLR uses 2.5. ``guidance_from``: the
+    guidance applies only at timesteps t >= this (0: at every step, classic classifier-free guidance)."""
 
     steps: int = DEFAULT_STEPS
     guidance: float = DEFAULT_GUIDANCE
+    guidance_from: int = DEFAULT_GUIDANCE_FROM
     eta: float = 0.0
     sampler: str = "ddim"  # "ddim" | "ddpm"
     seed: int = 0
@@ -38,6 +40,14 @@ class SampleConfig:
             raise ValueError(f"guidance must be between 0 and 20, got {self.guidance}")
         if self.eta < 0:
             raise ValueError("eta must be >= 0")
+        if not 0 <= self.guidance_from < 1000:
+            raise ValueError(f"guidance_from must be a timestep from 0 to 999, got {self.guidance_from}")
+
+    def guided(self, denoiser):
+        """``denoiser`` wrapped in this config's classifier-free guidance (itself when there is none)."""
+        if self.guidance == 1.0:
+            return denoiser
+        return ClassifierFreeGuidance(denoiser, scale=self.guidance, interval=(self.guidance_from, 1_000_000))
 
 
 def frames_for(seconds: float) -> int:
@@ -88,7 +98,7 @@ def build_condition(loaded: LoadedModel, request: Request) -> tuple[Condition, l
 
 
 def denoiser_for(loaded: LoadedModel, config: SampleConfig):
-    return ClassifierFreeGuidance(loaded.model, scale=config.guidance) if config.guidance != 1.0 else loaded.model
+    return config.guided(loaded.model)
 
 
 def sample_states(

@@ -12,6 +12,10 @@ MIN_SECONDS = 1.0  # the shortest motion the studio and the CLI generate
 # the default sampling config (engine.generate.SampleConfig and every bench and tab read these)
 DEFAULT_STEPS = 50
 DEFAULT_GUIDANCE = 2.5  # classifier-free guidance scale (MotionCLR's)
+# guidance applies at the noisier timesteps t >= this (of 1000), where the action is decided; below it the
+# conditional prediction alone: guidance in a limited interval (Kynkaanniemi et al. 2024). 0 = every step. On this
+# project's models, guidance at the quieter steps lowers adherence (assets/model/TRAINING.md, session 25)
+DEFAULT_GUIDANCE_FROM = 700
 EDIT_SECONDS = 4.0  # the length of a motion `moattn edit` generates to edit
 
 # a duet (ComMDM): from a prompt; a completion: the prefix given, the seconds completed

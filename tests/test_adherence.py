@@ -142,22 +142,26 @@ def test_lever_screen_rows_score_each_model_on_the_dev_prompts(tiny_model_dir, t
     import json
 
     from engine.cli import main
+    from engine.evaluation.bench_levers import format_table
     from tests.conftest import real_file
 
     prompts = tmp_path / "dev.txt"
     prompts.write_text("a person jumps twice\nsomeone waves with the left hand\n")
     argv = ["bench", "--levers", str(tiny_model_dir), "--prompts", str(prompts), "--seeds", "2", "--steps", "5",
-            "--guidance", "1.5", "--real", str(real_file("cmu_131_01_walk.bvh")), "--quick", "--json"]
+            "--guidance", "1.5", "--guidance-from", "600", "--real", str(real_file("cmu_131_01_walk.bvh")), "--quick", "--json"]
     assert main(argv) == 0
     result = json.loads(capsys.readouterr().out)
     (row,) = result["rows"]
     assert result["prompts"] == 2 and result["seeds"] == 2 and row["guidance"] == 1.5
+    assert row["guidance_from"] == 600 and "guidance 1.5 at t >= 600" in format_table(result)
     assert 0.0 <= row["action"] <= 1.0 and row["action_seed_std"] is not None
     assert row["foot_skate"] is not None and row["inversion_cm"] > 0 and row["refused"] == 0
     assert main(["bench", "--levers", "--model", "/nonexistent"]) == 2
     assert "needs the model folders" in capsys.readouterr().err
     assert main(["bench", "--inversion", "--guidance", "2", "--model", "/nonexistent"]) == 2
-    assert "--guidance goes with --adherence or --levers" in capsys.readouterr().err
+    assert "--guidance and --guidance-from go with --adherence or --levers" in capsys.readouterr().err
+    assert main(["bench", "--inversion", "--guidance-from", "0", "--model", "/nonexistent"]) == 2
+    assert "go with --adherence or --levers" in capsys.readouterr().err
 
 
 def test_lever_rows_say_which_prompts_a_lever_moved():

@@ -83,3 +83,21 @@ def test_inversion_round_trip_runs_and_reports_metres(loaded):
     assert np.isfinite(report["noise_std"]) and report["noise_std"] > 0
     with pytest.raises(ValueError, match="longer than the model's 9.8 s: pick a window with --start/--seconds"):
         roundtrip_error(loaded, np.zeros((300, 22, 3)) + joints[:1], InversionConfig(steps=2))
+
+
+def test_sample_config_guides_only_from_its_timestep():
+    """The guidance applies at t >= guidance_from (the units' default); 0 = every step; 1.0 = no wrapper."""
+    import pytest
+
+    from engine.diffusion import ClassifierFreeGuidance
+    from engine.generate import SampleConfig
+    from engine.units import DEFAULT_GUIDANCE_FROM
+
+    inner = object()
+    guided = SampleConfig().guided(inner)
+    assert isinstance(guided, ClassifierFreeGuidance) and guided.denoiser is inner
+    assert guided.interval[0] == DEFAULT_GUIDANCE_FROM == SampleConfig().guidance_from
+    assert SampleConfig(guidance_from=0).guided(inner).interval[0] == 0
+    assert SampleConfig(guidance=1.0).guided(inner) is inner
+    with pytest.raises(ValueError, match="guidance_from must be a timestep"):
+        SampleConfig(guidance_from=1000)

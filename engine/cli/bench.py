@@ -44,8 +44,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     given_steps(args)  # a bad --steps fails before any model loads
-    if args.guidance is not None and not (args.adherence or args.levers):
-        raise ValueError("--guidance goes with --adherence or --levers")
+    if (args.guidance is not None or args.guidance_from is not None) and not (args.adherence or args.levers):
+        raise ValueError("--guidance and --guidance-from go with --adherence or --levers")
     if args.real is not None and not args.levers:
         raise ValueError("--real goes with --levers")
     if args.seeds is not None and not (args.duet or args.adherence or args.sampling or args.levers):
@@ -216,7 +216,7 @@ def run_adherence(args: argparse.Namespace) -> int:
     from engine.evaluation.bench_adherence import AdherenceBenchConfig, bench_adherence, format_table, read_prompts
 
     config = preset(AdherenceBenchConfig, args, seeds=args.seeds, lengths=args.lengths,
-                    guidance=args.guidance)  # fails before the model loads
+                    guidance=args.guidance, guidance_from=args.guidance_from)  # fails before the model loads
     prompts = read_prompts(args.prompts) if args.prompts is not None else None
     result = bench_adherence(_model(args), config, prompts=prompts, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
@@ -228,7 +228,8 @@ def run_levers(args: argparse.Namespace) -> int:
 
     if not args.files:
         raise ValueError("--levers needs the model folders to score, e.g. moattn bench --levers runs/a runs/b")
-    config = preset(LeverBenchConfig, args, seeds=args.seeds, guidance=args.guidance)
+    config = preset(LeverBenchConfig, args, seeds=args.seeds, guidance=args.guidance,
+                    guidance_from=args.guidance_from)
     result = bench_levers(args.files, config, prompts_file=args.prompts or DEV_PROMPTS, real_file=args.real, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0

@@ -102,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
         if said := loaded.tokenizer.encode(iv.prompt).notes():
             notes[iv.prompt] = said
             print(f"notes: {iv.prompt!r}: {'; '.join(said)}", file=sys.stderr)
-    result = compose(loaded, intervals, config, sample=SampleConfig(steps=args.steps, guidance=args.guidance,
+    result = compose(loaded, intervals, config, sample=SampleConfig(steps=args.steps, guidance=args.guidance, guidance_from=args.guidance_from,
                                                                     seed=args.seed))
     save_motion(result.joints, args.out)
     title = " → ".join(iv.prompt for iv in intervals)[:200]

@@ -218,7 +218,7 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"the control models for {', '.join(other)} in {args.controls} were fine-tuned from "
                              f"another base model than {args.model}: use the base they came from, or --method inpainting")
         models = run_base.models
-    sample = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed)
+    sample = SampleConfig(steps=args.steps, guidance=args.guidance, guidance_from=args.guidance_from, seed=args.seed)
     gen = controlled(run_base.loaded, args.prompt, controls, seconds=args.seconds, models=models,
                      weights=options.weights() if blending else None, sample=sample)
     joints = gen.joints[0]

@@ -92,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
     options = options_from_args(args)
     loaded = load_model(args.model, runtime=runtime_from_args(args))
     frames = frames_for(args.seconds)
-    sample = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed)
+    sample = SampleConfig(steps=args.steps, guidance=args.guidance, guidance_from=args.guidance_from, seed=args.seed)
 
     report: dict = {"kind": args.kind}
     if args.kind == "count":

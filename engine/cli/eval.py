@@ -32,6 +32,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--steps", type=int, default=None, help="sampling steps (overrides the preset)")
     p.add_argument("--guidance", type=float, default=None,
                    help="classifier-free guidance scale (default: the sampling default; 1: none)")
+    p.add_argument("--guidance-from", type=int, default=None,
+                   help="the guidance applies at timesteps t >= this, of 1000 (0: every step; default: the "
+                        "sampling default)")
     p.add_argument("--splits", default=None,
                    help="comma-separated splits (default: test,ood for the corpus, test for --data)")
     p.add_argument("--gt-only", action="store_true", help="only the ground-truth rows (no model needed)")
@@ -88,6 +91,10 @@ def run_eval(args: argparse.Namespace) -> int:
         if not 0.0 <= args.guidance <= 20.0:
             raise SystemExit(f"moattn eval: --guidance must be between 0 and 20, got {args.guidance:g}")
         config = replace(config, guidance=args.guidance)
+    if args.guidance_from is not None:
+        if not 0 <= args.guidance_from <= 999:
+            raise SystemExit(f"moattn eval: --guidance-from must be a timestep from 0 to 999, got {args.guidance_from}")
+        config = replace(config, guidance_from=args.guidance_from)
     evaluator = load_evaluator(args.evaluator, runtime=runtime)
     loaded = None if args.gt_only else load_model(args.model, runtime=runtime)
     splits = [s.strip() for s in (args.splits or ("test,ood" if data is None else "test")).split(",") if s.strip()]
@@ -104,7 +111,7 @@ def run_eval(args: argparse.Namespace) -> int:
         payload = {**{k: first[k] for k in ("model", "ground_truth", "gt_noise_floor_fid") if k in first},
                    "split": splits[0], "splits": results,
                    "settings": {"samples": config.samples, "steps": config.steps, "guidance": config.guidance,
-                                "model": str(args.model), "data": data or "corpus", "device": str(runtime.device)}}
+                                "guidance_from": config.guidance_from, "model": str(args.model), "data": data or "corpus", "device": str(runtime.device)}}
         print(json.dumps(payload, indent=2))
     else:
         print(format_table(results))

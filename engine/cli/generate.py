@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     seconds = resolve_seconds(args.seconds, args.prompt)
     frames = frames_for(seconds)
     loaded = load_model(args.model, runtime=runtime_from_args(args))
-    config = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed, sampler=args.sampler)
+    config = SampleConfig(steps=args.steps, guidance=args.guidance, guidance_from=args.guidance_from, seed=args.seed, sampler=args.sampler)
 
     def progress(state):
         print(f"\rstep {state.step + 1}/{state.num_steps}", end="", file=sys.stderr, flush=True)

@@ -96,7 +96,7 @@ def _run(args: argparse.Namespace, *, record: bool):
     config = config_from_args(args)  # a flag out of bounds fails before the model loads
     loaded = load_model(args.model, runtime=runtime_from_args(args))
     leader, followers = sources(args, max_frames=loaded.model.config.max_frames)
-    sample = SampleConfig(steps=args.steps, guidance=args.guidance, seed=args.seed)
+    sample = SampleConfig(steps=args.steps, guidance=args.guidance, guidance_from=args.guidance_from, seed=args.seed)
     result = transfer(loaded, leader, followers, config, sample=sample, record=qk_record() if record else None)
     report = {"leader": leader.label, "followers": [f.label for f in followers], "root": config.root,
               "directions": config.directions,

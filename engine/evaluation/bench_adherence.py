@@ -49,6 +49,7 @@ class AdherenceBenchConfig:
     seeds: int = 4
     steps: int = SampleConfig().steps
     guidance: float = SampleConfig().guidance
+    guidance_from: int = SampleConfig().guidance_from  # guidance only at timesteps t >= this
     validation_motions: int = 1000  # corpus test motions the detectors are validated on (the issue asks >= 500)
     seed: int = 0
     # the model's lengths: "auto" = what a user gets (the length predicted from the prompt, the studio's and the
@@ -68,6 +69,12 @@ class AdherenceBenchConfig:
         return cls(seeds=2, steps=20, validation_motions=500)
 
 
+def _from(settings: dict) -> str:
+    """How a table states where the guidance applies ('' when at every step)."""
+    first = settings.get("guidance_from", 0)
+    return f" at t >= {first}" if first else ""
+
+
 def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: AdherenceBenchConfig) -> list[np.ndarray]:
     """One motion per seed (a batch slot each, noise drawn from ``config.seed``), each with the given number of
     joint frames."""
@@ -75,7 +82,8 @@ def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: Adherenc
 
     frames = [min(n - 1, loaded.model.config.max_frames) for n in lengths]  # one batch: a slot per seed
     gen = generate(loaded, Request(prompts=[prompt] * len(frames), frames=frames),
-                   SampleConfig(steps=config.steps, guidance=config.guidance, seed=config.seed))
+                   SampleConfig(steps=config.steps, guidance=config.guidance,
+                                guidance_from=config.guidance_from, seed=config.seed))
     return list(gen.joints)
 
 
@@ -140,7 +148,7 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
             "unparsed": unparsed, "refused": refused, "per_prompt": per_prompt,
             "foot_skate": _skate_summary(skates),
             "settings": {"seeds": config.seeds, "steps": config.steps, "guidance": config.guidance,
-                         "lengths": config.lengths,
+                         "guidance_from": config.guidance_from, "lengths": config.lengths,
                          "prompts": len(prompts), "validation_motions": config.validation_motions},
             "seconds": time.perf_counter() - t0}
 
@@ -218,6 +226,6 @@ def format_table(result: dict) -> str:
     s = result["settings"]
     lengths = ("model lengths predicted from each prompt (what a user gets)" if s.get("lengths", "auto") == "auto"
                else "model lengths = the ground truth's")
-    lines.append(f"{s['prompts']} prompts x {s['seeds']} seeds, {s['steps']} steps, guidance {s['guidance']}, {lengths}; "
+    lines.append(f"{s['prompts']} prompts x {s['seeds']} seeds, {s['steps']} steps, guidance {s['guidance']}{_from(s)}, {lengths}; "
                  f"validation on {s['validation_motions']} corpus test motions; {result['seconds']:.0f} s")
     return "\n".join(lines)

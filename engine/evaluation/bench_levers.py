@@ -27,6 +27,7 @@ class LeverBenchConfig:
     validation_motions: int = 500
     inversion_steps: int = 50
     guidance: float | None = None  # None: the sampling default
+    guidance_from: int | None = None  # None: the sampling default
     steps: int | None = None  # sampling steps; None: the sampling default
 
     @classmethod
@@ -69,11 +70,13 @@ def score_row(folder: Path, config: LeverBenchConfig, *, prompts: Sequence[str],
 
     t0 = time.perf_counter()
     loaded = load_model(folder)
-    settings = {k: v for k, v in {"guidance": config.guidance, "steps": config.steps}.items() if v is not None}
+    settings = {k: v for k, v in {"guidance": config.guidance, "guidance_from": config.guidance_from,
+                                           "steps": config.steps}.items() if v is not None}
     adherence = bench_adherence(loaded, AdherenceBenchConfig(seeds=config.seeds,
                                                              validation_motions=config.validation_motions, **settings),
                                 prompts=prompts, log=log)
-    row = {"model": str(folder), **logged_rate(folder), "guidance": adherence["settings"]["guidance"]}
+    row = {"model": str(folder), **logged_rate(folder), "guidance": adherence["settings"]["guidance"],
+           "guidance_from": adherence["settings"]["guidance_from"]}
     model = adherence["model"]
     for attr in ("action", "count", "side"):
         row[attr] = model[attr]
@@ -110,9 +113,9 @@ def _f(v, fmt: str) -> str:
 
 
 def format_table(result: dict) -> str:
-    guidance = sorted({r["guidance"] for r in result["rows"]})
+    guidance = sorted({(r["guidance"], r.get("guidance_from", 0)) for r in result["rows"]})
     lines = [f"lever screen: {result['prompts']} dev prompts x {result['seeds']} seeds, guidance "
-             f"{', '.join(f'{g:g}' for g in guidance)}"
+             f"{', '.join(f'{g:g}' + (f' at t >= {t}' if t else '') for g, t in guidance)}"
              + (f"; inversion of {result['real_file']}" if result["real_file"] else ""),
              f"{'model':<28}{'step':>7}{'action':>8}{'±seed':>7}{'count':>7}{'side':>6}{'skate':>7}{'vs GT':>7}"
              f"{'inv cm':>8}{'noise':>7}{'smp/s':>8}{'refused':>8}"]

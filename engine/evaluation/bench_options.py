@@ -39,6 +39,9 @@ class BenchOptions:
         help="lever screen: one row per model folder given as FILES, scored on the dev prompt set")
     guidance: float | None = option(None, type=float,
         help="--adherence / --levers: classifier-free guidance scale (default: the sampling default)")
+    guidance_from: int | None = option(None, type=int, bounds=(0, 999), whole=True,
+        help="--adherence / --levers: the guidance applies at timesteps t >= this, of 1000 (0: every step; "
+             "default: the sampling default)")
     real: Path | None = option(None, type=Path,
         help="--levers: the real motion file whose inversion round trip each row reports")
     lengths: str | None = option(None, choices=("auto", "truth"),

@@ -16,7 +16,7 @@ import torch
 
 from engine.attention.context import WordIndex
 from engine.checkpoint import TRAIN_STATE, WEIGHTS, LoadedModel, load_model, load_train_state, read_config
-from engine.diffusion import ClassifierFreeGuidance, CosineSchedule, StepState, ddim
+from engine.diffusion import CosineSchedule, StepState, ddim
 from engine.generate import FPS, SampleConfig, frames_for
 from engine.methods.commdm import (PLACE_DIMS, ComConfig, DuetDenoiser, Pose, PriorTwice, duet_roles,
                                    fingerprint, mean_pose, placements, unpack)
@@ -166,7 +166,7 @@ def _condition(model: DuetModel, prompt: str | None, frames: int, pairs: int = 1
 
 def _denoiser(model: DuetModel, sample: SampleConfig, communicate: bool):
     inner = model.denoiser if communicate else PriorTwice(model.denoiser, torch.from_numpy(model.mean_place.vector()))
-    return ClassifierFreeGuidance(inner, scale=sample.guidance) if sample.guidance != 1.0 else inner
+    return sample.guided(inner)
 
 
 def _sample(model: DuetModel, cond: Condition, frames: int, sample: SampleConfig, *, communicate: bool,
