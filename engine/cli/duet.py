@@ -108,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
         if notes:
             print(f"notes: {'; '.join(notes)}", file=sys.stderr)
     guidance = options.guidance_used()
-    sample = SampleConfig(steps=args.steps, guidance=guidance, seed=args.seed)
+    sample = SampleConfig(steps=args.steps, guidance=guidance, guidance_from=args.guidance_from, seed=args.seed)
     communicate = options.communication
     if args.prefix is not None:
         a, b = read_prefix(args.prefix)
