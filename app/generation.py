@@ -21,7 +21,7 @@ from engine.generate import Request, SampleConfig, finish, frames_for, sample_st
 from engine.duration import resolve_seconds
 from engine.representation import features_to_joints
 from engine.text import PromptError, TokenizedPrompt, split_words
-from engine.units import DEFAULT_GUIDANCE
+from engine.units import DEFAULT_GUIDANCE, DEFAULT_GUIDANCE_FROM
 
 
 @dataclass(frozen=True)
@@ -31,6 +31,7 @@ class GenerationSettings:
     seed: int = 0
     steps: int = 50
     guidance: float = DEFAULT_GUIDANCE
+    guidance_from: int = DEFAULT_GUIDANCE_FROM  # the guidance applies at timesteps t >= this
     record_steps: int = 10
 
 
@@ -179,7 +180,8 @@ def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:
     frames = checked_frames(loaded, resolve_seconds(settings.seconds, settings.prompt))
     if int(settings.seed) < 0:
         raise ValueError("the seed must be >= 0")
-    config = SampleConfig(steps=int(settings.steps), guidance=float(settings.guidance), seed=int(settings.seed))
+    config = SampleConfig(steps=int(settings.steps), guidance=float(settings.guidance),
+                          guidance_from=int(settings.guidance_from), seed=int(settings.seed))
     if settings.record_steps < 0:
         raise ValueError("record_steps must be >= 0")
     return Checked(settings=settings, tokens=tokens, frames=frames, config=config)

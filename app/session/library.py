@@ -43,7 +43,8 @@ def recipe_of(item: MotionItem, *, model_dir: str | Path | None) -> dict:
         recipe["model"] = model_info(model_dir)
     s = item.settings
     if s is not None:
-        recipe.update(prompt=s.prompt, seed=s.seed, steps=s.steps, guidance=s.guidance, seconds=s.seconds)
+        recipe.update(prompt=s.prompt, seed=s.seed, steps=s.steps, guidance=s.guidance, guidance_from=s.guidance_from,
+                      seconds=s.seconds)
         info["record_steps"] = s.record_steps
     elif "seed" in info:
         recipe["seed"] = info.pop("seed")
@@ -84,6 +85,8 @@ def settings_from_recipe(recipe: Mapping) -> GenerationSettings | None:
         return GenerationSettings(prompt=str(recipe["prompt"]), seconds=None if seconds is None else float(seconds),
                                   seed=int(recipe["seed"]), steps=int(recipe["steps"]),
                                   guidance=float(recipe["guidance"]),
+                                  # a recipe from before guidance_from was kept: classic guidance, at every step
+                                  guidance_from=int(recipe.get("guidance_from", 0)),
                                   record_steps=int(operation.get("record_steps", 10) or 10))
     except (KeyError, TypeError, ValueError, AttributeError):
         return None

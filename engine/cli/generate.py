@@ -72,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
         print(printable(line, sys.stdout))
     print(json.dumps({"prompt": args.prompt, "seconds": seconds, "seconds_from": "prompt" if args.seconds == AUTO
                       else "given", "frames": len(joints), "seed": args.seed, "steps": args.steps,
-                      "guidance": args.guidance,
+                      "guidance": args.guidance, "guidance_from": args.guidance_from,
                       "followed": follow.to_json() if not isinstance(follow, str) else {"error": follow},
                       "notes": list(notes)}))
     return 0
