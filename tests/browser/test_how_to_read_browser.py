@@ -50,7 +50,9 @@ def test_the_edit_mode_tooltip_is_fully_on_screen(quick_page, screens):
     button = page.locator(".edit-mode button").last
     button.scroll_into_view_if_needed()
     button.hover()
-    tip = page.locator(".bk-Tooltip", has_text="multiply by it")
+    from app.tabs.edit.settings import EditSettings
+
+    tip = page.locator(".bk-Tooltip", has_text=EditSettings.param.mode.doc)  # the engine's declared help
     expect(tip).to_be_visible(timeout=10000)
     box = tip.bounding_box()
     page.screenshot(path=str(screens / "edit_mode_tooltip.png"))
