@@ -15,7 +15,8 @@ from engine.diffusion.sampler import StepHook
 from engine.model.denoiser import Condition
 from engine.representation import features_to_joints
 from engine.text import TokenizedPrompt
-from engine.units import DEFAULT_GUIDANCE, DEFAULT_GUIDANCE_FROM, DEFAULT_STEPS, FPS, MAX_SECONDS, MIN_SECONDS  # noqa: F401 (re-exported)
+from engine.units import (DEFAULT_GUIDANCE, DEFAULT_GUIDANCE_FROM, DEFAULT_STEPS, FPS, MAX_SECONDS,  # noqa: F401
+                          MIN_SECONDS)  # (re-exported)
 
 
 
@@ -47,7 +48,7 @@ class SampleConfig:
         """``denoiser`` wrapped in this config's classifier-free guidance (itself when there is none)."""
         if self.guidance == 1.0:
             return denoiser
-        return ClassifierFreeGuidance(denoiser, scale=self.guidance, interval=(self.guidance_from, 1_000_000))
+        return ClassifierFreeGuidance(denoiser, scale=self.guidance, from_t=self.guidance_from)
 
 
 def frames_for(seconds: float) -> int:

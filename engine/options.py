@@ -114,6 +114,14 @@ class Spec:
             return " ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in self.default)
         return str(self.default)
 
+    def range_text(self) -> str:
+        """The bounds as help says them ("0 to 20", "1 or more s"); '' without bounds."""
+        if self.bounds is None:
+            return ""
+        lo, hi = self.bounds
+        said = f"{lo:g} or more" if math.isinf(hi) else f"{lo:g} to {hi:g}"
+        return f"{said} {self.unit}" if self.unit else said
+
     def check(self, value: Any, *, what: str | None = None) -> None:
         """One line (ValueError) unless ``value`` is within the declared bounds / choices (None passes when the
         default is None; a tuple is checked item by item)."""

@@ -96,8 +96,8 @@ def test_sample_config_guides_only_from_its_timestep():
     inner = object()
     guided = SampleConfig().guided(inner)
     assert isinstance(guided, ClassifierFreeGuidance) and guided.denoiser is inner
-    assert guided.interval[0] == DEFAULT_GUIDANCE_FROM == SampleConfig().guidance_from
-    assert SampleConfig(guidance_from=0).guided(inner).interval[0] == 0
+    assert guided.from_t == DEFAULT_GUIDANCE_FROM == SampleConfig().guidance_from
+    assert SampleConfig(guidance_from=0).guided(inner).from_t == 0
     assert SampleConfig(guidance=1.0).guided(inner) is inner
     with pytest.raises(ValueError, match="guidance_from must be a timestep"):
         SampleConfig(guidance_from=1000)

@@ -258,3 +258,9 @@ def test_unavailable_device_is_one_line(small, capsys, monkeypatch):
     monkeypatch.setattr(torch.cuda, "is_available", lambda: False)  # the same on a machine with a GPU
     _one_line_error(["evaluator", "--data", small, "--out", small / "ev", "--device", "cuda"], capsys, "--device cuda")
     _one_line_error(["eval", "--gt-only", "--data", small, "--device", "cuda"], capsys, "--device cuda")
+
+
+def test_eval_guidance_flags_are_the_declared_sampling_options(small, capsys):
+    """`moattn eval --guidance/--guidance-from`: the sampling options' own bounds, said in one line before any load."""
+    _one_line_error(["eval", "--gt-only", "--data", small, "--guidance-from", "1000"], capsys, "--guidance-from", "999")
+    _one_line_error(["eval", "--gt-only", "--data", small, "--guidance", "21"], capsys, "--guidance", "20")

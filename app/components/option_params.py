@@ -46,7 +46,7 @@ def param_for(spec_or_cls: Spec | type, name: str | None = None, **overrides: An
 
 def widget_doc(spec: Spec) -> str:
     """A widget's help (its tooltip): the declared help, then its bounds with their unit, and its note."""
-    parts = [_range_text(spec.bounds, spec.unit)] if spec.bounds is not None else []
+    parts = [spec.range_text()] if spec.bounds is not None else []
     parts += [spec.note] if spec.note else []
     return f"{spec.help} ({'; '.join(parts)})" if parts else spec.help
 
@@ -111,8 +111,3 @@ def _check_objects(s: Spec, objects: Any) -> None:
     if sorted(values) != sorted(s.choices):
         raise ValueError(f"option {s.name!r}: the objects offer {values}, the declaration {list(s.choices)}")
 
-
-def _range_text(bounds: tuple[float, float], unit: str) -> str:
-    lo, hi = bounds
-    said = f"{lo:g} or more" if math.isinf(hi) else f"{lo:g} to {hi:g}"
-    return f"{said} {unit}" if unit else said

@@ -13,9 +13,13 @@ import warnings
 from pathlib import Path
 
 from engine.cli.common import check_output_folder, seed_argument
+from engine.cli.options import add_sample_options, check_args
+from engine.options import specs
+from engine.sampling_options import SampleOptions
 from engine.paths import EVALUATOR_DIR, MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 
+_GUIDANCE = ("guidance", "guidance_from")  # the sampling options eval takes as they are declared
 DATA_HELP = ("a HumanML3D-layout folder (new_joint_vecs/, texts/, train.txt/val.txt/test.txt) to use instead of the "
              "procedural corpus (default: corpus)")
 
@@ -30,11 +34,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--quick", action="store_true", help="128 samples per split, 20 steps (under 5 minutes on 2 cores)")
     p.add_argument("--samples", type=int, default=None, help="samples per split (overrides the preset)")
     p.add_argument("--steps", type=int, default=None, help="sampling steps (overrides the preset)")
-    p.add_argument("--guidance", type=float, default=None,
-                   help="classifier-free guidance scale (default: the sampling default; 1: none)")
-    p.add_argument("--guidance-from", type=int, default=None,
-                   help="the guidance applies at timesteps t >= this, of 1000 (0: every step; default: the "
-                        "sampling default)")
+    add_sample_options(p, only=_GUIDANCE)
     p.add_argument("--splits", default=None,
                    help="comma-separated splits (default: test,ood for the corpus, test for --data)")
     p.add_argument("--gt-only", action="store_true", help="only the ground-truth rows (no model needed)")
@@ -87,14 +87,9 @@ def run_eval(args: argparse.Namespace) -> int:
         config = replace(config, samples=args.samples)
     if args.steps:
         config = replace(config, steps=args.steps)
-    if args.guidance is not None:
-        if not 0.0 <= args.guidance <= 20.0:
-            raise SystemExit(f"moattn eval: --guidance must be between 0 and 20, got {args.guidance:g}")
-        config = replace(config, guidance=args.guidance)
-    if args.guidance_from is not None:
-        if not 0 <= args.guidance_from <= 999:
-            raise SystemExit(f"moattn eval: --guidance-from must be a timestep from 0 to 999, got {args.guidance_from}")
-        config = replace(config, guidance_from=args.guidance_from)
+    # --guidance / --guidance-from within their declared bounds (eval's --steps and --model are its own)
+    check_args(args, SampleOptions, skip=[s.name for s in specs(SampleOptions) if s.name not in _GUIDANCE])
+    config = replace(config, guidance=args.guidance, guidance_from=args.guidance_from)
     evaluator = load_evaluator(args.evaluator, runtime=runtime)
     loaded = None if args.gt_only else load_model(args.model, runtime=runtime)
     splits = [s.strip() for s in (args.splits or ("test,ood" if data is None else "test")).split(",") if s.strip()]
@@ -111,7 +106,8 @@ def run_eval(args: argparse.Namespace) -> int:
         payload = {**{k: first[k] for k in ("model", "ground_truth", "gt_noise_floor_fid") if k in first},
                    "split": splits[0], "splits": results,
                    "settings": {"samples": config.samples, "steps": config.steps, "guidance": config.guidance,
-                                "guidance_from": config.guidance_from, "model": str(args.model), "data": data or "corpus", "device": str(runtime.device)}}
+                                "guidance_from": config.guidance_from, "model": str(args.model),
+                                "data": data or "corpus", "device": str(runtime.device)}}
         print(json.dumps(payload, indent=2))
     else:
         print(format_table(results))

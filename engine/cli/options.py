@@ -27,11 +27,7 @@ from engine.sampling_options import SampleOptions  # noqa: F401 (re-exported: de
 
 def describe(spec: Spec, note: str = "") -> str:
     """A flag's help: the declared help, then (bounds; default; notes)."""
-    parts = []
-    if spec.bounds is not None:
-        lo, hi = spec.bounds
-        unit = f" {spec.unit}" if spec.unit else ""
-        parts.append(f"{lo:g} or more{unit}" if hi == float("inf") else f"{lo:g} to {hi:g}{unit}")
+    parts = [spec.range_text()] if spec.bounds is not None else []
     if spec.has_default and spec.default not in (None, "") and not isinstance(spec.default, bool) or spec.none:
         parts.append(f"default {spec.default_text()}")
     parts += [n for n in (spec.note, note) if n]

@@ -19,14 +19,13 @@ class ClassifierFreeGuidance:
 
     denoiser: object
     scale: float = 2.5
-    # the timesteps [low, high) where the scale applies; elsewhere the conditional prediction alone (guidance in a
-    # limited interval, Kynkäänniemi et al. 2024). The default covers every timestep.
-    interval: tuple[int, int] = (0, 1_000_000)
+    # the scale applies at the noisier timesteps t >= this; below it the conditional prediction alone (guidance in a
+    # limited interval, Kynkäänniemi et al. 2024). 0: at every timestep.
+    from_t: int = 0
 
     def __call__(self, x: torch.Tensor, t: torch.Tensor, cond: Condition, *, step: int = 0,
                  controller: AttentionController | None = None) -> torch.Tensor:
-        low, high = self.interval
-        if self.scale == 1.0 or not bool(((t >= low) & (t < high)).any()):
+        if self.scale == 1.0 or not bool((t >= self.from_t).any()):
             return self.denoiser(x, t, cond, step=step, controller=controller)
         both = self.denoiser(torch.cat([x, x]), torch.cat([t, t]), cond.with_uncond(), step=step, controller=controller)
         x0_cond, x0_uncond = both.chunk(2)

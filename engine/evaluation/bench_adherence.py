@@ -69,10 +69,9 @@ class AdherenceBenchConfig:
         return cls(seeds=2, steps=20, validation_motions=500)
 
 
-def _from(settings: dict) -> str:
-    """How a table states where the guidance applies ('' when at every step)."""
-    first = settings.get("guidance_from", 0)
-    return f" at t >= {first}" if first else ""
+def guidance_text(guidance: float, guidance_from: int = 0) -> str:
+    """How a table states the guidance: "2.5", or "2.5 at t >= 700" where it applies only from a timestep."""
+    return f"{guidance:g}" + (f" at t >= {guidance_from}" if guidance_from else "")
 
 
 def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: AdherenceBenchConfig) -> list[np.ndarray]:
@@ -226,6 +225,6 @@ def format_table(result: dict) -> str:
     s = result["settings"]
     lengths = ("model lengths predicted from each prompt (what a user gets)" if s.get("lengths", "auto") == "auto"
                else "model lengths = the ground truth's")
-    lines.append(f"{s['prompts']} prompts x {s['seeds']} seeds, {s['steps']} steps, guidance {s['guidance']}{_from(s)}, {lengths}; "
+    lines.append(f"{s['prompts']} prompts x {s['seeds']} seeds, {s['steps']} steps, guidance {guidance_text(s['guidance'], s.get('guidance_from', 0))}, {lengths}; "
                  f"validation on {s['validation_motions']} corpus test motions; {result['seconds']:.0f} s")
     return "\n".join(lines)

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.evaluation.bench_adherence import AdherenceBenchConfig, bench_adherence, read_prompts
+from engine.evaluation.bench_adherence import AdherenceBenchConfig, bench_adherence, guidance_text, read_prompts
 
 DEV_PROMPTS = Path(__file__).with_name("data") / "dev_prompts.txt"
 
@@ -71,7 +71,7 @@ def score_row(folder: Path, config: LeverBenchConfig, *, prompts: Sequence[str],
     t0 = time.perf_counter()
     loaded = load_model(folder)
     settings = {k: v for k, v in {"guidance": config.guidance, "guidance_from": config.guidance_from,
-                                           "steps": config.steps}.items() if v is not None}
+                                  "steps": config.steps}.items() if v is not None}
     adherence = bench_adherence(loaded, AdherenceBenchConfig(seeds=config.seeds,
                                                              validation_motions=config.validation_motions, **settings),
                                 prompts=prompts, log=log)
@@ -115,7 +115,7 @@ def _f(v, fmt: str) -> str:
 def format_table(result: dict) -> str:
     guidance = sorted({(r["guidance"], r.get("guidance_from", 0)) for r in result["rows"]})
     lines = [f"lever screen: {result['prompts']} dev prompts x {result['seeds']} seeds, guidance "
-             f"{', '.join(f'{g:g}' + (f' at t >= {t}' if t else '') for g, t in guidance)}"
+             f"{', '.join(guidance_text(g, t) for g, t in guidance)}"
              + (f"; inversion of {result['real_file']}" if result["real_file"] else ""),
              f"{'model':<28}{'step':>7}{'action':>8}{'±seed':>7}{'count':>7}{'side':>6}{'skate':>7}{'vs GT':>7}"
              f"{'inv cm':>8}{'noise':>7}{'smp/s':>8}{'refused':>8}"]
