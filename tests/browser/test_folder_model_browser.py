@@ -7,6 +7,7 @@ import io
 import numpy as np
 import pytest
 from PIL import Image
+from playwright.sync_api import expect
 
 from app.bench import browser as br
 
@@ -28,8 +29,8 @@ def test_the_studio_generates_with_the_folder_models_own_words(page, screens, hm
     br.generate(page, prompt)
     page.locator(".generate-button button:not([disabled])").wait_for(timeout=60000)
     br.wait_all_frames(page)
-    words = page.locator(".word-buttons button")
-    assert [w.inner_text() for w in words.all()] == ["someone", hml_rare, "twice"]
+    # the word buttons follow the new motion's attention by a message: wait on them, not on the first paint
+    expect(page.locator(".word-buttons button")).to_have_text(["someone", hml_rare, "twice"], timeout=60000)
     status = page.locator(".generation-status p").first.inner_text()
     from engine.duration import auto_seconds
     from engine.generate import frames_for

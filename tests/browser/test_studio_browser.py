@@ -106,8 +106,7 @@ def test_generate_shows_skeleton_heatmap_and_word_curves(page, generated, screen
     saturated = (c.max(axis=2) - c.min(axis=2)) > 80
     assert saturated.sum() > 400, "no word curves drawn"
     # one button per word, the content word highlighted
-    words = page.locator(".word-buttons button")
-    assert [w.inner_text() for w in words.all()] == ["a", "person", "jumps", "twice"]
+    expect(page.locator(".word-buttons button")).to_have_text(["a", "person", "jumps", "twice"], timeout=30000)
 
 
 def test_the_generate_box_says_what_was_followed(page, generated, screens):
