@@ -21,7 +21,7 @@ from engine.generate import Request, SampleConfig, finish, frames_for, sample_st
 from engine.duration import resolve_seconds
 from engine.representation import features_to_joints
 from engine.text import PromptError, TokenizedPrompt, split_words
-from engine.units import DEFAULT_GUIDANCE, DEFAULT_GUIDANCE_FROM
+from engine.units import DEFAULT_ETA, DEFAULT_GUIDANCE, DEFAULT_GUIDANCE_FROM
 
 
 @dataclass(frozen=True)
@@ -32,6 +32,7 @@ class GenerationSettings:
     steps: int = 50
     guidance: float = DEFAULT_GUIDANCE
     guidance_from: int = DEFAULT_GUIDANCE_FROM  # the guidance applies at timesteps t >= this
+    eta: float = DEFAULT_ETA  # the fresh noise each sampling step adds (0: deterministic DDIM)
     record_steps: int = 10
 
 
@@ -181,7 +182,7 @@ def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:
     if int(settings.seed) < 0:
         raise ValueError("the seed must be >= 0")
     config = SampleConfig(steps=int(settings.steps), guidance=float(settings.guidance),
-                          guidance_from=int(settings.guidance_from), seed=int(settings.seed))
+                          guidance_from=int(settings.guidance_from), eta=float(settings.eta), seed=int(settings.seed))
     if settings.record_steps < 0:
         raise ValueError("record_steps must be >= 0")
     return Checked(settings=settings, tokens=tokens, frames=frames, config=config)

@@ -63,10 +63,6 @@ class SamplingQueue:
 #: One generation at a time per process (sessions queue for it, in order).
 SAMPLING_SLOT = SamplingQueue()
 
-#: VTK is not thread safe across scenes sharing globals (fonts, EGL displays): every scene build,
-#: frame render and file render in the app holds this lock.
-VTK_LOCK = threading.RLock()
-
 
 def use_runtime(runtime: Runtime) -> None:
     """Put every model this process loads from now on on ``runtime``'s device (models already loaded move)."""

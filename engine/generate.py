@@ -15,20 +15,22 @@ from engine.diffusion.sampler import StepHook
 from engine.model.denoiser import Condition
 from engine.representation import features_to_joints
 from engine.text import TokenizedPrompt
-from engine.units import (DEFAULT_GUIDANCE, DEFAULT_GUIDANCE_FROM, DEFAULT_STEPS, FPS, MAX_SECONDS,  # noqa: F401
-                          MIN_SECONDS)  # (re-exported)
+from engine.units import (DEFAULT_ETA, DEFAULT_GUIDANCE, DEFAULT_GUIDANCE_FROM, DEFAULT_STEPS, FPS,  # noqa: F401
+                          MAX_SECONDS, MIN_SECONDS)  # (re-exported)
 
 
 
 @dataclass(frozen=True)
 class SampleConfig:
     """How to sample. ``guidance`` 1.0 = no classifier-free guidance; MotionCLR uses 2.5. ``guidance_from``: the
-    guidance applies only at timesteps t >= this (0: at every step, classic classifier-free guidance)."""
+    guidance applies only at timesteps t >= this (0: at every step, classic classifier-free guidance). ``eta``: the
+    fresh noise each DDIM step adds (0: deterministic; 1: the DDPM posterior's), drawn per slot from the slot's own
+    starting noise (``engine.diffusion.sampler.SlotNoise``), so a seed still gives one motion."""
 
     steps: int = DEFAULT_STEPS
     guidance: float = DEFAULT_GUIDANCE
     guidance_from: int = DEFAULT_GUIDANCE_FROM
-    eta: float = 0.0
+    eta: float = DEFAULT_ETA
     sampler: str = "ddim"  # "ddim" | "ddpm"
     seed: int = 0
 
@@ -39,8 +41,8 @@ class SampleConfig:
             raise ValueError(f"steps must be between 1 and 1000, got {self.steps}")
         if not 0.0 <= self.guidance <= 20.0:
             raise ValueError(f"guidance must be between 0 and 20, got {self.guidance}")
-        if self.eta < 0:
-            raise ValueError("eta must be >= 0")
+        if not 0.0 <= self.eta <= 1.0:
+            raise ValueError(f"eta must be between 0 and 1, got {self.eta}")
         if not 0 <= self.guidance_from < 1000:
             raise ValueError(f"guidance_from must be a timestep from 0 to 999, got {self.guidance_from}")
 
@@ -122,10 +124,10 @@ def sample_states(
     schedule = CosineSchedule()
     if config.sampler == "ddpm":
         states = ddpm(denoiser, noise, cond, schedule=schedule, num_steps=config.steps, controller=controller,
-                      hooks=hooks, generator=generator)
+                      hooks=hooks)
     else:
         states = ddim(denoiser, noise, cond, schedule=schedule, num_steps=config.steps, eta=config.eta,
-                      controller=controller, hooks=hooks, generator=generator)
+                      controller=controller, hooks=hooks)
     return states, cond, tokens, noise
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from engine.options import option
 from engine.paths import MODEL_DIR
-from engine.units import DEFAULT_GUIDANCE, DEFAULT_GUIDANCE_FROM, DEFAULT_STEPS
+from engine.units import DEFAULT_ETA, DEFAULT_GUIDANCE, DEFAULT_GUIDANCE_FROM, DEFAULT_STEPS
 
 SEED_LIMIT = 2**32  # seeds are 0 <= seed < 2**32: derived seeds (seed * 7919 + step, seed * 1009 + slot, seed + 17)
 #                     must stay within torch.manual_seed's 64-bit range; numpy's default_rng takes them too
@@ -38,4 +38,7 @@ class SampleOptions:
     guidance_from: int = option(DEFAULT_GUIDANCE_FROM, bounds=(0, 999), whole=True, cli=True,
                                 help="the guidance applies at the noisier timesteps t >= this, of 1000 (0: at "
                                      "every step, classic classifier-free guidance)")
+    eta: float = option(DEFAULT_ETA, bounds=(0.0, 1.0), step=0.25,
+                        help="the fresh noise each sampling step adds (0: deterministic DDIM; 1: the DDPM "
+                             "posterior's, which keeps motions lively). A seed still gives one motion")
     model: Path = option(MODEL_DIR, help="the model folder")

@@ -159,7 +159,7 @@ def test_lever_screen_rows_score_each_model_on_the_dev_prompts(tiny_model_dir, t
     assert main(["bench", "--levers", "--model", "/nonexistent"]) == 2
     assert "needs the model folders" in capsys.readouterr().err
     assert main(["bench", "--inversion", "--guidance", "2", "--model", "/nonexistent"]) == 2
-    assert "--guidance and --guidance-from go with --adherence or --levers" in capsys.readouterr().err
+    assert "--guidance, --guidance-from and --eta go with --adherence or --levers" in capsys.readouterr().err
     assert main(["bench", "--inversion", "--guidance-from", "0", "--model", "/nonexistent"]) == 2
     assert "go with --adherence or --levers" in capsys.readouterr().err
 

@@ -51,12 +51,13 @@ def test_every_motion_made_edited_or_imported_survives_a_new_session(tiny_model_
     assert (recipe["prompt"], recipe["seed"], recipe["steps"], recipe["guidance"], recipe["seconds"]) == (
         "a person jumps twice", 3, 6, s.guidance, 2.0)
     from app.session.library import settings_from_recipe
-    from engine.units import DEFAULT_GUIDANCE_FROM
+    from engine.units import DEFAULT_ETA, DEFAULT_GUIDANCE_FROM
 
-    assert recipe["guidance_from"] == DEFAULT_GUIDANCE_FROM  # Re-record samples as it was made
+    assert recipe["guidance_from"] == DEFAULT_GUIDANCE_FROM and recipe["eta"] == DEFAULT_ETA  # Re-record samples as it was made
     assert settings_from_recipe(recipe).guidance_from == DEFAULT_GUIDANCE_FROM
-    older = {k: v for k, v in recipe.items() if k != "guidance_from"}  # kept before the interval existed
-    assert settings_from_recipe(older).guidance_from == 0
+    assert settings_from_recipe(recipe).eta == DEFAULT_ETA
+    older = {k: v for k, v in recipe.items() if k not in ("guidance_from", "eta")}  # kept before either existed
+    assert settings_from_recipe(older).guidance_from == 0 and settings_from_recipe(older).eta == 0.0
     assert recipe["model"]["folder"] == str(tiny_model_dir.resolve()) and recipe["model"]["weights_sha256"]
     edit = next(e for e in lib.entries() if e.title == edited)
     ref_id = next(e.id for e in lib.entries() if e.title == reference)

@@ -101,3 +101,25 @@ def test_sample_config_guides_only_from_its_timestep():
     assert SampleConfig(guidance=1.0).guided(inner) is inner
     with pytest.raises(ValueError, match="guidance_from must be a timestep"):
         SampleConfig(guidance_from=1000)
+
+
+def test_stochastic_sampling_keeps_a_seed_one_motion(loaded):
+    """The default eta adds noise at every step, drawn from each slot's own start: the same seed gives the same
+    motion, and a slot that starts from a motion's noise in a bigger, longer batch (an edit's ref and out, a leader
+    beside its followers) retraces that motion; eta 0 is deterministic DDIM and differs."""
+    from engine.units import DEFAULT_ETA
+
+    assert SampleConfig().eta == DEFAULT_ETA > 0
+    config = SampleConfig(steps=6, seed=4)
+    alone = generate(loaded, Request(prompts=["a person jumps"], frames=[20]), config)
+    again = generate(loaded, Request(prompts=["a person jumps"], frames=[20]), config)
+    np.testing.assert_array_equal(alone.features, again.features)
+    start = torch.cat([alone.noise, torch.randn(1, 20, FEATURE_DIM)], 1)  # padded to 40 frames
+    batch = generate(loaded, Request(prompts=["a person walks", "a person jumps", "a person jumps"], frames=[40, 20, 20],
+                                     noise=torch.cat([torch.randn(1, 40, FEATURE_DIM), start, start])), config)
+    np.testing.assert_allclose(batch.features[1, :20], alone.features[0], atol=1e-4)
+    np.testing.assert_allclose(batch.features[1], batch.features[2], atol=1e-5)  # up to the batch's rounding
+    ddim = generate(loaded, Request(prompts=["a person jumps"], frames=[20]), SampleConfig(steps=6, seed=4, eta=0.0))
+    assert np.abs(ddim.features - alone.features).max() > 1e-3
+    with pytest.raises(ValueError, match="eta must be between 0 and 1"):
+        SampleConfig(eta=1.5)

@@ -44,7 +44,7 @@ def recipe_of(item: MotionItem, *, model_dir: str | Path | None) -> dict:
     s = item.settings
     if s is not None:
         recipe.update(prompt=s.prompt, seed=s.seed, steps=s.steps, guidance=s.guidance, guidance_from=s.guidance_from,
-                      seconds=s.seconds)
+                      eta=s.eta, seconds=s.seconds)
         info["record_steps"] = s.record_steps
     elif "seed" in info:
         recipe["seed"] = info.pop("seed")
@@ -87,6 +87,7 @@ def settings_from_recipe(recipe: Mapping) -> GenerationSettings | None:
                                   guidance=float(recipe["guidance"]),
                                   # a recipe from before guidance_from was kept: classic guidance, at every step
                                   guidance_from=int(recipe.get("guidance_from", 0)),
+                                  eta=float(recipe.get("eta", 0.0)),  # before eta was kept: deterministic DDIM
                                   record_steps=int(operation.get("record_steps", 10) or 10))
     except (KeyError, TypeError, ValueError, AttributeError):
         return None

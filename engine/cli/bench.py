@@ -44,8 +44,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     given_steps(args)  # a bad --steps fails before any model loads
-    if (args.guidance is not None or args.guidance_from is not None) and not (args.adherence or args.levers):
-        raise ValueError("--guidance and --guidance-from go with --adherence or --levers")
+    if (args.guidance is not None or args.guidance_from is not None or args.eta is not None) and not (
+            args.adherence or args.levers):
+        raise ValueError("--guidance, --guidance-from and --eta go with --adherence or --levers")
     if args.real is not None and not args.levers:
         raise ValueError("--real goes with --levers")
     if args.seeds is not None and not (args.duet or args.adherence or args.sampling or args.levers):
@@ -216,7 +217,7 @@ def run_adherence(args: argparse.Namespace) -> int:
     from engine.evaluation.bench_adherence import AdherenceBenchConfig, bench_adherence, format_table, read_prompts
 
     config = preset(AdherenceBenchConfig, args, seeds=args.seeds, lengths=args.lengths,
-                    guidance=args.guidance, guidance_from=args.guidance_from)  # fails before the model loads
+                    guidance=args.guidance, guidance_from=args.guidance_from, eta=args.eta)  # fails before the model loads
     prompts = read_prompts(args.prompts) if args.prompts is not None else None
     result = bench_adherence(_model(args), config, prompts=prompts, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
@@ -229,7 +230,7 @@ def run_levers(args: argparse.Namespace) -> int:
     if not args.files:
         raise ValueError("--levers needs the model folders to score, e.g. moattn bench --levers runs/a runs/b")
     config = preset(LeverBenchConfig, args, seeds=args.seeds, guidance=args.guidance,
-                    guidance_from=args.guidance_from)
+                    guidance_from=args.guidance_from, eta=args.eta)
     result = bench_levers(args.files, config, prompts_file=args.prompts or DEV_PROMPTS, real_file=args.real, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs
-from engine.cli.options import add_options, add_sample_options
+from engine.cli.options import add_options, add_sample_options, sample_config
 from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.methods.doubletake_config import (DoubleTakeConfig, SecondTake, check_option, option_info, options,
                                               parse_handshakes)
@@ -87,7 +87,6 @@ def config_from_args(args: argparse.Namespace, intervals: int | None = None):
 
 def run(args: argparse.Namespace) -> int:
     from engine.checkpoint import load_model
-    from engine.generate import SampleConfig
     from engine.io import save_motion
     from engine.methods.doubletake import Interval, check_intervals, compose
 
@@ -102,8 +101,7 @@ def run(args: argparse.Namespace) -> int:
         if said := loaded.tokenizer.encode(iv.prompt).notes():
             notes[iv.prompt] = said
             print(f"notes: {iv.prompt!r}: {'; '.join(said)}", file=sys.stderr)
-    result = compose(loaded, intervals, config, sample=SampleConfig(steps=args.steps, guidance=args.guidance, guidance_from=args.guidance_from,
-                                                                    seed=args.seed))
+    result = compose(loaded, intervals, config, sample=sample_config(args))
     save_motion(result.joints, args.out)
     title = " → ".join(iv.prompt for iv in intervals)[:200]
     keep(args, result.joints, kind="compose", stream=sys.stderr, title=title,

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs
-from engine.cli.options import add_options, add_sample_options
+from engine.cli.options import add_options, add_sample_options, sample_config
 from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.methods.control_options import (CONTROLS, LABELS, ControlOptions, WRITE_COMMAND, bench_verdict,
                                             option_info)
@@ -180,7 +180,7 @@ def build_controls(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     from engine.checkpoint import load_model
-    from engine.generate import SampleConfig, frames_for
+    from engine.generate import frames_for
     from engine.io import save_motion
     from engine.methods.control import control_base, controlled, load_controls
     from engine.methods.paths import path_error, to_world
@@ -218,7 +218,7 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"the control models for {', '.join(other)} in {args.controls} were fine-tuned from "
                              f"another base model than {args.model}: use the base they came from, or --method inpainting")
         models = run_base.models
-    sample = SampleConfig(steps=args.steps, guidance=args.guidance, guidance_from=args.guidance_from, seed=args.seed)
+    sample = sample_config(args)
     gen = controlled(run_base.loaded, args.prompt, controls, seconds=args.seconds, models=models,
                      weights=options.weights() if blending else None, sample=sample)
     joints = gen.joints[0]

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from engine.cli.common import RENDER_SUFFIXES, check_outputs
-from engine.cli.options import add_options, add_sample_options, from_args
+from engine.cli.options import add_options, add_sample_options, from_args, sample_config
 from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.methods.duet_options import DuetOptions
 from engine.options import option
@@ -84,7 +84,6 @@ def render_duet(joints: np.ndarray, path: Path, *, title: str) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
-    from engine.generate import SampleConfig
     from engine.train_commdm import load_trained
     from engine.methods.duet import COMPLETE_SECONDS, PREFIX_SECONDS, TEXT_SECONDS, complete, text_to_duet
     from engine.methods.duet_contact import ContactConfig
@@ -108,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
         if notes:
             print(f"notes: {'; '.join(notes)}", file=sys.stderr)
     guidance = options.guidance_used()
-    sample = SampleConfig(steps=args.steps, guidance=guidance, guidance_from=args.guidance_from, seed=args.seed)
+    sample = sample_config(args, guidance=guidance)
     communicate = options.communication
     if args.prefix is not None:
         a, b = read_prefix(args.prefix)

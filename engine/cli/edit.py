@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_outputs
-from engine.cli.options import add_options, add_sample_options, from_args
+from engine.cli.options import add_options, add_sample_options, from_args, sample_config
 from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.analysis.counting import CountingConfig
 from engine.methods.edit_kinds import INPUTS, KINDS, REGISTRY, kinds_reading
@@ -82,7 +82,7 @@ def options_from_args(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     from engine.checkpoint import load_model
-    from engine.generate import SampleConfig, frames_for
+    from engine.generate import frames_for
     from engine.io import save_motion
     from engine.methods import edits
     from engine.methods.edit_options import run_edit
@@ -92,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
     options = options_from_args(args)
     loaded = load_model(args.model, runtime=runtime_from_args(args))
     frames = frames_for(args.seconds)
-    sample = SampleConfig(steps=args.steps, guidance=args.guidance, guidance_from=args.guidance_from, seed=args.seed)
+    sample = sample_config(args)
 
     report: dict = {"kind": args.kind}
     if args.kind == "count":

@@ -19,7 +19,7 @@ from engine.sampling_options import SampleOptions
 from engine.paths import EVALUATOR_DIR, MODEL_DIR
 from engine.runtime import add_runtime_arguments, runtime_from_args
 
-_GUIDANCE = ("guidance", "guidance_from")  # the sampling options eval takes as they are declared
+_GUIDANCE = ("guidance", "guidance_from", "eta")  # the sampling options eval takes as they are declared
 DATA_HELP = ("a HumanML3D-layout folder (new_joint_vecs/, texts/, train.txt/val.txt/test.txt) to use instead of the "
              "procedural corpus (default: corpus)")
 
@@ -87,9 +87,9 @@ def run_eval(args: argparse.Namespace) -> int:
         config = replace(config, samples=args.samples)
     if args.steps:
         config = replace(config, steps=args.steps)
-    # --guidance / --guidance-from within their declared bounds (eval's --steps and --model are its own)
+    # --guidance / --guidance-from / --eta within their declared bounds (eval's --steps and --model are its own)
     check_args(args, SampleOptions, skip=[s.name for s in specs(SampleOptions) if s.name not in _GUIDANCE])
-    config = replace(config, guidance=args.guidance, guidance_from=args.guidance_from)
+    config = replace(config, guidance=args.guidance, guidance_from=args.guidance_from, eta=args.eta)
     evaluator = load_evaluator(args.evaluator, runtime=runtime)
     loaded = None if args.gt_only else load_model(args.model, runtime=runtime)
     splits = [s.strip() for s in (args.splits or ("test,ood" if data is None else "test")).split(",") if s.strip()]
@@ -106,7 +106,7 @@ def run_eval(args: argparse.Namespace) -> int:
         payload = {**{k: first[k] for k in ("model", "ground_truth", "gt_noise_floor_fid") if k in first},
                    "split": splits[0], "splits": results,
                    "settings": {"samples": config.samples, "steps": config.steps, "guidance": config.guidance,
-                                "guidance_from": config.guidance_from, "model": str(args.model),
+                                "guidance_from": config.guidance_from, "eta": config.eta, "model": str(args.model),
                                 "data": data or "corpus", "device": str(runtime.device)}}
         print(json.dumps(payload, indent=2))
     else:

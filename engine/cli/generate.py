@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, CLIError, check_outputs
-from engine.cli.options import add_options, add_sample_options
+from engine.cli.options import add_options, add_sample_options, sample_config
 from engine.duration import AUTO, resolve_seconds
 from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.methods.generate_options import GenerateOptions
@@ -30,7 +30,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from engine.checkpoint import load_model
-    from engine.generate import Request, SampleConfig, frames_for, generate
+    from engine.generate import Request, frames_for, generate
     from engine.io import save_motion
 
     args.out = args.out or []
@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     seconds = resolve_seconds(args.seconds, args.prompt)
     frames = frames_for(seconds)
     loaded = load_model(args.model, runtime=runtime_from_args(args))
-    config = SampleConfig(steps=args.steps, guidance=args.guidance, guidance_from=args.guidance_from, seed=args.seed, sampler=args.sampler)
+    config = sample_config(args, sampler=args.sampler)
 
     def progress(state):
         print(f"\rstep {state.step + 1}/{state.num_steps}", end="", file=sys.stderr, flush=True)
@@ -72,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
         print(printable(line, sys.stdout))
     print(json.dumps({"prompt": args.prompt, "seconds": seconds, "seconds_from": "prompt" if args.seconds == AUTO
                       else "given", "frames": len(joints), "seed": args.seed, "steps": args.steps,
-                      "guidance": args.guidance, "guidance_from": args.guidance_from,
+                      "guidance": args.guidance, "guidance_from": args.guidance_from, "eta": args.eta,
                       "followed": follow.to_json() if not isinstance(follow, str) else {"error": follow},
                       "notes": list(notes)}))
     return 0

@@ -130,7 +130,7 @@ def _show(library, args) -> int:
                                                     if entry.touched - entry.created > 1 else ""))
     print(f"  motion    {entry.frames} frames ({entry.seconds:.2f} s at {FPS} fps), {_size(entry.bytes)} on disk"
           + (", pinned" if entry.pinned else ""))
-    for key in ("prompt", "seed", "steps", "guidance", "guidance_from", "seconds"):
+    for key in ("prompt", "seed", "steps", "guidance", "guidance_from", "eta", "seconds"):
         value = recipe.get(key)
         if value not in (None, ""):
             print(f"  {key:<9} {_printable(str(value))}")

@@ -127,5 +127,17 @@ def from_args(cls, args: argparse.Namespace, *, skip: Iterable[str] = (), check:
 
 
 def add_sample_options(parser: argparse.ArgumentParser, **kw) -> list[Spec]:
-    """``--seed``, ``--steps``, ``--guidance``, ``--model`` (``kw``: see :func:`add_options`)."""
+    """``--seed``, ``--steps``, ``--guidance``, ``--guidance-from``, ``--eta``, ``--model`` (``kw``: see
+    :func:`add_options`)."""
     return add_options(parser, SampleOptions, **kw)
+
+
+SAMPLING_FIELDS = ("seed", "steps", "guidance", "guidance_from", "eta")  # SampleOptions' fields SampleConfig takes
+
+
+def sample_config(args: argparse.Namespace, **overrides):
+    """The ``engine.generate.SampleConfig`` of a command's sampling flags (those it has; ``overrides`` win)."""
+    from engine.generate import SampleConfig
+
+    given = {name: getattr(args, name) for name in SAMPLING_FIELDS if getattr(args, name, None) is not None}
+    return SampleConfig(**{**given, **overrides})

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, check_output_folder, check_outputs
-from engine.cli.options import add_options, add_sample_options, from_args
+from engine.cli.options import add_options, add_sample_options, from_args, sample_config
 from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.runtime import add_runtime_arguments, runtime_from_args
 from engine.methods.transfer_config import GENERATED_SECONDS, QKAnalysisOptions, TransferConfig, TransferSources
@@ -89,14 +89,13 @@ def config_from_args(args: argparse.Namespace):
 
 def _run(args: argparse.Namespace, *, record: bool):
     from engine.checkpoint import load_model
-    from engine.generate import SampleConfig
     from engine.analysis.qk import qk_record
     from engine.methods.momo import transfer
 
     config = config_from_args(args)  # a flag out of bounds fails before the model loads
     loaded = load_model(args.model, runtime=runtime_from_args(args))
     leader, followers = sources(args, max_frames=loaded.model.config.max_frames)
-    sample = SampleConfig(steps=args.steps, guidance=args.guidance, guidance_from=args.guidance_from, seed=args.seed)
+    sample = sample_config(args)
     result = transfer(loaded, leader, followers, config, sample=sample, record=qk_record() if record else None)
     report = {"leader": leader.label, "followers": [f.label for f in followers], "root": config.root,
               "directions": config.directions,

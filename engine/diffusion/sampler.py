@@ -7,6 +7,7 @@ handshakes, progress), and the controller's ``on_step_end`` sees every state.
 """
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from typing import Protocol
@@ -16,6 +17,7 @@ import torch
 from engine.attention.controller import AttentionController
 from engine.diffusion.schedule import CosineSchedule
 from engine.model.denoiser import Condition
+from engine.units import MAX_FRAMES
 
 CLEAN = -1  # the "timestep" of clean data
 
@@ -39,6 +41,30 @@ class StepState:
 StepHook = Callable[[StepState], "StepState | None"]
 
 
+class SlotNoise:
+    """The noise a stochastic step (eta > 0) adds, one stream per slot, keyed by the slot's own starting noise.
+
+    Slots that start from the same noise get the same noise at every step, wherever they sit in a batch and however
+    long the batch is: an edit's ``ref`` slot retraces the motion the user generated alone from that seed, its ``out``
+    slot differs from ``ref`` only by the edit, and a regenerated leader beside its followers is the leader. A
+    stream is drawn at ``max(MAX_FRAMES, T)`` frames a step and cut to the batch's T, so padding changes nothing.
+    """
+
+    def __init__(self, start: torch.Tensor):  # start: (B, T, D), the loop's first x
+        self.frames = max(MAX_FRAMES, start.shape[1])
+        self.generators = [torch.Generator().manual_seed(self.key(row[0])) for row in start]
+
+    @staticmethod
+    def key(first_frame: torch.Tensor) -> int:
+        """A 63-bit seed from a slot's first noise frame (D values: unique to the slot's start, padding-free)."""
+        data = first_frame.detach().to(torch.float32).contiguous().numpy().tobytes()
+        return int.from_bytes(hashlib.blake2b(data, digest_size=8).digest(), "little") >> 1
+
+    def draw(self, like: torch.Tensor) -> torch.Tensor:  # like: (B, T, D) -> (B, T, D)
+        _, frames, dim = like.shape
+        return torch.stack([torch.randn(self.frames, dim, generator=g)[:frames] for g in self.generators]).to(like.dtype)
+
+
 class Cancelled(RuntimeError):
     """Raised by a hook (e.g. the app's cancel button) to stop sampling."""
 
@@ -53,13 +79,12 @@ def run_loop(
     eta: float = 0.0,
     controller: AttentionController | None = None,
     hooks: Sequence[StepHook] = (),
-    generator: torch.Generator | None = None,
 ) -> Iterator[StepState]:
     """Walk x along ``timesteps`` (descending: sampling; ascending: inversion).
 
     Each step predicts x0_hat at t and moves to the next timestep with the DDIM update
-    (eta = 0 deterministic, eta = 1 the DDPM posterior); after the last timestep a descending
-    walk lands on clean data (x_prev = x0_hat).
+    (eta = 0 deterministic, eta = 1 the DDPM posterior, its noise from :class:`SlotNoise`); after the last timestep
+    a descending walk lands on clean data (x_prev = x0_hat).
     """
     ts = list(timesteps)
     descending = len(ts) < 2 or ts[0] > ts[-1]
@@ -68,6 +93,7 @@ def run_loop(
     if not descending and eta != 0.0:
         raise ValueError("DDIM inversion is deterministic: eta must be 0")
     b = x.shape[0]
+    slot_noise = SlotNoise(x) if eta > 0 else None
     for i, (t, t_next) in enumerate(pairs):
         t_batch = torch.full((b,), t, dtype=torch.long)
         with torch.no_grad():
@@ -80,7 +106,7 @@ def run_loop(
             sigma = eta * ((1 - ab_next) / (1 - ab) * (1 - ab / ab_next)) ** 0.5
         x_prev = ab_next**0.5 * x0_hat + max(1 - ab_next - sigma**2, 0.0) ** 0.5 * eps
         if sigma > 0:
-            x_prev = x_prev + sigma * torch.randn(x.shape, generator=generator, dtype=x.dtype)
+            x_prev = x_prev + sigma * slot_noise.draw(x)
         state = StepState(step=i, num_steps=len(pairs), t=t, t_next=t_next, x_t=x, x0_hat=x0_hat, x_prev=x_prev)
         for hook in hooks:
             changed = hook(state)

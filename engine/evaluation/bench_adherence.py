@@ -50,6 +50,7 @@ class AdherenceBenchConfig:
     steps: int = SampleConfig().steps
     guidance: float = SampleConfig().guidance
     guidance_from: int = SampleConfig().guidance_from  # guidance only at timesteps t >= this
+    eta: float = SampleConfig().eta  # the fresh noise each sampling step adds
     validation_motions: int = 1000  # corpus test motions the detectors are validated on (the issue asks >= 500)
     seed: int = 0
     # the model's lengths: "auto" = what a user gets (the length predicted from the prompt, the studio's and the
@@ -69,9 +70,10 @@ class AdherenceBenchConfig:
         return cls(seeds=2, steps=20, validation_motions=500)
 
 
-def guidance_text(guidance: float, guidance_from: int = 0) -> str:
-    """How a table states the guidance: "2.5", or "2.5 at t >= 700" where it applies only from a timestep."""
-    return f"{guidance:g}" + (f" at t >= {guidance_from}" if guidance_from else "")
+def guidance_text(guidance: float, guidance_from: int = 0, eta: float = 0.0) -> str:
+    """How a table states the guidance: "2.5", or "2.5 at t >= 700" where it applies only from a timestep, and the
+    sampler's eta where its steps add noise ("2.5 at t >= 700, eta 1")."""
+    return f"{guidance:g}" + (f" at t >= {guidance_from}" if guidance_from else "") + (f", eta {eta:g}" if eta else "")
 
 
 def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: AdherenceBenchConfig) -> list[np.ndarray]:
@@ -82,7 +84,7 @@ def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: Adherenc
     frames = [min(n - 1, loaded.model.config.max_frames) for n in lengths]  # one batch: a slot per seed
     gen = generate(loaded, Request(prompts=[prompt] * len(frames), frames=frames),
                    SampleConfig(steps=config.steps, guidance=config.guidance,
-                                guidance_from=config.guidance_from, seed=config.seed))
+                                guidance_from=config.guidance_from, eta=config.eta, seed=config.seed))
     return list(gen.joints)
 
 
@@ -147,7 +149,7 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
             "unparsed": unparsed, "refused": refused, "per_prompt": per_prompt,
             "foot_skate": _skate_summary(skates),
             "settings": {"seeds": config.seeds, "steps": config.steps, "guidance": config.guidance,
-                         "guidance_from": config.guidance_from, "lengths": config.lengths,
+                         "guidance_from": config.guidance_from, "eta": config.eta, "lengths": config.lengths,
                          "prompts": len(prompts), "validation_motions": config.validation_motions},
             "seconds": time.perf_counter() - t0}
 
@@ -225,6 +227,6 @@ def format_table(result: dict) -> str:
     s = result["settings"]
     lengths = ("model lengths predicted from each prompt (what a user gets)" if s.get("lengths", "auto") == "auto"
                else "model lengths = the ground truth's")
-    lines.append(f"{s['prompts']} prompts x {s['seeds']} seeds, {s['steps']} steps, guidance {guidance_text(s['guidance'], s.get('guidance_from', 0))}, {lengths}; "
+    lines.append(f"{s['prompts']} prompts x {s['seeds']} seeds, {s['steps']} steps, guidance {guidance_text(s['guidance'], s.get('guidance_from', 0), s.get('eta', 0.0))}, {lengths}; "
                  f"validation on {s['validation_motions']} corpus test motions; {result['seconds']:.0f} s")
     return "\n".join(lines)

@@ -28,6 +28,7 @@ class LeverBenchConfig:
     inversion_steps: int = 50
     guidance: float | None = None  # None: the sampling default
     guidance_from: int | None = None  # None: the sampling default
+    eta: float | None = None  # None: the sampling default
     steps: int | None = None  # sampling steps; None: the sampling default
 
     @classmethod
@@ -71,12 +72,12 @@ def score_row(folder: Path, config: LeverBenchConfig, *, prompts: Sequence[str],
     t0 = time.perf_counter()
     loaded = load_model(folder)
     settings = {k: v for k, v in {"guidance": config.guidance, "guidance_from": config.guidance_from,
-                                  "steps": config.steps}.items() if v is not None}
+                                  "eta": config.eta, "steps": config.steps}.items() if v is not None}
     adherence = bench_adherence(loaded, AdherenceBenchConfig(seeds=config.seeds,
                                                              validation_motions=config.validation_motions, **settings),
                                 prompts=prompts, log=log)
     row = {"model": str(folder), **logged_rate(folder), "guidance": adherence["settings"]["guidance"],
-           "guidance_from": adherence["settings"]["guidance_from"]}
+           "guidance_from": adherence["settings"]["guidance_from"], "eta": adherence["settings"]["eta"]}
     model = adherence["model"]
     for attr in ("action", "count", "side"):
         row[attr] = model[attr]
@@ -113,9 +114,9 @@ def _f(v, fmt: str) -> str:
 
 
 def format_table(result: dict) -> str:
-    guidance = sorted({(r["guidance"], r.get("guidance_from", 0)) for r in result["rows"]})
+    guidance = sorted({(r["guidance"], r.get("guidance_from", 0), r.get("eta", 0.0)) for r in result["rows"]})
     lines = [f"lever screen: {result['prompts']} dev prompts x {result['seeds']} seeds, guidance "
-             f"{', '.join(guidance_text(g, t) for g, t in guidance)}"
+             f"{', '.join(guidance_text(g, t, e) for g, t, e in guidance)}"
              + (f"; inversion of {result['real_file']}" if result["real_file"] else ""),
              f"{'model':<28}{'step':>7}{'action':>8}{'±seed':>7}{'count':>7}{'side':>6}{'skate':>7}{'vs GT':>7}"
              f"{'inv cm':>8}{'noise':>7}{'smp/s':>8}{'refused':>8}"]

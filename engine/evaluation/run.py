@@ -19,7 +19,7 @@ from engine.evaluation.metrics import diversity, fid, foot_skate, mm_dist, multi
 from engine.generate import Request, SampleConfig, generate
 from engine.representation import features_to_joints
 from engine.text import PromptError, Tokenizer
-from engine.units import DEFAULT_GUIDANCE, DEFAULT_GUIDANCE_FROM
+from engine.units import DEFAULT_ETA, DEFAULT_GUIDANCE, DEFAULT_GUIDANCE_FROM
 
 R_PRECISION_POOL = 32  # metrics.r_precision's default pool: a split needs at least this many items
 MAX_SKIPS = 1000  # an endless source that skips this many items in a row has a vocabulary problem
@@ -31,6 +31,7 @@ class EvalConfig:
     steps: int = 50
     guidance: float = DEFAULT_GUIDANCE
     guidance_from: int = DEFAULT_GUIDANCE_FROM
+    eta: float = DEFAULT_ETA
     batch: int = 32
     mm_texts: int = 32
     mm_repeats: int = 10
@@ -176,7 +177,8 @@ def sample_model(loaded: LoadedModel, captions: list[str], lengths: list[int], c
     for start in range(0, len(order), config.batch):
         idx = order[start : start + config.batch]
         request = Request(prompts=[captions[i] for i in idx], frames=[int(lengths[i]) for i in idx])
-        gen = generate(loaded, request, SampleConfig(steps=config.steps, guidance=config.guidance, guidance_from=config.guidance_from,
+        gen = generate(loaded, request, SampleConfig(steps=config.steps, guidance=config.guidance,
+                                                     guidance_from=config.guidance_from, eta=config.eta,
                                                      seed=config.seed + start))
         for k, i in enumerate(idx):
             out[i] = gen.features[k, : lengths[i]]

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from engine.library.store import Added, MotionLibrary
 from engine.library.workspace import DEFAULT_LIMIT_MB, LIMIT_ENV, WORKSPACE_ENV, check_limit_mb
-from engine.units import DEFAULT_GUIDANCE_FROM, FPS
+from engine.units import DEFAULT_ETA, DEFAULT_GUIDANCE_FROM, FPS
 
 
 def add_library_arguments(p: argparse.ArgumentParser) -> None:
@@ -77,7 +77,8 @@ def cli_recipe(args: argparse.Namespace, *, made_by: str, prompt: str | None = N
         seconds = frames / FPS
     return {"prompt": prompt, "seed": args.seed, "steps": args.steps,
             "guidance": args.guidance if guidance is None else guidance,
-            "guidance_from": getattr(args, "guidance_from", DEFAULT_GUIDANCE_FROM), "seconds": seconds,
+            "guidance_from": getattr(args, "guidance_from", DEFAULT_GUIDANCE_FROM),
+            "eta": getattr(args, "eta", DEFAULT_ETA), "seconds": seconds,
             "model": model_info(args.model if model is None else model),
             "operation": {**operation, "made_by": made_by}}
 

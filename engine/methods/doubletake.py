@@ -318,7 +318,7 @@ def second_take(loaded: LoadedModel, first: torch.Tensor, transitions: Sequence[
     base = denoiser_for(loaded, sample) if take.text else loaded.model
     denoiser = SoftInpaint(base, known=known, keep=keep)
     last = None
-    for last in run_loop(denoiser, x, cond, schedule=schedule, timesteps=timesteps, eta=take.eta, generator=g):
+    for last in run_loop(denoiser, x, cond, schedule=schedule, timesteps=timesteps, eta=take.eta):
         if on_step is not None:
             on_step(last)
     return unfold_sandwiches(first, windows, last.x_prev, take.ramp)

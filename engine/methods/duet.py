@@ -190,8 +190,7 @@ def _sample(model: DuetModel, cond: Condition, frames: int, sample: SampleConfig
         hooks.append(hook)
         denoiser = Inpaint(denoiser, known)
     last = None
-    for last in ddim(denoiser, noise, cond, schedule=schedule, num_steps=sample.steps, eta=sample.eta, hooks=hooks,
-                     generator=g):
+    for last in ddim(denoiser, noise, cond, schedule=schedule, num_steps=sample.steps, eta=sample.eta, hooks=hooks):
         if on_step is not None:
             on_step(last)
     return last.x_prev

@@ -228,5 +228,5 @@ def count_motion(loaded: LoadedModel, joints: np.ndarray, *, prompt: str = "", s
     frames = inverted.noise.shape[1]
     store = AttentionStore(StoreConfig(kinds=("self",)))
     request = Request(prompts=[prompt or None], frames=[frames], noise=inverted.noise)
-    generate(loaded, request, SampleConfig(steps=steps, guidance=1.0), controller=store)
+    generate(loaded, request, SampleConfig(steps=steps, guidance=1.0, eta=0.0), controller=store)  # retraces the inversion
     return count_actions(store, np.asarray(joints), frames=frames, num_steps=steps, run=run)

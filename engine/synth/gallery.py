@@ -1,8 +1,8 @@
 """Contact sheets of the corpus: a strip of poses per action and per style.
 
-Uses ``viz.render`` when it provides ``render_frames``/``contact_sheet``; otherwise a small
-built-in orthographic line renderer (PIL) draws the strips, so the gallery never depends on
-a GPU or an OpenGL context.
+A small built-in orthographic line renderer (PIL) draws the strips, so the gallery never depends on a GPU or an
+OpenGL context; a caller may pass another renderer (``moattn corpus --renderer pyvista`` passes
+``viz.sheet.pyvista_gallery``), and the engine itself imports nothing from viz/.
 """
 from __future__ import annotations
 
