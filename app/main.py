@@ -32,6 +32,8 @@ from app.viewer.view import SkeletonViewer
 from engine.paths import ASSETS, MODEL_DIR
 
 EXAMPLE = ASSETS / "examples" / "walk.npy"
+# the narrowest window with the viewer (at least 500 px) beside the tabs (600 px): the 340-px sidebar, both, gaps
+SIDE_BY_SIDE_PX = 1460
 log = logging.getLogger("moattn.app")
 
 
@@ -131,13 +133,16 @@ class Studio:
         self.viewer.close()
 
     def template(self) -> pn.template.BaseTemplate:
-        main = pn.Row(
-            # the viewer stays in sight while a long tab on the right scrolls (sticky in the page's scroll box)
+        # the viewer beside the tabs; in a window too narrow for both (under about 1460 px) the tabs wrap below it
+        # instead of being cut off at the right edge. Side by side, the viewer stays in sight while a long tab
+        # scrolls (sticky in the page's scroll box); stacked, it scrolls away with the page so it never covers a tab.
+        main = pn.FlexBox(
             pn.Column("### Viewer", self.viewer, sizing_mode="stretch_width", min_width=500, max_width=760,
-                      css_classes=["viewer-column"],
-                      styles={"position": "sticky", "top": "0px", "align-self": "flex-start", "z-index": "2"}),
+                      css_classes=["viewer-column"], styles={"flex": "1 1 500px", "align-self": "flex-start"},
+                      stylesheets=[f"@media (min-width: {SIDE_BY_SIDE_PX}px) {{ :host {{ position: sticky; top: 0px; "
+                                   "z-index: 2; }} }}"]),
             self.tabs,
-            sizing_mode="stretch_width",
+            flex_wrap="wrap", align_items="flex-start", sizing_mode="stretch_width",
         )
         return pn.template.FastListTemplate(
             title="Motion Attention Studio",

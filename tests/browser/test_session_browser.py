@@ -7,6 +7,7 @@ import pytest
 from playwright.sync_api import expect
 
 from app.bench import browser as br
+from app.main import SIDE_BY_SIDE_PX
 from app.session.items import MAX_ITEMS_WITH_ATTENTION
 
 pytestmark = pytest.mark.timeout(300)
@@ -69,3 +70,25 @@ def test_the_viewer_stays_in_sight_while_a_long_tab_scrolls(page, screens):
     viewport = page.viewport_size
     (screens / "session_sticky_viewer.png").write_bytes(page.screenshot())
     assert box is not None and box["y"] >= 0 and box["y"] + box["height"] <= viewport["height"], box
+
+
+@pytest.mark.parametrize("width, height", [(1280, 800), (1500, 1100)])
+def test_nothing_is_cut_off_in_a_laptop_window(browser, server_url, screens, width, height):
+    """At 1280 x 800 the viewer (>= 500 px) and the tabs (600 px) do not fit beside the 340-px sidebar: the tabs wrap
+    below the viewer instead of running past the right edge, and the viewer is not sticky there (it would cover the
+    tabs as they scroll). Wide enough, they stand side by side with the viewer sticky."""
+    small = br.open_studio(browser, server_url, viewport={"width": width, "height": height})
+    try:
+        small.locator(".bk-tab", has_text="Duet").first.click()
+        expect(small.locator(".right-tabs")).to_contain_text("communication block", timeout=30000)
+        viewer, tabs = small.locator(".viewer-column").bounding_box(), small.locator(".right-tabs").bounding_box()
+        sticky = small.locator(".viewer-column").evaluate("e => getComputedStyle(e).position") == "sticky"
+        (screens / f"studio_{width}x{height}.png").write_bytes(small.screenshot())
+        assert tabs["x"] + tabs["width"] <= width and viewer["x"] + viewer["width"] <= width, (viewer, tabs)
+        beside = tabs["x"] >= viewer["x"] + viewer["width"]
+        if width < SIDE_BY_SIDE_PX:
+            assert not beside and tabs["y"] >= viewer["y"] + viewer["height"] and not sticky, (viewer, tabs)
+        else:
+            assert beside and sticky, (viewer, tabs)
+    finally:
+        small.close()
