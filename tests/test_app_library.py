@@ -223,3 +223,22 @@ def test_serve_takes_the_library_flags(flag, tmp_path):
     args = parser.parse_args(["serve", "--workspace", str(tmp_path), "--library-mb", "64"])
     assert args.workspace == tmp_path and args.library_mb == 64 and not args.no_library
     assert parser.parse_args(["serve", flag]).no_library
+
+
+def test_rerecord_repeats_the_motions_own_sampling(tiny_model_dir, workspace):
+    """A motion kept before the guidance interval and eta existed (its recipe: classic guidance, deterministic DDIM)
+    is re-recorded with those, not with today's defaults the Generate box does not show: the same motion."""
+    from dataclasses import replace
+
+    st = _open(tiny_model_dir, workspace)
+    try:
+        s = st.state
+        _generate(st, "a person jumps twice", 5)
+        s.item.settings = replace(s.item.settings, guidance_from=0, eta=0.0)  # as settings_from_recipe(older) gives
+        launched = []
+        s.launch = lambda job: launched.append(job) or True
+        assert s.rerecord()
+        again = launched[0].settings
+        assert (again.guidance_from, again.eta, again.seed, again.prompt) == (0, 0.0, 5, "a person jumps twice")
+    finally:
+        st.close()

@@ -6,7 +6,7 @@ its recipe to record its attention anew). They run through the one job runner li
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
 import numpy as np
@@ -137,6 +137,14 @@ class GenerateBox(param.Parameterized):
         return GenerationSettings(prompt=self.prompt, seconds=self.seconds, seed=self.seed, steps=self.steps,
                                   guidance=self.guidance, record_steps=self.record_steps)
 
+    def sample_config(self, **overrides):
+        """How every tab samples: the box's seed, steps and guidance, the engine's defaults for the rest
+        (``engine.generate.SampleConfig``; ``overrides`` win)."""
+        from engine.generate import SampleConfig
+
+        return SampleConfig(**{"steps": int(self.steps), "guidance": float(self.guidance), "seed": int(self.seed),
+                               **overrides})
+
     def duration(self) -> float:
         """The Generate box's length in seconds: as typed, or predicted from the prompt when the box is empty."""
         return resolve_seconds(self.seconds, self.prompt)
@@ -156,8 +164,9 @@ class GenerateBox(param.Parameterized):
         s = item.settings
         self.param.update(prompt=s.prompt, seconds=s.seconds, seed=s.seed, steps=s.steps, guidance=s.guidance,
                           record_steps=max(1, s.record_steps))
-        return self.launch(RerecordJob(session=self, settings=self.settings(), on_preview=self._preview,
-                                       name=item.name))
+        # its own settings, those the box does not show included (the guidance's interval, eta): the same motion
+        return self.launch(RerecordJob(session=self, settings=replace(s, record_steps=max(1, s.record_steps)),
+                                       on_preview=self._preview, name=item.name))
 
     def _preview(self, done: int, total: int, joints: np.ndarray, title: str) -> None:
         """The running generation's x̂0 after ``done`` steps (from its worker): shown live by the viewer."""

@@ -55,7 +55,6 @@ class ComposePlan:
 
 def prepare(state, settings: ComposeSettings) -> ComposePlan:
     """Every check before any work starts; raises ValueError with a message for the user."""
-    from engine.generate import SampleConfig
     from engine.methods.doubletake import Interval, check_intervals, second_take_timesteps
 
     loaded = state.model
@@ -77,7 +76,7 @@ def prepare(state, settings: ComposeSettings) -> ComposePlan:
         if n > limit:
             raise ValueError(f"interval {i + 1} lasts {n} frames: this model handles at most {limit} "
                              f"({limit / FPS:.1f} s)")
-    sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
+    sample = state.sample_config()
     total = sample.steps
     if take is not None and any(hs):
         total += len(second_take_timesteps(take, sample.steps))

@@ -60,7 +60,6 @@ class ControlSummary:
 
 def prepare(state, settings: ControlSettings) -> ControlPlan:
     """Every check before any work starts; raises ValueError with a message for the user."""
-    from engine.generate import SampleConfig
     from engine.methods.control import Control
     from engine.methods.paths import RootPath, WristPath, root_controls
 
@@ -103,7 +102,7 @@ def prepare(state, settings: ControlSettings) -> ControlPlan:
         except ValueError as exc:
             raise ValueError(f"{label}: {exc}") from None
         controls.append(Control(name, wrist_targets[name]))
-    sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
+    sample = state.sample_config()
     what = " + ".join(LABELS[n] for n in names)
     return ControlPlan(prompt=settings.prompt.strip(), controls=controls, frame=frame, wrist_targets=wrist_targets,
                       models=models, weights=weights, shares=shares, sample=sample, seconds=seconds,

@@ -61,7 +61,7 @@ class DuetPlan:
 
 def prepare(state, settings: DuetSettings) -> DuetPlan:
     """Every check before any work starts; raises ValueError with a message for the user."""
-    from engine.generate import MAX_SECONDS, MIN_SECONDS, SampleConfig
+    from engine.generate import MAX_SECONDS, MIN_SECONDS
 
     loaded = state.model
     model, problem = duet_model(settings.duet_dir, loaded)
@@ -75,7 +75,7 @@ def prepare(state, settings: DuetSettings) -> DuetPlan:
         model.tokenizer.encode(prompt)  # unknown words: a PromptError naming them
         if not MIN_SECONDS <= seconds <= MAX_SECONDS:
             raise ValueError(f"the length must be between {MIN_SECONDS:g} and {MAX_SECONDS:g} s")
-        sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
+        sample = state.sample_config()
         return DuetPlan(mode="text", prompt=prompt, seconds=seconds, prefix=None, prefix_seconds=0.0,
                        communicate=settings.communicate, sample=sample, description="duet", contact=settings.contact)
     given = seconds_number(settings.prefix_seconds, "the prefix")
@@ -90,8 +90,8 @@ def prepare(state, settings: DuetSettings) -> DuetPlan:
     if given < 0.1 or seconds < MIN_SECONDS or total > limit:
         raise ValueError(f"prefix ({given:g} s) + completion ({seconds:g} s) must fit in {limit:g} s, "
                          f"with at least {MIN_SECONDS:g} s completed")
-    sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance) if prompt else 1.0,
-                          seed=int(state.seed))
+    unconditional = {} if prompt else {"guidance": 1.0}  # a completion without a prompt: no guidance
+    sample = state.sample_config(**unconditional)
     return DuetPlan(mode="prefix", prompt=prompt or None, seconds=seconds, prefix=(a, b), prefix_seconds=given,
                    communicate=settings.communicate, sample=sample, description="duet completion")
 

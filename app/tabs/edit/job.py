@@ -127,7 +127,7 @@ class EditResult:
 def prepare(state, settings: EditSettings) -> EditPlan:
     """Check the tab's settings against the session (prompt, model, sources); raises ValueError with a message.
     What each kind reads and how it is described is the engine's registry (``engine.methods.edit_kinds``)."""
-    from engine.generate import SampleConfig, frames_for
+    from engine.generate import frames_for
     from engine.methods.edit_options import EditOptions, build_config
 
     cfg = settings
@@ -139,7 +139,7 @@ def prepare(state, settings: EditSettings) -> EditPlan:
     frames = frames_for(state.duration())
     if frames > loaded.model.config.max_frames:
         raise ValueError(f"this model handles at most {loaded.model.config.max_frames / 20:.1f} s")
-    sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
+    sample = state.sample_config()
     word = cfg.word or None
     if "word" in entry.inputs:
         if word is None:

@@ -109,7 +109,6 @@ def _source(state, settings: SourceSettings, loaded):
 
 def prepare(state, settings: TransferSettings) -> TransferPlan:
     """Check the tab's settings against the session and the model; raises ValueError with a message."""
-    from engine.generate import SampleConfig
     from engine.methods.momo import MAX_FOLLOWER_STREAMS, TransferConfig
 
     cfg = settings
@@ -125,7 +124,7 @@ def prepare(state, settings: TransferSettings) -> TransferPlan:
     if streams > MAX_FOLLOWER_STREAMS:
         raise ValueError(f"{1 + len(extra)} followers x {config.directions} directions make {streams} follower "
                          f"streams, at most {MAX_FOLLOWER_STREAMS}: use fewer followers or directions")
-    sample = SampleConfig(steps=int(state.steps), guidance=float(state.guidance), seed=int(state.seed))
+    sample = state.sample_config()
     lay = window.layers
     more = f" + {len(extra)} more" if extra else ""
     feet = ", leader's footwork" if config.feet else ""
