@@ -62,16 +62,17 @@ class CorpusSource:
     """The procedural corpus, generated on the fly. ``underspecified``: that many extra captions per motion which
     leave attributes out the way people type ("a person waves"; engine.synth.grammar.underspecified_captions),
     drawn from their own stream so the corpus's captions stay as they are; ``plain_verbs`` is the chance that such a
-    caption says the action's plain verb ("walks", not "treads"). ``focus``: oversample some actions
-    (:class:`ActionFocus`)."""
+    caption says the action's plain verb ("walks", not "treads"), ``styled`` the chance that it keeps a styled
+    motion's style ("a person walks like a robot"). ``focus``: oversample some actions (:class:`ActionFocus`)."""
 
     def __init__(self, *, split: str = "train", seed: int = 0, underspecified: int = 0, plain_verbs: float = 0.0,
-                 focus: ActionFocus | None = None):
+                 styled: float = 0.0, focus: ActionFocus | None = None):
         from engine.synth import Corpus
 
         self.corpus = Corpus(split=split, seed=seed)
         self.underspecified = underspecified
         self.plain_verbs = plain_verbs
+        self.styled = styled
         self.focus = focus
 
     def corpus_index(self, index: int) -> int:
@@ -94,7 +95,7 @@ class CorpusSource:
 
             rng = np.random.default_rng([s.program.seed, index, 7919])
             captions += tuple(underspecified_captions(s.program, rng, n=self.underspecified,
-                                                            plain=self.plain_verbs))
+                                                            plain=self.plain_verbs, styled=self.styled))
         return MotionText(features=s.features, captions=captions)
 
     def words(self) -> Sequence[str]:

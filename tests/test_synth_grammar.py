@@ -125,3 +125,35 @@ def test_plain_verbs_make_the_plain_verb_common_in_underspecified_captions():
     assert total >= 10
     assert walks[0.8] >= 0.7 * total > walks[0.0] * 2, (walks, total)
     assert VERBS["walk"][0][0] == "walks" and VERBS["punch"][0][0] == "punches"
+
+
+def test_styled_captions_keep_a_styled_motions_style_even_when_bare():
+    """--styled-captions: "a person walks like a robot" / "a zombie walks" (the style as a phrase or the subject),
+    bare ones included, with corpus words only; 0 draws exactly the captions it drew before the option existed."""
+    import re
+
+    import numpy as np
+
+    from engine.synth import Corpus
+    from engine.synth.grammar import STYLE_PHRASES, STYLE_SUBJECTS, underspecified_captions, vocabulary
+
+    known = set(vocabulary())
+    corpus = Corpus("train")
+    styled_programs = kept = bare_kept = 0
+    for i in range(300):
+        program = corpus.program(i)[0]
+        off = underspecified_captions(program, np.random.default_rng([i, 1]), n=2, plain=0.6)
+        assert off == underspecified_captions(program, np.random.default_rng([i, 1]), n=2, plain=0.6, styled=0.0)
+        if program.style == "none":
+            assert off == underspecified_captions(program, np.random.default_rng([i, 1]), n=2, plain=0.6, styled=1.0)
+            continue
+        styled_programs += 1
+        marks = STYLE_PHRASES[program.style] + STYLE_SUBJECTS.get(program.style, ())
+        for text in underspecified_captions(program, np.random.default_rng([i, 1]), n=2, plain=0.6, styled=1.0):
+            words = re.findall(r"[a-z']+", text)
+            assert set(words) <= known, text
+            has = any(m in text for m in marks)
+            kept += has
+            bare_kept += has and len(words) <= 7
+    assert styled_programs >= 100 and kept >= 1.6 * styled_programs and bare_kept >= 30, (styled_programs, kept,
+                                                                                           bare_kept)

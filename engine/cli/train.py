@@ -22,7 +22,7 @@ _RUNTIME_HELP = {
     "precision": PRECISION_HELP,
 }
 # base-trainer fields a control fine-tune does not take (it keeps its base's architecture and data)
-_NOT_FOR_CONTROL = ("data", "underspecified", "plain_verbs", "focus_actions", "focus_share")
+_NOT_FOR_CONTROL = ("data", "underspecified", "plain_verbs", "styled_captions", "focus_actions", "focus_share")
 
 
 def _configs():

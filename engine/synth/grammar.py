@@ -451,15 +451,23 @@ def captions(program: Program, rng: np.random.Generator, *, n: int = 4, held_out
     return out
 
 
+# a styled person named as people type it ("a zombie walks", "an old man walks"): the style as the subject
+STYLE_SUBJECTS = {"zombie": ("a zombie",), "old": ("an old man", "an old woman", "an elderly person"),
+                  "robot": ("a robot",), "drunk": ("a drunk man", "a drunk person"), "happy": ("a happy person",),
+                  "sad": ("a sad person", "a sad man"), "proud": ("a proud man", "a proud woman")}
+
+
 def underspecified_captions(program: Program, rng: np.random.Generator, *, n: int = 2,
-                            plain: float = 0.0) -> list[str]:
+                            plain: float = 0.0, styled: float = 0.0) -> list[str]:
     """Captions that leave attributes out, the way people type ("a person waves" for a left-hand wave, twice).
 
     Side, count, speed, intensity and style are each dropped at random, keeping the meaning: an unstated side
     covers either hand, an unstated count any count. About a third are bare subject-and-verb captions of two to
     four words ("someone kicks"). ``plain``: the chance that a segment's verb is the action's plain one ("walks",
-    not "treads"), as people mostly type it. Only words of the phrase tables are used, so :func:`vocabulary` is
-    unchanged.
+    not "treads"), as people mostly type it. ``styled``: the chance that a styled motion's caption keeps its style,
+    bare ones included ("a person walks like a robot", "a zombie walks": the style as a phrase on one segment, or as
+    the subject where :data:`STYLE_SUBJECTS` has one); otherwise the style is dropped. Only words of the phrase
+    tables are used, so :func:`vocabulary` is unchanged.
     """
     from dataclasses import replace as _replace
 
@@ -489,6 +497,13 @@ def underspecified_captions(program: Program, rng: np.random.Generator, *, n: in
                 phrase += " while " + action_phrase(seg.overlay, 1, rng, with_count=False, with_side=False)
             parts.append(join + phrase)
         subject = _pick(rng, _SHORT_SUBJECTS if bare else SUBJECTS)
+        # (drawn after the rest, so that styled=0 draws exactly what it drew before the option existed)
+        if program.style != "none" and styled and rng.random() < styled:
+            if program.style in STYLE_SUBJECTS and rng.random() < 0.5:
+                subject = _pick(rng, STYLE_SUBJECTS[program.style])
+            else:
+                at = int(rng.integers(len(parts)))
+                parts[at] += " " + _pick(rng, STYLE_PHRASES[program.style])
         text = re.sub(r"\s+", " ", f"{subject} {''.join(parts)}").strip()
         if text not in out:
             out.append(text)
