@@ -57,12 +57,13 @@ class SlotNoise:
     @staticmethod
     def key(first_frame: torch.Tensor) -> int:
         """A 63-bit seed from a slot's first noise frame (D values: unique to the slot's start, padding-free)."""
-        data = first_frame.detach().to(torch.float32).contiguous().numpy().tobytes()
+        data = first_frame.detach().to("cpu", torch.float32).contiguous().numpy().tobytes()
         return int.from_bytes(hashlib.blake2b(data, digest_size=8).digest(), "little") >> 1
 
     def draw(self, like: torch.Tensor) -> torch.Tensor:  # like: (B, T, D) -> (B, T, D)
         _, frames, dim = like.shape
-        return torch.stack([torch.randn(self.frames, dim, generator=g)[:frames] for g in self.generators]).to(like.dtype)
+        noise = torch.stack([torch.randn(self.frames, dim, generator=g)[:frames] for g in self.generators])
+        return noise.to(like.device, like.dtype)  # drawn on the CPU: the same stream on every device
 
 
 class Cancelled(RuntimeError):
