@@ -482,17 +482,22 @@ def test_where_the_block_sits_changes_the_prediction():
     assert (last.after, first.after) == (3, 1) and (a - b)[:, :-1].abs().max() > 1e-3
 
 
-def test_the_shipped_block_loads_after_its_own_recorded_layer():
-    """assets/duet was trained after layer 5 of 6 (before the default became the last layer): it still loads there."""
-    from engine.paths import DUET_DIR
+def test_the_shipped_block_runs_on_the_shipped_base_after_its_last_layer():
+    """assets/duet is trained on assets/model itself (no copy of another prior ships), after the last layer, with
+    mirrored duets, as the paper places and augments it; a block saved before those options resumes as it was."""
+    from engine.checkpoint import load_model
+    from engine.methods.duet import PRIOR_FOLDER, fingerprint
+    from engine.paths import DUET_DIR, MODEL_DIR
     from engine.train_commdm import ComTrainConfig, load_trained
 
     config = json.loads((DUET_DIR / "config.json").read_text())
-    assert config["com"]["after"] == 5 and "mirror" not in config["train"]
+    assert config["prior"] == fingerprint(load_model(MODEL_DIR)) and not (DUET_DIR / PRIOR_FOLDER).exists()
     model = load_trained(DUET_DIR)
-    assert model.denoiser.after == 5 and model.denoiser.prior.num_layers == 6
-    # resuming its training config keeps what it trained with: layer 5, no mirroring (saved before it existed)
-    old = ComTrainConfig.from_json(config["train"])
+    assert model.denoiser.after == model.denoiser.prior.num_layers == 6
+    assert config["train"]["mirror"] is True and config["mirrored"] is True
+    # a training config saved before the options existed resumes with what it trained with: layer 5, no mirroring
+    old = ComTrainConfig.from_json({k: v for k, v in config["train"].items() if k not in ("mirror",)} |
+                                   {"com": {**config["train"]["com"], "after": 5}})
     assert old.com.after == 5 and old.mirror is False
     assert ComTrainConfig().mirror is True and ComTrainConfig().com.after == 0
 
