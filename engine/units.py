@@ -17,8 +17,9 @@ DEFAULT_GUIDANCE = 2.5  # classifier-free guidance scale (MotionCLR's)
 # project's models, guidance at the quieter steps lowers adherence (assets/model/TRAINING.md, session 25)
 DEFAULT_GUIDANCE_FROM = 700
 # the fresh noise each sampling step adds: 0 = deterministic DDIM, 1 = the DDPM posterior's (DDIM's eta). Stochastic
-# steps keep the motion's amplitude (claps that meet, counted repeats); on this project's models eta 1 follows more
-# actions, counts and sides than eta 0 (assets/model/TRAINING.md, session 26). Inversion is always deterministic.
+# steps keep the motion's amplitude: on this project's models feet slide less (2.6x the truth's skate, not 3.3x) and
+# counts are kept more often, action adherence within the noise (assets/model/TRAINING.md, session 26). Inversion
+# is always deterministic.
 DEFAULT_ETA = 1.0
 EDIT_SECONDS = 4.0  # the length of a motion `moattn edit` generates to edit
 
