@@ -123,3 +123,17 @@ def test_stochastic_sampling_keeps_a_seed_one_motion(loaded):
     assert np.abs(ddim.features - alone.features).max() > 1e-3
     with pytest.raises(ValueError, match="eta must be between 0 and 1"):
         SampleConfig(eta=1.5)
+
+
+def test_a_real_source_slot_is_that_motion_at_eta_one(loaded, real_joints):
+    """Example-based generation from a real motion at the default eta (stochastic steps): the example's slot follows
+    its inversion path, so it is the real motion itself (what the outputs' queries read), not a random variation."""
+    from engine.methods.edits import example_based
+    from engine.representation import features_to_joints, joints_to_features
+
+    joints = np.ascontiguousarray(real_joints[:41], dtype=np.float32)
+    out = example_based(loaded, joints, count=2, frames=40, sample=SampleConfig(steps=4, seed=2))
+    example = out.generation.joints[0]
+    truth = features_to_joints(joints_to_features(joints))
+    assert SampleConfig().eta > 0 and example.shape == truth.shape
+    np.testing.assert_allclose(example, truth, atol=2e-3)

@@ -17,6 +17,7 @@ from engine.attention import AttentionStore, StoreConfig, stack
 from engine.checkpoint import LoadedModel
 from engine.diffusion import StepState
 from engine.generate import Generation, Request, SampleConfig, generate
+from engine.methods.hooks import PinTrajectory
 from engine.methods.inversion import InversionConfig, invert
 from engine.methods.motionclr import (
     ExampleBased, ExampleConfig, Ground, GroundingConfig, Replace, ReplaceConfig, Reweight, ReweightConfig, Shift,
@@ -116,14 +117,23 @@ def shift(loaded: LoadedModel, prompt: str, config: ShiftConfig = ShiftConfig(),
                       sample=sample, record=record, roles=(config.source, config.target), on_step=on_step)
 
 
-def _resolve(loaded: LoadedModel, source: Source, frames: int, seed: int, steps: int) -> tuple[str | None, torch.Tensor, int]:
-    """(prompt or None, initial noise (1, T, D), frames) for a generated or an inverted real source."""
+def _resolve(loaded: LoadedModel, source: Source, frames: int, seed: int,
+             steps: int) -> tuple[str | None, torch.Tensor, int, dict | None]:
+    """(prompt or None, initial noise (1, T, D), frames, pinned path or None) for a generated or a real source. A
+    real source's slot follows its inversion path (``PinTrajectory``, as MoMo's real leaders do): it is that motion
+    at every step, whatever the sampler's eta."""
     if isinstance(source, str):
         loaded.tokenizer.encode(source)
         g = torch.Generator().manual_seed(seed)
-        return source, torch.randn(1, frames, loaded.model.config.feature_dim, generator=g), frames
+        return source, torch.randn(1, frames, loaded.model.config.feature_dim, generator=g), frames, None
     inverted = invert(loaded, np.asarray(source), InversionConfig(prompt="", steps=steps))
-    return None, inverted.noise, inverted.noise.shape[1]
+    return None, inverted.noise, inverted.noise.shape[1], inverted.trajectory
+
+
+def _pins(paths: dict[int, dict | None], frames: int) -> list[PinTrajectory]:
+    """The hook pinning each real-source slot to its inversion path, cut to ``frames``; [] without one."""
+    pinned = {slot: {t: z[:, :frames] for t, z in path.items()} for slot, path in paths.items() if path is not None}
+    return [PinTrajectory(pinned)] if pinned else []
 
 
 def example_based(loaded: LoadedModel, example: Source, config: ExampleConfig = ExampleConfig(), *, count: int = 4,
@@ -132,14 +142,14 @@ def example_based(loaded: LoadedModel, example: Source, config: ExampleConfig = 
     ``config.chunk_frames`` frames."""
     if not 1 <= count <= 16:
         raise ValueError("count must be between 1 and 16")
-    prompt, example_noise, frames = _resolve(loaded, example, frames, sample.seed, sample.steps)
+    prompt, example_noise, frames, path = _resolve(loaded, example, frames, sample.seed, sample.steps)
     g = torch.Generator().manual_seed(sample.seed + 1)
     outs = torch.randn(count, frames, example_noise.shape[-1], generator=g)
     roles = [config.example] + [config.target] * count
     request = Request(prompts=[prompt] * (count + 1), frames=[frames] * (count + 1), roles=roles,
                       noise=torch.cat([example_noise, outs]))
     store = _store(record)
-    gen = generate(loaded, request, sample,
+    gen = generate(loaded, request, sample, hooks=_pins({0: path}, frames),
                    controller=stack(ExampleBased(config, num_steps=sample.steps, frames=frames), store), on_step=on_step)
     return EditOutput(generation=gen, before_role=config.example, after_role=config.target, store=store)
 
@@ -148,15 +158,16 @@ def style_transfer(loaded: LoadedModel, *, style: Source, content: Source,
                    config: StyleTransferConfig = StyleTransferConfig(), frames: int,
                    sample: SampleConfig = SampleConfig(), record: bool = False, on_step: OnStep = None) -> EditOutput:
     """The output starts from the content's noise and prompt; its Q comes from the style motion."""
-    style_prompt, style_noise, style_frames = _resolve(loaded, style, frames, sample.seed, sample.steps)
-    content_prompt, content_noise, content_frames = _resolve(loaded, content, frames, sample.seed + 7, sample.steps)
+    style_prompt, style_noise, style_frames, style_path = _resolve(loaded, style, frames, sample.seed, sample.steps)
+    content_prompt, content_noise, content_frames, content_path = _resolve(loaded, content, frames, sample.seed + 7,
+                                                                           sample.steps)
     n = min(style_frames, content_frames)
     noise = torch.cat([style_noise[:, :n], content_noise[:, :n], content_noise[:, :n]])
     request = Request(prompts=[style_prompt, content_prompt, content_prompt], frames=[n] * 3,
                       roles=[config.style, config.content, config.target], noise=noise)
     store = _store(record)
     gen = generate(loaded, request, sample, controller=stack(StyleTransfer(config, num_steps=sample.steps), store),
-                   on_step=on_step)
+                   hooks=_pins({0: style_path, 1: content_path}, n), on_step=on_step)
     return EditOutput(generation=gen, before_role=config.content, after_role=config.target, store=store)
 
 
@@ -228,5 +239,6 @@ def count_motion(loaded: LoadedModel, joints: np.ndarray, *, prompt: str = "", s
     frames = inverted.noise.shape[1]
     store = AttentionStore(StoreConfig(kinds=("self",)))
     request = Request(prompts=[prompt or None], frames=[frames], noise=inverted.noise)
-    generate(loaded, request, SampleConfig(steps=steps, guidance=1.0, eta=0.0), controller=store)  # retraces the inversion
+    generate(loaded, request, SampleConfig(steps=steps, guidance=1.0), controller=store,
+             hooks=_pins({0: inverted.trajectory}, frames))  # the motion itself at every step
     return count_actions(store, np.asarray(joints), frames=frames, num_steps=steps, run=run)
