@@ -16,3 +16,13 @@ DUET_DIR = ASSETS / "duet"  # the ComMDM block (and new word rows) trained on MO
 # the shared reference motions (real BVH and HumanML3D files, read in place, never copied into the project):
 # the inversion benchmark inverts every motion file there, the tests read them (tests/conftest.py)
 REAL_DATA_DIR = PROJECT_ROOT.parent / "shared" / "data" / "real"
+
+
+def shown_folder(folder) -> str:
+    """A path as messages and help texts name it: relative to the project when inside it (no machine's absolute
+    path in what a user reads or a shipped file keeps)."""
+    path = Path(folder).resolve()
+    try:
+        return str(path.relative_to(PROJECT_ROOT))
+    except ValueError:
+        return str(path)

@@ -159,3 +159,14 @@ def test_the_edit_tab_and_the_cli_share_the_example_count():
     spec = option_spec("count")
     assert EditSettings().count == spec.default and EditSettings.param.count.bounds == spec.bounds
     assert EditSettings.param.count.label == spec.label
+
+
+@pytest.mark.parametrize("trainer", ["base", "control", "duet"])
+def test_train_help_names_no_absolute_path_of_this_machine(trainer, capsys):
+    # a default inside the project (the duet's --prior) is said relative to it, as shipped files name it
+    with pytest.raises(SystemExit):
+        main(["train", trainer, "--help"])
+    text = capsys.readouterr().out
+    assert str(ROOT) not in text
+    if trainer == "duet":
+        assert "(default: assets/model)" in " ".join(text.split())

@@ -44,9 +44,10 @@ from engine.evaluation.evaluator import LoadedEvaluator
 from engine.evaluation.metrics import fid, foot_skate
 from engine.generate import FPS, SampleConfig
 from engine.intent import parse_intent
-from engine.methods.control import Control, control_base, control_dims, controlled, load_controls, shown_folder
+from engine.methods.control import Control, control_base, control_dims, controlled, load_controls
 from engine.methods.drawn_paths import DrawnPath, drawn_letters, drawn_root_paths
 from engine.methods.paths import to_world
+from engine.paths import shown_folder
 from engine.representation import features_to_joints, joints_to_features
 from engine.units import DEFAULT_GUIDANCE
 

@@ -16,7 +16,7 @@ from engine.checkpoint import LoadedModel, load_model
 from engine.diffusion import CLEAN, CosineSchedule, StepState
 from engine.generate import Generation, Request, SampleConfig, denoiser_for, frames_for, generate
 from engine.methods.control_options import CONTROLS, blend_shares
-from engine.paths import CONTROL_PRIOR_DIR, PROJECT_ROOT
+from engine.paths import CONTROL_PRIOR_DIR, shown_folder
 from engine.representation import SLICES, ric_dims
 from engine.runtime import CPU, Runtime
 from engine.skeleton import JOINT_INDEX
@@ -227,15 +227,6 @@ class ControlBase:
     @property
     def on_prior(self) -> bool:
         return bool(self.note)
-
-
-def shown_folder(folder) -> str:
-    """A model folder as messages name it: relative to the project when inside it."""
-    path = Path(folder).resolve()
-    try:
-        return str(path.relative_to(PROJECT_ROOT))
-    except ValueError:
-        return str(path)
 
 
 def prior_note(prior: LoadedModel, folder) -> str:

@@ -89,7 +89,7 @@ def model_line(model, base) -> str:
     """What the Duet tab says about the duet model it uses, read from the models actually loaded: the block's folder,
     its layer and training, and the base model it runs on (its folder and step; the studio's own or the copy
     shipped with the block)."""
-    from engine.methods.control import shown_folder
+    from engine.paths import shown_folder
 
     c = model.config
     folder = shown_folder(model.folder) if model.folder is not None else "?"
