@@ -159,9 +159,11 @@ def test_lever_screen_rows_score_each_model_on_the_dev_prompts(tiny_model_dir, t
     assert main(["bench", "--levers", "--model", "/nonexistent"]) == 2
     assert "needs the model folders" in capsys.readouterr().err
     assert main(["bench", "--inversion", "--guidance", "2", "--model", "/nonexistent"]) == 2
-    assert "--guidance, --guidance-from and --eta go with --adherence or --levers" in capsys.readouterr().err
+    assert "--guidance and --guidance-from go with --adherence or --levers" in capsys.readouterr().err
     assert main(["bench", "--inversion", "--guidance-from", "0", "--model", "/nonexistent"]) == 2
     assert "go with --adherence or --levers" in capsys.readouterr().err
+    assert main(["bench", "--inversion", "--eta", "0", "--model", "/nonexistent"]) == 2
+    assert "--eta goes with --adherence, --levers or --edits" in capsys.readouterr().err
 
 
 def test_lever_rows_say_which_prompts_a_lever_moved():

@@ -9,6 +9,7 @@ import pytest
 
 from engine.evaluation.bench_edits import (EditBenchConfig, amplitude, bench_edits, format_table, grounding_spans, iou,
                                            nearer_first, root_speed, spans_hit, walk_threshold, walking_interval)
+from engine.generate import SampleConfig
 from tests.test_eval_run import tiny_evaluator, tiny_model  # noqa: F401  (fixtures)
 
 
@@ -90,7 +91,7 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     assert f"({result['counting']['samples']} motions)" in table
     assert f"evaluator): {r['edit_recognized']:.2f}" in table
     assert sum(line.startswith("  a person walks forward then") for line in table.splitlines()) == len(r["per_pair"])
-    assert table.splitlines()[-1].startswith("3 sampling steps, guidance 2.5, 3.0-s motions")
+    assert table.splitlines()[-1].startswith("3 sampling steps, guidance 2.5, eta 1, 3.0-s motions")
     assert f"grounding to 2 spans ('a person jumps four times', 'jumps' -> 5:25,35:55 of 60 frames, weight 0.3, every " \
         f"layer): jumps land in {g['spans_hit']:.2f} of the spans" in table
     assert "same maps, by counting method: lag " in table
@@ -107,6 +108,8 @@ def test_bench_presets_take_the_steps_flag():
     assert preset(EditBenchConfig, args(quick=True)) == EditBenchConfig.quick()
     assert preset(EditBenchConfig, args(steps=10)).steps == 10
     assert preset(EditBenchConfig, args(quick=True, steps=50)).steps == 50  # given, it wins over the quick preset
+    assert preset(EditBenchConfig, args(), eta=0.0).sample(3) == SampleConfig(eta=0.0, seed=3)  # --eta 0: DDIM
+    assert preset(EditBenchConfig, args(), eta=None).sample().eta == SampleConfig().eta
     quick = preset(TransferBenchConfig, args(quick=True), pairs=3, ood_pairs=None)
     assert (quick.pairs, quick.ood_pairs, quick.steps) == (3, TransferBenchConfig.quick().ood_pairs,
                                                            TransferBenchConfig.quick().steps)

@@ -44,9 +44,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     given_steps(args)  # a bad --steps fails before any model loads
-    if (args.guidance is not None or args.guidance_from is not None or args.eta is not None) and not (
-            args.adherence or args.levers):
-        raise ValueError("--guidance, --guidance-from and --eta go with --adherence or --levers")
+    if (args.guidance is not None or args.guidance_from is not None) and not (args.adherence or args.levers):
+        raise ValueError("--guidance and --guidance-from go with --adherence or --levers")
+    if args.eta is not None and not (args.adherence or args.levers or args.edits):
+        raise ValueError("--eta goes with --adherence, --levers or --edits")
     if args.real is not None and not args.levers:
         raise ValueError("--real goes with --levers")
     if args.seeds is not None and not (args.duet or args.adherence or args.sampling or args.levers):
@@ -144,9 +145,10 @@ def _log(line: str) -> None:
 
 
 def run_calibration(args: argparse.Namespace) -> int:
-    from engine.evaluation.calibrate_edits import calibrate_emphasis, write_calibration
+    from engine.evaluation.calibrate_edits import CalibrationConfig, calibrate_emphasis, write_calibration
 
-    result = calibrate_emphasis(_model(args), log=_log)
+    config = CalibrationConfig() if args.eta is None else CalibrationConfig(eta=args.eta)
+    result = calibrate_emphasis(_model(args), config, log=_log)
     if args.write:
         write_calibration(args.model, result)
     if args.json:
@@ -169,7 +171,7 @@ def run_edits(args: argparse.Namespace) -> int:
     from engine.evaluation.bench_edits import EditBenchConfig, bench_edits, format_table
     from engine.evaluation.evaluator import load_evaluator
 
-    config = preset(EditBenchConfig, args)
+    config = preset(EditBenchConfig, args, eta=args.eta)
     result = bench_edits(_model(args), load_evaluator(args.evaluator), config, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0

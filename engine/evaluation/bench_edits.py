@@ -48,7 +48,7 @@ from engine.methods.edit_options import EditOptions, calibrated_layers, run_edit
 from engine.methods.motionclr import ExampleConfig, Ground, GroundingConfig, ReplaceConfig, ShiftConfig
 from engine.representation import SLICES, joints_to_features
 from engine.skeleton import JOINT_INDEX
-from engine.units import DEFAULT_GUIDANCE
+from engine.units import DEFAULT_ETA, DEFAULT_GUIDANCE
 
 REPEATED_ACTIONS = ("jump", "hop", "squat", "clap", "kick", "punch", "wave", "bow", "jumping_jacks")
 VERBS = ("jumps", "kicks", "claps", "waves", "punches", "squats", "bows")
@@ -68,6 +68,7 @@ class EditBenchConfig:
     outputs_per_example: int = 4
     steps: int = 50
     guidance: float = DEFAULT_GUIDANCE
+    eta: float = DEFAULT_ETA  # the fresh noise each sampling step adds, as the studio and `moattn edit` sample
     seconds: float = 5.0
     reference_samples: int = 128
     grounding_prompt: str = "a person jumps four times"
@@ -77,6 +78,10 @@ class EditBenchConfig:
     grounding_seeds: int = 3
     grounding_weight: float = 0.3
     grounding_layers: tuple[int, ...] | None = None  # None: the grounding edit's default (as `moattn edit ground`)
+
+    def sample(self, seed: int = 0) -> SampleConfig:
+        """The sampling config of every edit this benchmark runs, with ``seed``."""
+        return SampleConfig(steps=self.steps, guidance=self.guidance, eta=self.eta, seed=seed)
 
     @classmethod
     def quick(cls) -> "EditBenchConfig":
@@ -185,7 +190,6 @@ def bench_counting(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -
 
 def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> tuple[dict, list[np.ndarray]]:
     frames = int(config.seconds * 20)
-    sample_base = SampleConfig(steps=config.steps, guidance=config.guidance)
     rhos, outputs, per_prompt = [], [], {}
     for prompt in config.emphasis_prompts:
         verb = next(w for w in loaded.tokenizer.encode(prompt).words if w in VERBS)
@@ -193,7 +197,7 @@ def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -
             heights = []
             for w in config.emphasis_weights:
                 options = EditOptions(kind="emphasize", prompt=prompt, word=verb, weight=w, seed=seed)
-                out = run_edit(loaded, options, frames=frames, sample=SampleConfig(**{**sample_base.__dict__, "seed": seed}))
+                out = run_edit(loaded, options, frames=frames, sample=config.sample(seed))
                 heights.append(amplitude(out.after, verb))
                 outputs.append(out.after)
             rhos.append(rank_correlation(config.emphasis_weights, heights))
@@ -226,12 +230,11 @@ def bench_replacement(loaded: LoadedModel, evaluator: LoadedEvaluator, config: E
     """Each prompt pair with ``replacement_seeds`` noises (seed k + 100 j for pair k): one noise per pair
     leaves the figure to a handful of draws."""
     frames = int(config.seconds * 20)
-    sample = SampleConfig(steps=config.steps, guidance=config.guidance)
     with_edit, without, outputs, no_walk, per_pair = [], [], [], 0, {}
     plains, refs, edited = [], [], []
     for k, (ref, edit) in enumerate(_pairs(loaded, config.pairs)):
         for j in range(config.replacement_seeds):
-            s = SampleConfig(**{**sample.__dict__, "seed": k + 100 * j})
+            s = config.sample(k + 100 * j)
             out = edits.replace(loaded, ref, edit, ReplaceConfig(), frames=frames, sample=s)
             outputs.append(out.after)
             plain = generate(loaded, Request(prompts=[edit], frames=[frames], noise=out.generation.noise[1:2]),
@@ -265,12 +268,11 @@ def bench_replacement(loaded: LoadedModel, evaluator: LoadedEvaluator, config: E
 
 def bench_shift(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> tuple[dict, list[np.ndarray]]:
     frames = int(config.seconds * 20)
-    sample = SampleConfig(steps=config.steps, guidance=config.guidance)
     correct, outputs = [], []
     prompts = [p for p, _ in _pairs(loaded, config.shift_prompts)]
     cfg = ShiftConfig(fraction=0.5)
     for k, prompt in enumerate(prompts):
-        out = edits.shift(loaded, prompt, cfg, frames=frames, sample=SampleConfig(**{**sample.__dict__, "seed": k}))
+        out = edits.shift(loaded, prompt, cfg, frames=frames, sample=config.sample(k))
         ref, shifted = root_speed(out.before), root_speed(out.after)
         rolled = np.roll(ref, -int(round(cfg.fraction * len(ref))))
         correct.append(_corr(shifted, rolled) > _corr(shifted, ref))
@@ -282,11 +284,10 @@ def bench_shift(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> t
 def bench_example(loaded: LoadedModel, evaluator: LoadedEvaluator, reference: np.ndarray, config: EditBenchConfig,
                   *, log=print) -> dict:
     frames = int(config.seconds * 20)
-    sample = SampleConfig(steps=config.steps, guidance=config.guidance)
     prompts = [p for p, _ in _pairs(loaded, config.examples)] or ["a person jumps"]
     ours, perturbed, div_ours, div_pert = [], [], [], []
     for k, prompt in enumerate(prompts[: config.examples]):
-        s = SampleConfig(**{**sample.__dict__, "seed": k})
+        s = config.sample(k)
         out = edits.example_based(loaded, prompt, ExampleConfig(seed=k), count=config.outputs_per_example,
                                   frames=frames, sample=s)
         outs = [out.joints("out", i) for i in range(config.outputs_per_example)]
@@ -345,7 +346,7 @@ def bench_grounding(loaded: LoadedModel, config: EditBenchConfig, *, log=print) 
     run = CountingRun()
     draws, hit, hit_without = [], [], []
     for seed in range(config.grounding_seeds):
-        sample = SampleConfig(steps=config.steps, guidance=config.guidance, seed=seed)
+        sample = config.sample(seed)
         lo, hi = int(run.steps[0] * sample.steps), int(run.steps[1] * sample.steps)
         store = AttentionStore(StoreConfig(kinds=("self",), steps=frozenset(range(lo, hi)),
                                            budget_bytes=1024 * 1024 * 1024))
@@ -469,6 +470,7 @@ def format_table(result: dict) -> str:
         lines.append(format_grounding(result["grounding"]))
     settings = result.get("settings", {})
     if "steps" in settings:
-        lines.append(f"{settings['steps']} sampling steps, guidance {settings['guidance']}, {settings['seconds']}-s motions, "
-                     f"{settings['seconds_taken']:.0f} s")
+        eta = f", eta {settings['eta']:g}" if "eta" in settings else ""  # (results saved before eta was recorded)
+        lines.append(f"{settings['steps']} sampling steps, guidance {settings['guidance']}{eta}, {settings['seconds']}-s "
+                     f"motions, {settings['seconds_taken']:.0f} s")
     return "\n".join(lines)

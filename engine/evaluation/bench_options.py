@@ -43,8 +43,8 @@ class BenchOptions:
         help="--adherence / --levers: the guidance applies at timesteps t >= this, of 1000 (0: every step; "
              "default: the sampling default)")
     eta: float | None = option(None, type=float, bounds=(0.0, 1.0),
-        help="--adherence / --levers: the fresh noise each sampling step adds (0: deterministic DDIM; default: the "
-             "sampling default)")
+        help="--adherence / --levers / --edits (--calibrate too): the fresh noise each sampling step adds (0: "
+             "deterministic DDIM; default: the sampling default)")
     real: Path | None = option(None, type=Path,
         help="--levers: the real motion file whose inversion round trip each row reports")
     lengths: str | None = option(None, choices=("auto", "truth"),

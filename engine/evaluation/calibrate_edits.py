@@ -23,7 +23,7 @@ from engine.generate import SampleConfig
 from engine.methods import edits
 from engine.methods.motionclr import ReweightConfig
 from engine.methods.windows import Window
-from engine.units import DEFAULT_GUIDANCE
+from engine.units import DEFAULT_ETA, DEFAULT_GUIDANCE
 
 
 @dataclass(frozen=True)
@@ -39,6 +39,7 @@ class CalibrationConfig:
     #: regime (on the step-16000 model the bench's emphasis figure is 0.28 at 10 steps, 0.75 at 50)
     steps: int = SampleConfig().steps
     guidance: float = DEFAULT_GUIDANCE
+    eta: float = DEFAULT_ETA
     seconds: float = 5.0
     threshold: float = 0.3
     min_gain: float = 0.02
@@ -53,7 +54,7 @@ def response(loaded: LoadedModel, layers: tuple[int, ...], config: CalibrationCo
     for prompt, verb in config.prompts:
         loaded.tokenizer.encode(prompt).word_index(verb)  # a clear error if the model lacks a word
         for seed in range(config.seeds):
-            sample = SampleConfig(steps=config.steps, guidance=config.guidance, seed=seed)
+            sample = SampleConfig(steps=config.steps, guidance=config.guidance, eta=config.eta, seed=seed)
             amps = [amplitude(edits.reweight(loaded, prompt, ReweightConfig(word=verb, weight=w, window=Window(
                 layers=layers)), frames=frames, sample=sample).after, verb) for w in config.weights]
             rhos.append(rank_correlation(config.weights, amps))
