@@ -1,6 +1,6 @@
 """The Control tab without a server, on the tiny model: paths set programmatically and as canvas strokes,
 inpainting when no control model exists (and why), the generated root following the drawn path (path_error),
-the root and both wrists at once (blended with the shipped control models), bad paths with clear messages, blend
+the root and both wrists at once (blended with the shipped control models on the shipped base), bad paths with clear messages, blend
 weights judged by the engine's one rule (its message shown, nothing clamped), the method the tab opens on chosen by
 the control bench's record, and blending with a tiny fine-tuned root model."""
 from __future__ import annotations
@@ -22,9 +22,27 @@ def _studio(tiny_model_dir, **folders) -> Studio:
     return st
 
 
+@pytest.fixture(scope="module")
+def tiny_controls(tiny_model_dir, tmp_path_factory):
+    """A 'control model' per control fine-tuned from the tiny model (its copy, marked): blendable with it."""
+    from engine.methods.control_options import CONTROLS
+    from tests.test_priormdm import controls_with_prior
+
+    return controls_with_prior(tiny_model_dir, tmp_path_factory.mktemp("controls") / "control", CONTROLS, prior=False)
+
+
 @pytest.fixture()
-def studio(tiny_model_dir):
-    st = _studio(tiny_model_dir)
+def studio(tiny_model_dir, tiny_controls):
+    st = _studio(tiny_model_dir, controls_dir=tiny_controls)
+    yield st
+    st.close()
+
+
+@pytest.fixture()
+def shipped_studio():
+    """The studio as `make run` opens it: the shipped base model and the shipped control models beside it."""
+    st = Studio(initial=None)
+    st.state.param.update(steps=6, seed=1)
     yield st
     st.close()
 
@@ -148,9 +166,10 @@ def test_front_view_draws_either_wrist(studio):
     assert k.active == ["root", "left_wrist", "right_wrist"]
 
 
-def test_root_and_both_wrists_together_blended(studio):
-    """The root path and both wrists at once, blended with the shipped control models (one per control, each with
-    its weight): the motion follows all three and the readout shows each error and the blend."""
+def test_root_and_both_wrists_together_blended(shipped_studio):
+    """The root path and both wrists at once, blended with the shipped control models on the shipped base (one per
+    control, each with its weight): the motion follows all three and the readout shows each error and the blend."""
+    studio = shipped_studio
     s, tab = studio.state, studio.control
     k = tab.settings
     assert k.available == ["left_wrist", "right_wrist", "root"]
@@ -265,10 +284,12 @@ def test_the_tab_opens_on_the_method_the_control_bench_has_ahead(tiny_model_dir,
     assert "cannot be read" in ControlSettings(controls_dir=folder).verdict.message
 
 
-def test_the_shipped_record_says_which_method_is_ahead(studio):
+def test_the_shipped_record_says_which_method_is_ahead(shipped_studio):
     """The shipped control models come with their bench record (assets/control/bench.json): the tab opens on the
     method it has ahead (inpainting unless blending is ahead on both figures) and says what each one is ahead on."""
+    studio = shipped_studio
     tab, k = studio.control, studio.control.settings
+    assert k.available == ["left_wrist", "right_wrist", "root"]  # fine-tuned from the shipped base: no prior needed
     verdict = k.verdict
     assert verdict.record is not None and "other control models" not in verdict.message  # it speaks for these models
     assert k.method == ("blending" if verdict.leader == "blending" else "inpainting")

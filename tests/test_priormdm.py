@@ -307,3 +307,20 @@ def test_cli_control_on_the_control_models_own_base(tiny_model_dir, tmp_path, ca
     assert main([*common[:-4], "--controls", str(bare), "--out", str(tmp_path / "c.npy"), "--prompt",
                  "a person walks", "--model", str(new)]) == 2
     assert "fine-tuned from another base model" in capsys.readouterr().err
+
+
+def test_the_shipped_control_models_blend_with_the_shipped_base():
+    """Each shipped control model was fine-tuned from the shipped base (same vocabulary and feature statistics), so
+    control runs on the studio's own base and no older prior ships beside them (issue #33)."""
+    from engine.checkpoint import load_model
+    from engine.methods.control import control_base, control_name, load_controls, same_base
+    from engine.paths import CONTROL_DIR, CONTROL_PRIOR_DIR, MODEL_DIR
+
+    base = load_model(MODEL_DIR)
+    models = load_controls(CONTROL_DIR)
+    assert sorted(models) == ["left_wrist", "right_wrist", "root"]
+    for name, model in models.items():
+        assert control_name(model) == name and same_base(base, model), name
+    run = control_base(base, models, folder=CONTROL_DIR)
+    assert run.loaded is base and not run.on_prior and not run.odd
+    assert not CONTROL_PRIOR_DIR.exists()
