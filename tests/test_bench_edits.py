@@ -7,7 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from engine.evaluation.bench_edits import (EditBenchConfig, amplitude, bench_edits, format_table, grounding_spans, iou,
+from engine.evaluation.bench_edits import (VISIBLE_CHANGE, EditBenchConfig, amplitude, bench_edits, emphasis_response,
+                                           format_table, grounding_spans, iou,
                                            nearer_first, root_speed, spans_hit, walk_threshold, walking_interval)
 from engine.generate import SampleConfig
 from tests.test_eval_run import tiny_evaluator, tiny_model  # noqa: F401  (fixtures)
@@ -120,3 +121,16 @@ def test_bench_refuses_bad_steps_before_loading_anything(capsys):
 
     assert main(["bench", "--edits", "--steps", "0", "--model", "/nonexistent"]) == 2
     assert "--steps must be between 1 and 1000, got 0" in capsys.readouterr().err
+
+
+def test_emphasis_response_scores_what_a_person_sees():
+    weights = (-0.4, -0.2, 0.0, 0.2, 0.4)
+    tiny = emphasis_response(weights, [0.340, 0.341, 0.342, 0.343, 0.344])  # monotone, 1 % bigger: nobody sees it
+    assert tiny["spearman"] == pytest.approx(1.0) and abs(tiny["change"] - 0.004 / 0.342) < 1e-9
+    assert not tiny["visible"] and tiny["score"] < 0.15
+    big = emphasis_response(weights, [0.30, 0.31, 0.33, 0.36, 0.40])  # +30 % of the unedited 0.33 m
+    assert big["visible"] and big["score"] == pytest.approx(1.0) and abs(big["change"] - 0.10 / 0.33) < 1e-9
+    smaller = emphasis_response(weights, [0.40, 0.36, 0.33, 0.31, 0.30])  # more weight, smaller action
+    assert smaller["score"] == pytest.approx(-1.0) and not smaller["visible"] and smaller["change"] < 0
+    edge = emphasis_response((-0.4, 0.0, 0.4), [1.0, 1.0 + VISIBLE_CHANGE / 2, 1.0 + VISIBLE_CHANGE * 1.2])  # +11 % of the unedited
+    assert edge["visible"] and edge["score"] == pytest.approx(1.0)

@@ -60,7 +60,7 @@ def test_layers_too_weak_alone_may_qualify_together(tiny_model_dir, monkeypatch)
     table = {(0,): 0.2, (1,): 0.1, (0, 1): 0.5}
     monkeypatch.setattr(cal, "response", lambda _loaded, layers, _config: table.get(tuple(layers), -1.0))
     result = calibrate_emphasis(loaded, CalibrationConfig(**{**TINY.__dict__, "threshold": 0.3}), log=lambda _: None)
-    assert result["layers"] == [0, 1] and result["spearman"] == 0.5  # no single layer reaches 0.3, the pair does
+    assert result["layers"] == [0, 1] and result["response"] == 0.5  # no single layer reaches 0.3, the pair does
     table[(0, 1)] = 0.25
     assert calibrate_emphasis(loaded, CalibrationConfig(**{**TINY.__dict__, "threshold": 0.3}),
                               log=lambda _: None)["layers"] == []

@@ -154,11 +154,12 @@ def run_calibration(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
-    print("emphasis response (mean Spearman of weight vs amplitude on calibration prompts):")
+    print("emphasis response (mean rank correlation of weight vs amplitude, scaled down where the change is under "
+          "10 %, on the calibration prompts):")
     for layer, rho in result["per_layer"].items():
         print(f"  layer {layer} alone: {rho:+.2f}")
     for row in result["history"]:
-        print(f"  layers {', '.join(map(str, row['layers']))}: {row['spearman']:+.2f}")
+        print(f"  layers {', '.join(map(str, row['layers']))}: {row['response']:+.2f}")
     chosen = ", ".join(map(str, result["layers"])) or "none (all layers stay the default)"
     print(f"emphasis layers: {chosen}" + (f"  (written to {args.model}/config.json)" if args.write else
                                           "  (not written: add --write)"))

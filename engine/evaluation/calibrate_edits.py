@@ -3,8 +3,9 @@
 MotionCLR adds the weight to a word's cross-attention column in every layer. In a small denoiser the
 layers do not all agree: in some, more attention to the verb makes the action bigger; in others it
 makes it smaller (the model's own division of labour between layers). This measures, one layer at a
-time, the rank correlation between the emphasis weight and the action's amplitude (the same measure
-as ``moattn bench --edits``) on calibration prompts that the benchmark does not use, and builds the
+time, how the action's amplitude answers the emphasis weight (the same measure as ``moattn bench --edits``: the rank
+correlation, scaled down where the change is too small to see, :func:`engine.evaluation.bench_edits.emphasis_response`;
+on base v5 the rank correlation alone chose a layer whose emphasis moved the amplitude by 0.6 %) on calibration prompts that the benchmark does not use, and builds the
 layer set by forward selection (layers interact, so a set is measured as a whole). The result goes into the model's
 ``config.json`` ("edits": {"emphasize_layers": [...], "calibration": {...}}), where the CLI, the app
 and the benchmark read it as the emphasis default (grounding acts in every layer: on the shipped model the
@@ -46,8 +47,9 @@ class CalibrationConfig:
 
 
 def response(loaded: LoadedModel, layers: tuple[int, ...], config: CalibrationConfig) -> float:
-    """Mean Spearman(weight, amplitude) over the calibration prompts and seeds, emphasis in ``layers`` only."""
-    from engine.evaluation.bench_edits import amplitude, rank_correlation
+    """The mean emphasis response (rank correlation x visible size, ``emphasis_response``'s score) over the
+    calibration prompts and seeds, emphasis in ``layers`` only."""
+    from engine.evaluation.bench_edits import amplitude, emphasis_response
 
     frames = int(config.seconds * 20)
     rhos = []
@@ -57,7 +59,7 @@ def response(loaded: LoadedModel, layers: tuple[int, ...], config: CalibrationCo
             sample = SampleConfig(steps=config.steps, guidance=config.guidance, eta=config.eta, seed=seed)
             amps = [amplitude(edits.reweight(loaded, prompt, ReweightConfig(word=verb, weight=w, window=Window(
                 layers=layers)), frames=frames, sample=sample).after, verb) for w in config.weights]
-            rhos.append(rank_correlation(config.weights, amps))
+            rhos.append(emphasis_response(config.weights, amps)["score"])
     return float(np.mean(rhos))
 
 
@@ -73,22 +75,22 @@ def calibrate_emphasis(loaded: LoadedModel, config: CalibrationConfig = Calibrat
     per_layer: dict[int, float] = {}
     for layer in range(loaded.model.num_layers):
         per_layer[layer] = response(loaded, (layer,), config)
-        log(f"layer {layer} alone: mean Spearman {per_layer[layer]:+.2f}")
+        log(f"layer {layer} alone: response {per_layer[layer]:+.2f}")
     best = max(per_layer, key=per_layer.get)
     chosen, score = [best], per_layer[best]
-    history = [{"layers": list(chosen), "spearman": round(score, 3)}]
+    history = [{"layers": list(chosen), "response": round(score, 3)}]
     while len(chosen) < len(per_layer):
         trials = {layer: response(loaded, tuple(sorted(chosen + [layer])), config)
                   for layer in per_layer if layer not in chosen}
         for layer, rho in trials.items():
-            log(f"layers {sorted(chosen + [layer])}: mean Spearman {rho:+.2f}")
+            log(f"layers {sorted(chosen + [layer])}: response {rho:+.2f}")
         layer = max(trials, key=trials.get)
         if trials[layer] <= score + config.min_gain:
             break
         chosen, score = sorted(chosen + [layer]), trials[layer]
-        history.append({"layers": list(chosen), "spearman": round(score, 3)})
+        history.append({"layers": list(chosen), "response": round(score, 3)})
     kept = chosen if score >= config.threshold else []
-    return {"layers": kept, "spearman": round(score, 3), "per_layer": {str(k): round(v, 3) for k, v in per_layer.items()},
+    return {"layers": kept, "response": round(score, 3), "per_layer": {str(k): round(v, 3) for k, v in per_layer.items()},
             "history": history, "threshold": config.threshold, "prompts": [p for p, _ in config.prompts],
             "seeds": config.seeds, "steps": config.steps, "seconds_taken": round(time.perf_counter() - t0, 1)}
 
