@@ -47,6 +47,21 @@ def test_order_follows_the_motion():
     assert check_motion(walk_jump, parse_intent("a person jumps then walks"))["order"] is False
 
 
+def test_a_slow_gait_with_short_double_support_is_a_walk():
+    """What a person sees: stepping forward at walking speed with a foot always on the floor is a walk, even when
+    the feet rarely share the floor (generated walks do that); the corpus's runs stay runs."""
+    from engine.analysis.detectors import MIN_RUN_SPEED, gait_kind, gait_runs
+
+    assert gait_kind({"double_support": 0.1, "speed": 0.6}) == "walk"
+    assert gait_kind({"double_support": 0.1, "speed": MIN_RUN_SPEED + 0.5}) == "run"
+    assert gait_kind({"double_support": 0.3, "speed": 2.0}) == "walk"  # both feet down part of every step
+    run = corpus_motion(Segment(action="run", frames=80, direction="forward"))
+    assert detect(run, "run") and not detect(run, "walk")
+    assert all(r["speed"] >= MIN_RUN_SPEED for r in gait_runs(MotionSignals(run)))
+    walk = corpus_motion(Segment(action="walk", frames=80, direction="forward"))
+    assert detect(walk, "walk") and not detect(walk, "run")
+
+
 def test_bad_joints_are_refused():
     with pytest.raises(ValueError, match="22, 3"):
         MotionSignals(np.zeros((10, 21, 3)))
