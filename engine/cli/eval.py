@@ -16,7 +16,7 @@ from engine.cli.common import check_output_folder, seed_argument
 from engine.cli.options import add_sample_options, check_args
 from engine.options import specs
 from engine.sampling_options import SampleOptions
-from engine.paths import EVALUATOR_DIR, MODEL_DIR
+from engine.paths import EVALUATOR_DIR, MODEL_DIR, shown_folder
 from engine.runtime import add_runtime_arguments, runtime_from_args
 
 _GUIDANCE = ("guidance", "guidance_from", "eta")  # the sampling options eval takes as they are declared
@@ -28,8 +28,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("eval", help="score a model against ground truth (FID, R-precision, ...): the corpus or --data DIR",
                        description="Prints the model's row, the ground-truth row and a ground-truth noise-floor FID "
                        "on the corpus's test and ood splits, or on a HumanML3D folder's test split (--data DIR).")
-    p.add_argument("--model", type=Path, default=MODEL_DIR, help=f"model folder (default: {MODEL_DIR})")
-    p.add_argument("--evaluator", type=Path, default=EVALUATOR_DIR, help=f"evaluator folder (default: {EVALUATOR_DIR})")
+    p.add_argument("--model", type=Path, default=MODEL_DIR, help=f"model folder (default: {shown_folder(MODEL_DIR)})")
+    p.add_argument("--evaluator", type=Path, default=EVALUATOR_DIR, help=f"evaluator folder (default: {shown_folder(EVALUATOR_DIR)})")
     p.add_argument("--data", default=None, metavar="DIR", help=DATA_HELP)
     p.add_argument("--quick", action="store_true", help="128 samples per split, 20 steps (under 5 minutes on 2 cores)")
     p.add_argument("--samples", type=int, default=None, help="samples per split (overrides the preset)")
@@ -45,7 +45,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     e = sub.add_parser("evaluator", help="train the contrastive text-motion evaluator on the corpus or --data DIR",
                        description="Trains the evaluator on the corpus train split, or on a HumanML3D folder's train "
                        "split with that folder's own vocabulary (--data DIR).")
-    e.add_argument("--out", type=Path, default=EVALUATOR_DIR, help=f"output folder (default: {EVALUATOR_DIR})")
+    e.add_argument("--out", type=Path, default=EVALUATOR_DIR, help=f"output folder (default: {shown_folder(EVALUATOR_DIR)})")
     e.add_argument("--data", default=None, metavar="DIR", help=DATA_HELP)
     e.add_argument("--steps", type=int, default=1500)
     e.add_argument("--batch-size", type=int, default=48)

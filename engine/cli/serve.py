@@ -11,7 +11,7 @@ from engine.runtime import add_runtime_arguments, runtime_from_args
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    from engine.paths import CONTROL_DIR, DUET_DIR, MODEL_DIR
+    from engine.paths import CONTROL_DIR, DUET_DIR, MODEL_DIR, shown_folder
 
     p = sub.add_parser("serve", help="start the studio in the browser (Panel server on localhost)")
     p.add_argument("--port", type=int, default=5006)
@@ -23,11 +23,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--show", action="store_true", help="open a browser tab")
     p.add_argument("--motion", type=Path, default=None, help="a .bvh/.npy motion to show first")
     p.add_argument("--model", type=Path, default=MODEL_DIR,
-                   help=f"model folder (config.json, weights.pt, Mean.npy, Std.npy); default {MODEL_DIR}")
+                   help=f"model folder (config.json, weights.pt, Mean.npy, Std.npy); default {shown_folder(MODEL_DIR)}")
     p.add_argument("--controls", type=Path, default=CONTROL_DIR,
-                   help=f"folder of fine-tuned control models (Control tab); default {CONTROL_DIR}")
+                   help=f"folder of fine-tuned control models (Control tab); default {shown_folder(CONTROL_DIR)}")
     p.add_argument("--duet-model", type=Path, default=DUET_DIR,
-                   help=f"the ComMDM block trained on --model (Duet tab); default {DUET_DIR}")
+                   help=f"the ComMDM block trained on --model (Duet tab); default {shown_folder(DUET_DIR)}")
     from engine.library.cli_support import add_library_arguments
 
     add_library_arguments(p)  # --workspace, --library-mb, --no-library

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from engine.options import option
-from engine.paths import DUET_DIR, EVALUATOR_DIR, MODEL_DIR
+from engine.paths import DUET_DIR, EVALUATOR_DIR, MODEL_DIR, shown_folder
 
 EDITS = "--edits / --inversion / --transfer"  # the argument group of the model benchmarks' knobs
 
@@ -56,8 +56,8 @@ class BenchOptions:
         help="training step speed and GFLOP/s vs the matmul peak (two model shapes), and the corpus generator's "
              "samples/s with DataLoader workers")
     control: bool = option(False, help="control models and blending vs inpainting (PriorMDM)")
-    model: Path = option(MODEL_DIR, help=f"model folder (default {MODEL_DIR})")
-    duet_model: Path = option(DUET_DIR, help=f"--duet: the ComMDM block (default {DUET_DIR})")
+    model: Path = option(MODEL_DIR, help=f"model folder (default {shown_folder(MODEL_DIR)})")
+    duet_model: Path = option(DUET_DIR, help=f"--duet: the ComMDM block (default {shown_folder(DUET_DIR)})")
     json: bool = option(False, help="print one JSON object")
     prompt: str = option("a person jumps twice", group="--app", help="the prompt whose generation is timed")
     seconds: float = option(3.0, group="--app", help="playback measuring window")
