@@ -80,3 +80,25 @@ def test_bench_flags_calibrate_only_with_edits(capsys):
     assert "--calibrate and --write go with --edits" in capsys.readouterr().err
     assert main(["bench", "--edits", "--write"]) == 2
     assert "add --calibrate" in capsys.readouterr().err
+
+
+def test_quick_calibration_builds_sets_from_the_best_single_layers(tiny_model_dir, monkeypatch):
+    import engine.evaluation.calibrate_edits as cal
+
+    loaded = load_model(tiny_model_dir)
+    n = loaded.model.num_layers
+    assert n >= 2
+    seen = []
+    single = {(i,): 0.1 * (i + 1) for i in range(n)}  # the last layer is the best alone, then the one before it
+
+    def response(_loaded, layers, _config):
+        seen.append(tuple(layers))
+        return single.get(tuple(layers), 0.9 if set(layers) == {n - 1, n - 2} else 0.0)
+
+    monkeypatch.setattr(cal, "response", response)
+    quick = CalibrationConfig.quick()
+    assert quick.weights == (-0.4, 0.0, 0.4) and quick.candidates == 3
+    result = calibrate_emphasis(loaded, CalibrationConfig(**{**TINY.__dict__, "candidates": 2}), log=lambda _: None)
+    assert result["layers"] == [n - 2, n - 1] and result["candidates"] == 2
+    pairs = [s for s in seen if len(s) == 2]
+    assert pairs == [(n - 2, n - 1)]  # only the two best single layers were ever combined

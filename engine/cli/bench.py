@@ -147,7 +147,8 @@ def _log(line: str) -> None:
 def run_calibration(args: argparse.Namespace) -> int:
     from engine.evaluation.calibrate_edits import CalibrationConfig, calibrate_emphasis, write_calibration
 
-    config = CalibrationConfig() if args.eta is None else CalibrationConfig(eta=args.eta)
+    config = CalibrationConfig.quick() if args.quick else CalibrationConfig()
+    config = config if args.eta is None else replace(config, eta=args.eta)
     result = calibrate_emphasis(_model(args), config, log=_log)
     if args.write:
         write_calibration(args.model, result)

@@ -44,6 +44,14 @@ class CalibrationConfig:
     seconds: float = 5.0
     threshold: float = 0.3
     min_gain: float = 0.02
+    #: forward selection adds only layers among the best ``candidates`` single layers (None: any layer)
+    candidates: int | None = None
+
+    @classmethod
+    def quick(cls) -> "CalibrationConfig":
+        """About a third of the work (``moattn bench --edits --calibrate --quick``): three weights, and sets built from
+        the three best single layers."""
+        return cls(weights=(-0.4, 0.0, 0.4), candidates=3)
 
 
 def response(loaded: LoadedModel, layers: tuple[int, ...], config: CalibrationConfig) -> float:
@@ -77,11 +85,13 @@ def calibrate_emphasis(loaded: LoadedModel, config: CalibrationConfig = Calibrat
         per_layer[layer] = response(loaded, (layer,), config)
         log(f"layer {layer} alone: response {per_layer[layer]:+.2f}")
     best = max(per_layer, key=per_layer.get)
+    ranked = sorted(per_layer, key=per_layer.get, reverse=True)
+    pool = ranked[: config.candidates] if config.candidates else ranked
     chosen, score = [best], per_layer[best]
     history = [{"layers": list(chosen), "response": round(score, 3)}]
-    while len(chosen) < len(per_layer):
+    while len(chosen) < len(pool):
         trials = {layer: response(loaded, tuple(sorted(chosen + [layer])), config)
-                  for layer in per_layer if layer not in chosen}
+                  for layer in pool if layer not in chosen}
         for layer, rho in trials.items():
             log(f"layers {sorted(chosen + [layer])}: response {rho:+.2f}")
         layer = max(trials, key=trials.get)
@@ -92,7 +102,8 @@ def calibrate_emphasis(loaded: LoadedModel, config: CalibrationConfig = Calibrat
     kept = chosen if score >= config.threshold else []
     return {"layers": kept, "response": round(score, 3), "per_layer": {str(k): round(v, 3) for k, v in per_layer.items()},
             "history": history, "threshold": config.threshold, "prompts": [p for p, _ in config.prompts],
-            "seeds": config.seeds, "steps": config.steps, "seconds_taken": round(time.perf_counter() - t0, 1)}
+            "seeds": config.seeds, "steps": config.steps, "weights": list(config.weights), "eta": config.eta,
+            "candidates": config.candidates, "seconds_taken": round(time.perf_counter() - t0, 1)}
 
 
 def write_calibration(folder: Path, result: dict) -> None:
