@@ -28,8 +28,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("eval", help="score a model against ground truth (FID, R-precision, ...): the corpus or --data DIR",
                        description="Prints the model's row, the ground-truth row and a ground-truth noise-floor FID "
                        "on the corpus's test and ood splits, or on a HumanML3D folder's test split (--data DIR).")
-    p.add_argument("--model", type=Path, default=MODEL_DIR, help=f"model folder (default: {shown_folder(MODEL_DIR)})")
-    p.add_argument("--evaluator", type=Path, default=EVALUATOR_DIR, help=f"evaluator folder (default: {shown_folder(EVALUATOR_DIR)})")
+    p.add_argument("--model", type=Path, default=MODEL_DIR,
+                   help=f"model folder (default: {shown_folder(MODEL_DIR)})")
+    p.add_argument("--evaluator", type=Path, default=EVALUATOR_DIR,
+                   help=f"evaluator folder (default: {shown_folder(EVALUATOR_DIR)})")
     p.add_argument("--data", default=None, metavar="DIR", help=DATA_HELP)
     p.add_argument("--quick", action="store_true", help="128 samples per split, 20 steps (under 5 minutes on 2 cores)")
     p.add_argument("--samples", type=int, default=None, help="samples per split (overrides the preset)")
@@ -45,7 +47,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     e = sub.add_parser("evaluator", help="train the contrastive text-motion evaluator on the corpus or --data DIR",
                        description="Trains the evaluator on the corpus train split, or on a HumanML3D folder's train "
                        "split with that folder's own vocabulary (--data DIR).")
-    e.add_argument("--out", type=Path, default=EVALUATOR_DIR, help=f"output folder (default: {shown_folder(EVALUATOR_DIR)})")
+    e.add_argument("--out", type=Path, default=EVALUATOR_DIR,
+                   help=f"output folder (default: {shown_folder(EVALUATOR_DIR)})")
     e.add_argument("--data", default=None, metavar="DIR", help=DATA_HELP)
     e.add_argument("--steps", type=int, default=1500)
     e.add_argument("--batch-size", type=int, default=48)

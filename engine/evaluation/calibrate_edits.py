@@ -5,7 +5,8 @@ layers do not all agree: in some, more attention to the verb makes the action bi
 makes it smaller (the model's own division of labour between layers). This measures, one layer at a
 time, how the action's amplitude answers the emphasis weight (the same measure as ``moattn bench --edits``: the rank
 correlation, scaled down where the change is too small to see, :func:`engine.evaluation.bench_edits.emphasis_response`;
-on base v5 the rank correlation alone chose a layer whose emphasis moved the amplitude by 0.6 %) on calibration prompts that the benchmark does not use, and builds the
+on base v5 the rank correlation alone chose a layer whose emphasis moved the amplitude by 0.6 %) on calibration
+prompts that the benchmark does not use, and builds the
 layer set by forward selection (layers interact, so a set is measured as a whole). The result goes into the model's
 ``config.json`` ("edits": {"emphasize_layers": [...], "calibration": {...}}), where the CLI, the app
 and the benchmark read it as the emphasis default (grounding acts in every layer: on the shipped model the
