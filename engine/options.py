@@ -112,11 +112,9 @@ class Spec:
             return f"{self.default:g}"
         if isinstance(self.default, tuple):
             return " ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in self.default)
-        if isinstance(self.default, Path) and self.default.is_absolute():
-            from engine.paths import shown_folder  # a shipped folder as the project names it, not this machine's path
+        from engine.paths import shown_default  # a shipped folder as the project names it, not this machine's path
 
-            return shown_folder(self.default)
-        return str(self.default)
+        return str(shown_default(self.default))
 
     def range_text(self) -> str:
         """The bounds as help says them ("0 to 20", "1 or more s"); '' without bounds."""

@@ -18,6 +18,12 @@ DUET_DIR = ASSETS / "duet"  # the ComMDM block (and new word rows) trained on MO
 REAL_DATA_DIR = PROJECT_ROOT.parent / "shared" / "data" / "real"
 
 
+def shown_default(value):
+    """A default as help texts say it: an absolute path (str or Path) through :func:`shown_folder`, anything else
+    as it is."""
+    return shown_folder(value) if isinstance(value, (str, Path)) and Path(value).is_absolute() else value
+
+
 def shown_folder(folder) -> str:
     """A path as messages and help texts name it: relative to the project when inside it (no machine's absolute
     path in what a user reads or a shipped file keeps)."""

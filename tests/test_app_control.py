@@ -12,6 +12,7 @@ from app.tabs.control.paths import DEFAULT_ROOT, thin
 from app.tabs.control.settings import ControlSettings
 from app.main import Studio
 from engine.methods.paths import RootPath
+from tests.test_control_options import tiny_controls  # noqa: F401  (fixture: blendable tiny control models)
 
 pytestmark = pytest.mark.timeout(600)
 
@@ -20,15 +21,6 @@ def _studio(tiny_model_dir, **folders) -> Studio:
     st = Studio(model_dir=tiny_model_dir, initial=None, **folders)
     st.state.param.update(steps=6, seed=1)
     return st
-
-
-@pytest.fixture(scope="module")
-def tiny_controls(tiny_model_dir, tmp_path_factory):
-    """A 'control model' per control fine-tuned from the tiny model (its copy, marked): blendable with it."""
-    from engine.methods.control_options import CONTROLS
-    from tests.test_priormdm import controls_with_prior
-
-    return controls_with_prior(tiny_model_dir, tmp_path_factory.mktemp("controls") / "control", CONTROLS, prior=False)
 
 
 @pytest.fixture()

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from engine.methods.commdm import ComConfig
 from engine.model.denoiser import ModelConfig
-from engine.paths import shown_folder
+from engine.paths import shown_default
 from engine.runtime import DEVICE_HELP, PRECISION_HELP, autocast_dtype, resolve_device
 
 TRAINERS = ("base", "control", "duet")
@@ -46,8 +46,7 @@ def _add_config_flags(p: argparse.ArgumentParser, config_type, *, skip: tuple[st
         elif isinstance(value, bool):
             p.add_argument(flag, action=argparse.BooleanOptionalAction, default=None, help=f"{said}(default: {value})")
         else:
-            shown = shown_folder(value) if isinstance(value, str) and Path(value).is_absolute() else value
-            p.add_argument(flag, type=type(value), default=None, help=f"{said}(default: {shown})")
+            p.add_argument(flag, type=type(value), default=None, help=f"{said}(default: {shown_default(value)})")
 
 
 def _add_model_flags(p: argparse.ArgumentParser) -> None:

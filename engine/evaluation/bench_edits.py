@@ -210,7 +210,7 @@ def bench_counting(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -
 
 def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> tuple[dict, list[np.ndarray]]:
     frames = int(config.seconds * 20)
-    rhos, outputs, per_prompt = [], [], {}
+    draws, outputs, per_prompt = [], [], {}
     for prompt in config.emphasis_prompts:
         verb = next(w for w in loaded.tokenizer.encode(prompt).words if w in VERBS)
         for seed in range(config.emphasis_seeds):
@@ -221,14 +221,14 @@ def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -
                 heights.append(amplitude(out.after, verb))
                 outputs.append(out.after)
             draw = emphasis_response(config.emphasis_weights, heights)
-            rhos.append(draw)
+            draws.append(draw)
             per_prompt.setdefault(prompt, []).append({"seed": seed, "amplitudes": [round(h, 3) for h in heights],
                                                       **draw})
             log(f"emphasis {prompt!r} seed {seed}: rho {draw['spearman']:.2f}, change {draw['change']:+.0%}, "
                 f"amplitudes {np.round(heights, 3).tolist()}")
-    return {"spearman": float(np.mean([d["spearman"] for d in rhos])),
-            "change": float(np.mean([d["change"] for d in rhos])),
-            "visible": float(np.mean([d["visible"] for d in rhos])), "per_prompt": per_prompt,
+    return {"spearman": float(np.mean([d["spearman"] for d in draws])),
+            "change": float(np.mean([d["change"] for d in draws])),
+            "visible": float(np.mean([d["visible"] for d in draws])), "per_prompt": per_prompt,
             "layers": list(calibrated_layers(loaded.config) or range(loaded.model.num_layers))}, outputs
 
 

@@ -85,10 +85,9 @@ def calibrate_emphasis(loaded: LoadedModel, config: CalibrationConfig = Calibrat
     for layer in range(loaded.model.num_layers):
         per_layer[layer] = response(loaded, (layer,), config)
         log(f"layer {layer} alone: response {per_layer[layer]:+.2f}")
-    best = max(per_layer, key=per_layer.get)
-    ranked = sorted(per_layer, key=per_layer.get, reverse=True)
+    ranked = sorted(per_layer, key=per_layer.get, reverse=True)  # the best single layer first
     pool = ranked[: config.candidates] if config.candidates else ranked
-    chosen, score = [best], per_layer[best]
+    chosen, score = ranked[:1], per_layer[ranked[0]]
     history = [{"layers": list(chosen), "response": round(score, 3)}]
     while len(chosen) < len(pool):
         trials = {layer: response(loaded, tuple(sorted(chosen + [layer])), config)
