@@ -53,8 +53,12 @@ class TrainConfig:
     # with this x0-predicting model and the cosine schedule, min_snr leaves timesteps t >= 500 under 7 % of the
     # weight; a 5.5-minute screen row looked fine, but a long run lost the actions those high-noise steps decide
     # (assets/model/TRAINING.md, issue #32)
+    # "high_noise": timesteps t >= HIGH_NOISE_FROM (where a sample's action, count and phase are chosen) weigh
+    # --high-noise-weight times the rest, normalised to mean 1 over the timesteps
     loss_weighting: str = "uniform"
     snr_gamma: float = 5.0
+    high_noise_weight: float = field(default=3.0, metadata={"help": "--loss-weighting high_noise: weight of the "
+                                                                     "timesteps t >= 700 against the rest"})
     # corpus only: extra captions per motion that leave side, count, speed and style out, as people type them
     # ("a person waves"); with the corpus's 4 full captions, 2 make a third of the captions trained on short
     underspecified: int = 0
@@ -357,7 +361,7 @@ class TrainingRun:
                                     generator=gen, velocity_weight=config.velocity_weight,
                                     grad_clip=config.grad_clip, ema_decay=config.ema_decay,
                                     control_dims=control_dims,
-                                    snr_gamma=config.snr_gamma if config.loss_weighting == "min_snr" else None)
+                                    timestep_weights=timestep_weights(config))
 
     # -- what the loop writes ----------------------------------------------------------------------------------------
     def checkpoint(self) -> None:
@@ -445,7 +449,27 @@ class TrainingRun:
             dist.destroy_process_group()
 
 
-LOSS_WEIGHTINGS = ("uniform", "min_snr")
+LOSS_WEIGHTINGS = ("uniform", "min_snr", "high_noise")
+HIGH_NOISE_FROM = 700  # the noisiest 30 % of the timesteps: the default guidance's interval (SampleConfig)
+
+
+def timestep_weights(config: TrainConfig, schedule: CosineSchedule | None = None) -> torch.Tensor | None:
+    """(steps,) per-timestep x0-loss weights of ``config.loss_weighting``; None for uniform."""
+    schedule = schedule or CosineSchedule()
+    if config.loss_weighting == "min_snr":
+        return min_snr_weights(schedule, config.snr_gamma)
+    if config.loss_weighting == "high_noise":
+        return high_noise_weights(schedule, config.high_noise_weight)
+    return None
+
+
+def high_noise_weights(schedule: CosineSchedule, weight: float) -> torch.Tensor:
+    """(steps,) x0-loss weights: ``weight`` for t >= HIGH_NOISE_FROM, 1 below, scaled to mean 1 over the timesteps."""
+    if weight <= 0:
+        raise ValueError(f"--high-noise-weight must be positive, got {weight}")
+    w = torch.ones(schedule.steps)
+    w[HIGH_NOISE_FROM:] = weight
+    return w / w.mean()
 
 
 def seed_new_words(model, *, old, grown) -> int:
@@ -500,12 +524,11 @@ class TrainStep:
     grad_clip: float = 1.0
     ema_decay: float = 0.999
     control_dims: torch.Tensor | None = None
-    snr_gamma: float | None = None  # min-SNR-gamma loss weights; None = uniform
+    timestep_weights: torch.Tensor | None = None  # (steps,) per-timestep loss weights (timestep_weights); None = uniform
     schedule: CosineSchedule = field(default_factory=CosineSchedule)
 
     def __post_init__(self) -> None:
         self.scaler = torch.amp.GradScaler(self.runtime.device.type, enabled=self.runtime.dtype == torch.float16)
-        self.timestep_weights = None if self.snr_gamma is None else min_snr_weights(self.schedule, self.snr_gamma)
 
     def losses(self, batch: Batch) -> tuple[torch.Tensor, torch.Tensor]:
         """(mse, velocity) of the denoiser on ``batch`` at random timesteps."""

@@ -38,11 +38,16 @@ def test_measurements():
 
 
 def test_grounding_spans_and_their_score():
-    assert grounding_spans(160, 4) == ((10, 30), (50, 70), (90, 110), (130, 150))  # the paper's four jumps, 8 s
-    assert grounding_spans(60, 2) == ((5, 25), (35, 55))
-    with pytest.raises(ValueError, match="do not fit"):
-        grounding_spans(60, 4)
-    spans = grounding_spans(160, 4)
+    spans = grounding_spans(160, (0.125, 0.375, 0.625, 0.875))  # four jumps evenly over 8 s
+    assert spans == ((10, 30), (50, 70), (90, 110), (130, 150))
+    assert grounding_spans(60, (0.75, 0.25)) == ((5, 25), (35, 55))  # in order
+    for bad in ((0.1, 0.2, 0.3, 0.4), (0.05,), (0.99,)):  # overlapping, before the start, past the end
+        with pytest.raises(ValueError, match="do not fit"):
+            grounding_spans(60, bad)
+    from engine.evaluation.bench_edits import EditBenchConfig
+
+    chosen = grounding_spans(160, EditBenchConfig().grounding_centres)
+    assert sum(spans_hit([20, 60, 100, 140], chosen)) == 1  # an even spread of four jumps misses the chosen rhythm
     assert spans_hit([12, 29, 70, 95, 155], spans) == [True, False, True, False]  # [start, end): 70 is outside
     assert spans_hit([], spans) == [False] * 4
 
@@ -63,7 +68,7 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     config = EditBenchConfig(counting_samples=2, emphasis_prompts=("a person jumps",), emphasis_weights=(-0.4, 0.0, 0.4),
                              emphasis_seeds=1, pairs=2, replacement_seeds=2, shift_prompts=2, examples=1,
                              outputs_per_example=4, steps=3, seconds=3.0, reference_samples=32,
-                             grounding_spans=2, grounding_seconds=3.0, grounding_seeds=2)
+                             grounding_centres=(0.25, 0.75), grounding_seconds=3.0, grounding_seeds=2)
     result = bench_edits(tiny_model, tiny_evaluator, config, log=lambda line: None)
     assert set(result) >= {"counting", "emphasis_spearman", "replacement_iou", "shift_order_acc", "example_based", "fid"}
     assert result["counting"]["samples"] == 2
@@ -84,8 +89,11 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
             row = d[role]
             assert row["spans_hit"] == np.mean(row["hits"]) and len(row["hits"]) == 2
             assert row["jumps_outside"] <= row["jumps_detected"] == len(row["jump_apexes"])
+            inside = row["jumps_detected"] - row["jumps_outside"]
+            assert row["placed"] == (inside / row["jumps_detected"] if row["jumps_detected"] else 0.0)
     assert g["spans_hit"] == np.mean([d["grounded"]["spans_hit"] for d in g["draws"]])
     assert 0.0 <= g["spans_hit_without"] <= 1.0
+    assert g["placed"] == np.mean([d["grounded"]["placed"] for d in g["draws"]])
     # the report reads the same from the result and from its saved JSON
     table = format_table(json.loads(json.dumps(result, default=float)))
     assert table == format_table(result)

@@ -227,6 +227,44 @@ def test_min_snr_training_runs_and_is_recorded(tmp_path):
         train(config(tmp_path, loss_weighting="snr"), source=ToySource(), progress=False)
 
 
+def test_high_noise_weights_favour_the_noisiest_timesteps():
+    from engine.diffusion.schedule import CosineSchedule
+    from engine.train import HIGH_NOISE_FROM, high_noise_weights
+
+    schedule = CosineSchedule()
+    w = high_noise_weights(schedule, 3.0)
+    assert w.shape == (schedule.steps,) and abs(float(w.mean()) - 1.0) < 1e-4
+    assert abs(float(w[HIGH_NOISE_FROM]) / float(w[HIGH_NOISE_FROM - 1]) - 3.0) < 1e-4
+    assert float(w[:HIGH_NOISE_FROM].std()) == 0.0 and float(w[HIGH_NOISE_FROM:].std()) == 0.0
+    import pytest
+
+    with pytest.raises(ValueError, match="high-noise-weight"):
+        high_noise_weights(schedule, 0.0)
+
+
+def test_high_noise_training_runs_and_is_recorded(tmp_path):
+    result = train(config(tmp_path, steps=12, loss_weighting="high_noise", high_noise_weight=2.0),
+                   source=ToySource(), progress=False)
+    assert result["step"] == 12
+    saved = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert saved["train"]["loss_weighting"] == "high_noise" and saved["train"]["high_noise_weight"] == 2.0
+
+
+def test_a_sample_weight_counts_once_in_the_velocity_term():
+    import torch
+
+    from engine.diffusion.losses import masked_losses
+
+    gen = torch.Generator().manual_seed(0)
+    x0 = torch.randn(2, 6, 3, generator=gen)
+    x0_hat = torch.randn(2, 6, 3, generator=gen)
+    mask = torch.ones(2, 6, dtype=torch.bool)
+    _, vel_a = masked_losses(x0_hat[:1], x0[:1], mask[:1])
+    _, vel_b = masked_losses(x0_hat[1:], x0[1:], mask[1:])
+    _, vel = masked_losses(x0_hat, x0, mask, torch.tensor([3.0, 1.0]))
+    assert abs(float(vel) - float((3 * vel_a + vel_b) / 4)) < 1e-6  # weight 3, not 9
+
+
 def test_fresh_schedule_fine_tune_takes_the_calls_hyper_parameters(tmp_path):
     base = tmp_path / "base"
     train(config(tmp_path, out=str(base), steps=20, lr=2e-3), source=ToySource(), progress=False)

@@ -24,10 +24,12 @@ Figures (JSON keys):
 - example_based: FID (vs held-out corpus motions) and diversity of example-based outputs beside
   perturbing the example's noise directly;
 - grounding: "a person jumps four times" with "jumps" grounded to four chosen 1-s spans (the paper's
-  headline grounding case); ``spans_hit``: the share of the spans in which a jump lands (a jump's apex, by
-  the adherence detectors, engine.analysis.detectors), beside the same prompt from the same noise without
-  grounding (``spans_hit_without``); also the jumps counted in the whole motion by the detectors, by
-  root-height peaks and from the self-attention (lag profile), and the jumps outside every span;
+  headline grounding case) at an uneven rhythm (1, 2, 4 and 6 s of 8), so that the prompt's own
+  evenly spread jumps do not land in them by themselves; ``spans_hit``: the share of the spans in which a jump
+  lands (a jump's apex, by the adherence detectors, engine.analysis.detectors), beside the same prompt from the
+  same noise without grounding (``spans_hit_without``); ``placed``: the share of the detected jumps that land
+  inside a span; also the jumps counted in the whole motion by the detectors, by root-height peaks and from the
+  self-attention (lag profile), and the jumps outside every span;
 - fid: FID of every edit's outputs vs held-out corpus motions (few samples: compare within the run).
 """
 from __future__ import annotations
@@ -76,7 +78,9 @@ class EditBenchConfig:
     reference_samples: int = 128
     grounding_prompt: str = "a person jumps four times"
     grounding_word: str = "jumps"
-    grounding_spans: int = 4  # 1-s spans, evenly spread over the motion
+    # centres of the 1-s spans, as fractions of the motion: jumps at 1, 2, 4 and 6 s of 8, a slowing rhythm and a
+    # still end (an even spread, the rhythm the prompt alone already has, would be hit without grounding)
+    grounding_centres: tuple[float, ...] = (0.125, 0.25, 0.5, 0.75)
     grounding_seconds: float = 8.0
     grounding_seeds: int = 3
     grounding_weight: float = 0.3
@@ -332,12 +336,17 @@ def bench_example(loaded: LoadedModel, evaluator: LoadedEvaluator, reference: np
             "perturbed_noise_diversity": float(np.mean(div_pert)), "samples": len(ours)}
 
 
-def grounding_spans(frames: int, n: int, *, width: int = 20) -> tuple[tuple[int, int], ...]:
-    """``n`` spans of ``width`` frames (1 s) centred at (k + 1/2) / n of a ``frames``-frame motion."""
-    if n < 1 or n * width > frames:
-        raise ValueError(f"{n} spans of {width} frames do not fit in {frames} frames")
-    centres = [int(round((k + 0.5) * frames / n)) for k in range(n)]
-    return tuple((max(0, c - width // 2), min(frames, c - width // 2 + width)) for c in centres)
+def grounding_spans(frames: int, centres: tuple[float, ...], *, width: int = 20) -> tuple[tuple[int, int], ...]:
+    """Spans of ``width`` frames (1 s) centred at ``centres`` (fractions of a ``frames``-frame motion), in order;
+    they must fit in the motion and not overlap."""
+    spans = []
+    for c in sorted(centres):
+        a = int(round(c * frames)) - width // 2
+        spans.append((a, a + width))
+    if not spans or spans[0][0] < 0 or spans[-1][1] > frames or any(
+            b > a2 for (_, b), (a2, _) in zip(spans, spans[1:])):
+        raise ValueError(f"spans of {width} frames at {list(centres)} do not fit in {frames} frames apart")
+    return tuple(spans)
 
 
 JUMP_KINDS = ("jump", "jump_forward")
@@ -363,7 +372,7 @@ def bench_grounding(loaded: LoadedModel, config: EditBenchConfig, *, log=print) 
     from engine.methods.edits import CountingRun, count_actions
 
     frames = int(config.grounding_seconds * 20)
-    spans = grounding_spans(frames, config.grounding_spans)
+    spans = grounding_spans(frames, config.grounding_centres)
     cfg = GroundingConfig.from_spans(config.grounding_word, spans, frames=frames, weight=config.grounding_weight,
                                      window=edits_window(loaded, config.grounding_layers))
     loaded.tokenizer.encode(config.grounding_prompt).word_index(config.grounding_word)
@@ -384,10 +393,11 @@ def bench_grounding(loaded: LoadedModel, config: EditBenchConfig, *, log=print) 
             joints = gen.joints[slot]
             jumps = jump_frames(joints)
             hits = spans_hit(jumps, spans)
+            outside = sum(not any(a <= f < b for a, b in spans) for f in jumps)
             attention = count_actions(store, joints, frames=frames, num_steps=sample.steps, slot=slot, run=run)
             row[role] = {"spans_hit": float(np.mean(hits)), "hits": hits, "jump_apexes": jumps,
                          "jumps_detected": len(jumps),
-                         "jumps_outside": sum(not any(a <= f < b for a, b in spans) for f in jumps),
+                         "jumps_outside": outside, "placed": (len(jumps) - outside) / len(jumps) if jumps else 0.0,
                          "root_height_count": count_from_root_height(joints[:, 0, 1]),
                          "attention_count": round(attention.attention.count, 2)}
         hit.append(row["grounded"]["spans_hit"])
@@ -399,6 +409,8 @@ def bench_grounding(loaded: LoadedModel, config: EditBenchConfig, *, log=print) 
             f"{g['jumps_outside']}; root-height count {g['root_height_count']}, attention count "
             f"{g['attention_count']}")
     return {"spans_hit": float(np.mean(hit)), "spans_hit_without": float(np.mean(hit_without)),
+            "placed": float(np.mean([d["grounded"]["placed"] for d in draws])),
+            "placed_without": float(np.mean([d["without"]["placed"] for d in draws])),
             "prompt": config.grounding_prompt, "word": config.grounding_word, "spans": [list(s) for s in spans],
             "frames": frames, "weight": config.grounding_weight,
             "layers": list(cfg.window.layers) if cfg.window.layers is not None else "all",
@@ -457,11 +469,14 @@ def format_grounding(g: dict) -> str:
     outside = [d["grounded"]["jumps_outside"] for d in g["draws"]]
     attention = [d["grounded"]["attention_count"] for d in g["draws"]]
     plain = [d["without"]["jumps_detected"] for d in g["draws"]]
+    placed = f"{g['placed']:.2f}" if "placed" in g else "-"  # a result saved before the share was kept has none
+    placed_without = f" (without {g['placed_without']:.2f})" if "placed_without" in g else ""
     layers = g.get("layers", "all")
     layers = "every layer" if layers == "all" else "layers " + ", ".join(map(str, layers))
     return (f"grounding to {len(g['spans'])} spans ({g['prompt']!r}, {g['word']!r} -> {spans} of {g['frames']} "
             f"frames, weight {g['weight']:g}, {layers}): jumps land in {g['spans_hit']:.2f} of the spans (without "
-            f"grounding {g['spans_hit_without']:.2f}; {len(g['draws'])} draws); jumps detected per draw {detected} (without {plain}), outside the spans "
+            f"grounding {g['spans_hit_without']:.2f}; {len(g['draws'])} draws); {placed} of the jumps detected land "
+            f"in a span{placed_without}; jumps detected per draw {detected} (without {plain}), outside the spans "
             f"{outside}, attention count {attention}")
 
 
