@@ -67,7 +67,7 @@ class EditBenchConfig:
     emphasis_weights: tuple[float, ...] = (-0.4, -0.2, 0.0, 0.2, 0.4)
     emphasis_seeds: int = 3
     pairs: int = 7
-    replacement_seeds: int = 3
+    replacement_seeds: int = 6  # 42 draws: "verb recognised" is a share, and 21 draws left it a +-0.1 guess
     shift_prompts: int = 7
     examples: int = 4
     outputs_per_example: int = 4
