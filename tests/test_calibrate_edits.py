@@ -58,7 +58,8 @@ def test_layers_too_weak_alone_may_qualify_together(tiny_model_dir, monkeypatch)
     loaded = load_model(tiny_model_dir)
     assert loaded.model.num_layers >= 2
     table = {(0,): 0.2, (1,): 0.1, (0, 1): 0.5}
-    monkeypatch.setattr(cal, "response", lambda _loaded, layers, _config: table.get(tuple(layers), -1.0))
+    monkeypatch.setattr(cal, "response",
+                        lambda _loaded, layers, _config: cal.Response(table.get(tuple(layers), -1.0), 0.1))
     result = calibrate_emphasis(loaded, CalibrationConfig(**{**TINY.__dict__, "threshold": 0.3}), log=lambda _: None)
     assert result["layers"] == [0, 1] and result["response"] == 0.5  # no single layer reaches 0.3, the pair does
     table[(0, 1)] = 0.25
@@ -93,7 +94,7 @@ def test_quick_calibration_builds_sets_from_the_best_single_layers(tiny_model_di
 
     def response(_loaded, layers, _config):
         seen.append(tuple(layers))
-        return single.get(tuple(layers), 0.9 if set(layers) == {n - 1, n - 2} else 0.0)
+        return cal.Response(single.get(tuple(layers), 0.9 if set(layers) == {n - 1, n - 2} else 0.0), 0.1)
 
     monkeypatch.setattr(cal, "response", response)
     quick = CalibrationConfig.quick()
@@ -102,3 +103,20 @@ def test_quick_calibration_builds_sets_from_the_best_single_layers(tiny_model_di
     assert result["layers"] == [n - 2, n - 1] and result["candidates"] == 2
     pairs = [s for s in seen if len(s) == 2]
     assert pairs == [(n - 2, n - 1)]  # only the two best single layers were ever combined
+
+
+def test_a_tie_in_score_goes_to_the_bigger_change(tiny_model_dir, monkeypatch):
+    """With three weights many sets score alike (the visible-size cap); the one that moves the action more wins."""
+    import engine.evaluation.calibrate_edits as cal
+
+    loaded = load_model(tiny_model_dir)
+    assert loaded.model.num_layers >= 2
+    table = {(0,): cal.Response(0.6, 0.11), (1,): cal.Response(0.3, 0.05), (0, 1): cal.Response(0.6, 0.16)}
+    monkeypatch.setattr(cal, "response", lambda _loaded, layers, _config: table.get(tuple(layers), cal.Response(-1, 0)))
+    config = CalibrationConfig(**{**TINY.__dict__, "threshold": 0.3, "candidates": 2})
+    result = calibrate_emphasis(loaded, config, log=lambda _: None)
+    assert result["layers"] == [0, 1] and result["change"] == 0.16
+    table[(0, 1)] = cal.Response(0.6, 0.12)  # a tie and about the same change: the smaller set stays
+    assert calibrate_emphasis(loaded, config, log=lambda _: None)["layers"] == [0]
+    table[(0, 1)] = cal.Response(0.5, 0.30)  # a lower score is not bought by a bigger change
+    assert calibrate_emphasis(loaded, config, log=lambda _: None)["layers"] == [0]

@@ -160,7 +160,8 @@ def run_calibration(args: argparse.Namespace) -> int:
     for layer, rho in result["per_layer"].items():
         print(f"  layer {layer} alone: {rho:+.2f}")
     for row in result["history"]:
-        print(f"  layers {', '.join(map(str, row['layers']))}: {row['response']:+.2f}")
+        change = f" (change {row['change']:+.0%})" if "change" in row else ""
+        print(f"  layers {', '.join(map(str, row['layers']))}: {row['response']:+.2f}{change}")
     chosen = ", ".join(map(str, result["layers"])) or "none (all layers stay the default)"
     print(f"emphasis layers: {chosen}" + (f"  (written to {args.model}/config.json)" if args.write else
                                           "  (not written: add --write)"))

@@ -17,6 +17,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -45,6 +46,8 @@ class CalibrationConfig:
     seconds: float = 5.0
     threshold: float = 0.3
     min_gain: float = 0.02
+    #: a set that ties on score (within min_gain) still wins when its amplitude change is this share bigger
+    min_change_gain: float = 0.2
     #: forward selection adds only layers among the best ``candidates`` single layers (None: any layer)
     candidates: int | None = None
 
@@ -55,52 +58,71 @@ class CalibrationConfig:
         return cls(weights=(-0.4, 0.0, 0.4), candidates=3)
 
 
-def response(loaded: LoadedModel, layers: tuple[int, ...], config: CalibrationConfig) -> float:
-    """The mean emphasis response (rank correlation x visible size, ``emphasis_response``'s score) over the
-    calibration prompts and seeds, emphasis in ``layers`` only."""
+class Response(NamedTuple):
+    """A layer set's emphasis response over the calibration draws: ``score`` (rank correlation x visible size,
+    ``emphasis_response``'s score) and ``change`` (the amplitude's relative change from the lowest to the highest
+    weight), both means."""
+
+    score: float
+    change: float
+
+
+def response(loaded: LoadedModel, layers: tuple[int, ...], config: CalibrationConfig) -> Response:
+    """The mean emphasis response over the calibration prompts and seeds, emphasis in ``layers`` only."""
     from engine.evaluation.bench_edits import amplitude, emphasis_response
 
     frames = int(config.seconds * 20)
-    rhos = []
+    draws = []
     for prompt, verb in config.prompts:
         loaded.tokenizer.encode(prompt).word_index(verb)  # a clear error if the model lacks a word
         for seed in range(config.seeds):
             sample = SampleConfig(steps=config.steps, guidance=config.guidance, eta=config.eta, seed=seed)
             amps = [amplitude(edits.reweight(loaded, prompt, ReweightConfig(word=verb, weight=w, window=Window(
                 layers=layers)), frames=frames, sample=sample).after, verb) for w in config.weights]
-            rhos.append(emphasis_response(config.weights, amps)["score"])
-    return float(np.mean(rhos))
+            draws.append(emphasis_response(config.weights, amps))
+    return Response(score=float(np.mean([d["score"] for d in draws])),
+                    change=float(np.mean([d["change"] for d in draws])))
+
+
+def _better(trial: Response, current: Response, config: CalibrationConfig) -> bool:
+    """Does ``trial`` beat ``current``: a higher score by more than ``min_gain``, or a tie in score (within
+    ``min_gain``: with three weights and the visible-size cap, many sets score alike) and a change bigger by more
+    than ``min_change_gain`` of it (the bigger effect a user sees)?"""
+    if trial.score > current.score + config.min_gain:
+        return True
+    return trial.score >= current.score - config.min_gain and trial.change > current.change * (1 + config.min_change_gain)
 
 
 def calibrate_emphasis(loaded: LoadedModel, config: CalibrationConfig = CalibrationConfig(), *, log=print) -> dict:
     """Forward selection of emphasis layers -> {"layers": [...], "per_layer": {layer: rho}, "history": [...], ...}.
 
-    Every layer is measured alone; the best one starts the set, and the layer whose addition raises
-    the set's response most is added while it raises it by more than ``min_gain``. No layer is kept
-    when the final set responds below ``threshold`` (emphasis then acts in all layers): layers too weak
-    alone may still qualify together.
+    Every layer is measured alone; the best one starts the set, and the layer whose addition raises the set's
+    response most is added while it beats the set (:func:`_better`: a higher score, or as high a score and a
+    bigger change). No layer is kept when the final set responds below ``threshold`` (emphasis then acts in all
+    layers): layers too weak alone may still qualify together.
     """
     t0 = time.perf_counter()
-    per_layer: dict[int, float] = {}
+    per_layer: dict[int, Response] = {}
     for layer in range(loaded.model.num_layers):
         per_layer[layer] = response(loaded, (layer,), config)
-        log(f"layer {layer} alone: response {per_layer[layer]:+.2f}")
-    ranked = sorted(per_layer, key=per_layer.get, reverse=True)  # the best single layer first
+        log(f"layer {layer} alone: response {per_layer[layer].score:+.2f} (change {per_layer[layer].change:+.0%})")
+    ranked = sorted(per_layer, key=lambda k: per_layer[k], reverse=True)  # the best single layer first
     pool = ranked[: config.candidates] if config.candidates else ranked
-    chosen, score = ranked[:1], per_layer[ranked[0]]
-    history = [{"layers": list(chosen), "response": round(score, 3)}]
+    chosen, best = ranked[:1], per_layer[ranked[0]]
+    history = [{"layers": list(chosen), "response": round(best.score, 3), "change": round(best.change, 3)}]
     while len(chosen) < len(pool):
         trials = {layer: response(loaded, tuple(sorted(chosen + [layer])), config)
                   for layer in pool if layer not in chosen}
-        for layer, rho in trials.items():
-            log(f"layers {sorted(chosen + [layer])}: response {rho:+.2f}")
-        layer = max(trials, key=trials.get)
-        if trials[layer] <= score + config.min_gain:
+        for layer, r in trials.items():
+            log(f"layers {sorted(chosen + [layer])}: response {r.score:+.2f} (change {r.change:+.0%})")
+        layer = max(trials, key=lambda k: trials[k])
+        if not _better(trials[layer], best, config):
             break
-        chosen, score = sorted(chosen + [layer]), trials[layer]
-        history.append({"layers": list(chosen), "response": round(score, 3)})
-    kept = chosen if score >= config.threshold else []
-    return {"layers": kept, "response": round(score, 3), "per_layer": {str(k): round(v, 3) for k, v in per_layer.items()},
+        chosen, best = sorted(chosen + [layer]), trials[layer]
+        history.append({"layers": list(chosen), "response": round(best.score, 3), "change": round(best.change, 3)})
+    kept = chosen if best.score >= config.threshold else []
+    return {"layers": kept, "response": round(best.score, 3), "change": round(best.change, 3),
+            "per_layer": {str(k): round(v.score, 3) for k, v in per_layer.items()},
             "history": history, "threshold": config.threshold, "prompts": [p for p, _ in config.prompts],
             "seeds": config.seeds, "steps": config.steps, "weights": list(config.weights), "eta": config.eta,
             "candidates": config.candidates, "seconds_taken": round(time.perf_counter() - t0, 1)}
