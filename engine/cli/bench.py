@@ -163,7 +163,9 @@ def run_calibration(args: argparse.Namespace) -> int:
         change = f" (change {row['change']:+.0%})" if "change" in row else ""
         print(f"  layers {', '.join(map(str, row['layers']))}: {row['response']:+.2f}{change}")
     chosen = ", ".join(map(str, result["layers"])) or "none (all layers stay the default)"
-    print(f"emphasis layers: {chosen}" + (f"  (written to {args.model}/config.json)" if args.write else
+    from engine.paths import shown_folder
+
+    print(f"emphasis layers: {chosen}" + (f"  (written to {shown_folder(args.model)}/config.json)" if args.write else
                                           "  (not written: add --write)"))
     return 0
 
@@ -209,11 +211,11 @@ def run_priormdm(args: argparse.Namespace) -> int:
         tables.append(format_table(result["control"]))
         if args.write:
             from engine.methods.control_options import bench_verdict, write_bench_record
-            from engine.paths import CONTROL_DIR
+            from engine.paths import CONTROL_DIR, shown_folder
 
             written = write_bench_record(result["control"], folder=CONTROL_DIR)
-            result["control_record"] = str(written)
-            tables.append(f"recorded in {written}: {bench_verdict(CONTROL_DIR).message}")
+            result["control_record"] = shown_folder(written)
+            tables.append(f"recorded in {shown_folder(written)}: {bench_verdict(CONTROL_DIR).message}")
     print(json.dumps(result, indent=2, default=float) if args.json else "\n\n".join(tables))
     return 0
 

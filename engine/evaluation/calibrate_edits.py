@@ -90,7 +90,8 @@ def _better(trial: Response, current: Response, config: CalibrationConfig) -> bo
     than ``min_change_gain`` of it (the bigger effect a user sees)?"""
     if trial.score > current.score + config.min_gain:
         return True
-    return trial.score >= current.score - config.min_gain and trial.change > current.change * (1 + config.min_change_gain)
+    bigger = trial.change > current.change + abs(current.change) * config.min_change_gain
+    return trial.score >= current.score - config.min_gain and bigger
 
 
 def calibrate_emphasis(loaded: LoadedModel, config: CalibrationConfig = CalibrationConfig(), *, log=print) -> dict:
