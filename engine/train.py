@@ -35,6 +35,10 @@ from engine.runtime import Runtime
 from engine.text import Tokenizer
 
 
+# --loss-weighting high_noise: the noisiest 30 % of the timesteps (also where the default guidance acts)
+HIGH_NOISE_FROM = 700
+
+
 @dataclass
 class TrainConfig:
     out: str = "runs/base"
@@ -58,7 +62,8 @@ class TrainConfig:
     loss_weighting: str = "uniform"
     snr_gamma: float = 5.0
     high_noise_weight: float = field(default=3.0, metadata={"help": "--loss-weighting high_noise: weight of the "
-                                                                     "timesteps t >= 700 against the rest"})
+                                                                     f"timesteps t >= {HIGH_NOISE_FROM} against the "
+                                                                     "rest"})
     # corpus only: extra captions per motion that leave side, count, speed and style out, as people type them
     # ("a person waves"); with the corpus's 4 full captions, 2 make a third of the captions trained on short
     underspecified: int = 0
@@ -450,7 +455,6 @@ class TrainingRun:
 
 
 LOSS_WEIGHTINGS = ("uniform", "min_snr", "high_noise")
-HIGH_NOISE_FROM = 700  # the noisiest 30 % of the timesteps: the default guidance's interval (SampleConfig)
 
 
 def timestep_weights(config: TrainConfig, schedule: CosineSchedule | None = None) -> torch.Tensor | None:
@@ -464,7 +468,10 @@ def timestep_weights(config: TrainConfig, schedule: CosineSchedule | None = None
 
 
 def high_noise_weights(schedule: CosineSchedule, weight: float) -> torch.Tensor:
-    """(steps,) x0-loss weights: ``weight`` for t >= HIGH_NOISE_FROM, 1 below, scaled to mean 1 over the timesteps."""
+    """(steps,) x0-loss weights: ``weight`` for t >= HIGH_NOISE_FROM, 1 below, scaled to mean 1 over the timesteps.
+
+    ``masked_losses`` divides by the batch's total weight, so in effect a batch's noisy items weigh ``weight`` times
+    its others (a batch without any is trained as with uniform weights); the logged mse is this weighted one."""
     if weight <= 0:
         raise ValueError(f"--high-noise-weight must be positive, got {weight}")
     w = torch.ones(schedule.steps)
@@ -524,7 +531,7 @@ class TrainStep:
     grad_clip: float = 1.0
     ema_decay: float = 0.999
     control_dims: torch.Tensor | None = None
-    timestep_weights: torch.Tensor | None = None  # (steps,) per-timestep loss weights (timestep_weights); None = uniform
+    timestep_weights: torch.Tensor | None = None  # (steps,) per-timestep loss weights; None = uniform
     schedule: CosineSchedule = field(default_factory=CosineSchedule)
 
     def __post_init__(self) -> None:
