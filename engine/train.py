@@ -457,9 +457,9 @@ class TrainingRun:
 LOSS_WEIGHTINGS = ("uniform", "min_snr", "high_noise")
 
 
-def timestep_weights(config: TrainConfig, schedule: CosineSchedule | None = None) -> torch.Tensor | None:
-    """(steps,) per-timestep x0-loss weights of ``config.loss_weighting``; None for uniform."""
-    schedule = schedule or CosineSchedule()
+def timestep_weights(config: TrainConfig) -> torch.Tensor | None:
+    """(steps,) per-timestep x0-loss weights of ``config.loss_weighting`` on the training schedule; None for uniform."""
+    schedule = CosineSchedule()
     if config.loss_weighting == "min_snr":
         return min_snr_weights(schedule, config.snr_gamma)
     if config.loss_weighting == "high_noise":

@@ -30,6 +30,7 @@ from dataclasses import replace
 
 from engine.cli.options import add_options
 from engine.evaluation.bench_options import BenchOptions
+from engine.paths import CONTROL_DIR, shown_folder
 from engine.runtime import add_runtime_arguments, runtime_from_args
 
 
@@ -163,8 +164,6 @@ def run_calibration(args: argparse.Namespace) -> int:
         change = f" (change {row['change']:+.0%})" if "change" in row else ""
         print(f"  layers {', '.join(map(str, row['layers']))}: {row['response']:+.2f}{change}")
     chosen = ", ".join(map(str, result["layers"])) or "none (all layers stay the default)"
-    from engine.paths import shown_folder
-
     print(f"emphasis layers: {chosen}" + (f"  (written to {shown_folder(args.model)}/config.json)" if args.write else
                                           "  (not written: add --write)"))
     return 0
@@ -211,7 +210,6 @@ def run_priormdm(args: argparse.Namespace) -> int:
         tables.append(format_table(result["control"]))
         if args.write:
             from engine.methods.control_options import bench_verdict, write_bench_record
-            from engine.paths import CONTROL_DIR, shown_folder
 
             written = write_bench_record(result["control"], folder=CONTROL_DIR)
             result["control_record"] = shown_folder(written)

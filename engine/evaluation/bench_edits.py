@@ -365,6 +365,12 @@ def spans_hit(frames: list[int], spans) -> list[bool]:
     return [any(a <= f < b for f in frames) for a, b in spans]
 
 
+def placed_share(row: dict) -> float:
+    """The share of a draw's detected jumps that land inside a span (0 when none was detected)."""
+    detected = row["jumps_detected"]
+    return (detected - row["jumps_outside"]) / detected if detected else 0.0
+
+
 def bench_grounding(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> dict:
     """The paper's four-jumps case: the prompt with its verb grounded to chosen spans vs the prompt alone (the
     pair's reference, same noise). Scored per span by the jump detector, and counted three ways."""
@@ -397,7 +403,7 @@ def bench_grounding(loaded: LoadedModel, config: EditBenchConfig, *, log=print) 
             attention = count_actions(store, joints, frames=frames, num_steps=sample.steps, slot=slot, run=run)
             row[role] = {"spans_hit": float(np.mean(hits)), "hits": hits, "jump_apexes": jumps,
                          "jumps_detected": len(jumps),
-                         "jumps_outside": outside, "placed": (len(jumps) - outside) / len(jumps) if jumps else 0.0,
+                         "jumps_outside": outside,
                          "root_height_count": count_from_root_height(joints[:, 0, 1]),
                          "attention_count": round(attention.attention.count, 2)}
         hit.append(row["grounded"]["spans_hit"])
@@ -409,8 +415,8 @@ def bench_grounding(loaded: LoadedModel, config: EditBenchConfig, *, log=print) 
             f"{g['jumps_outside']}; root-height count {g['root_height_count']}, attention count "
             f"{g['attention_count']}")
     return {"spans_hit": float(np.mean(hit)), "spans_hit_without": float(np.mean(hit_without)),
-            "placed": float(np.mean([d["grounded"]["placed"] for d in draws])),
-            "placed_without": float(np.mean([d["without"]["placed"] for d in draws])),
+            "placed": float(np.mean([placed_share(d["grounded"]) for d in draws])),
+            "placed_without": float(np.mean([placed_share(d["without"]) for d in draws])),
             "prompt": config.grounding_prompt, "word": config.grounding_word, "spans": [list(s) for s in spans],
             "frames": frames, "weight": config.grounding_weight,
             "layers": list(cfg.window.layers) if cfg.window.layers is not None else "all",
