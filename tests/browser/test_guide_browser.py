@@ -125,6 +125,13 @@ TITLE_JS = """([cls, pattern]) => {
 }"""
 
 
+#: the row plot under the heatmap names the frame the viewer shows
+ROW_OF_SHOWN_FRAME_JS = """() => {
+  const plot = [...Bokeh.documents[0].all_models].find(m => (m.css_classes || []).includes('row-profile') && m.renderers);
+  return !!plot && plot.title.text.startsWith(`Row of frame ${window.moattnPlayer.frame}:`);
+}"""
+
+
 # ------------------------------------------------------------------------------------------ the guide's sections
 PROMPT = "a person jumps three times"
 
@@ -156,13 +163,13 @@ def test_generate(page, generated, screens):
 def test_attention(page, generated, screens):
     page.locator(".word-buttons button", has_text="jumps").click()
     page.wait_for_function(br.WORD_PICKED_JS, arg="jumps", timeout=SHOWN)  # the server highlights its curve
+    _show_frame(page, 0)  # the guide's earlier picture left the viewer mid-motion: the tap must be what moves it
     heat = page.locator(".self-heatmap")
     box = br.stable_box(heat)
     br.tap(heat, 200 / box["width"], (30 + 0.5 * 290) / box["height"])  # a row half-way down: a frame mid-motion
     page.wait_for_function("window.moattnPlayer.frame > 0", timeout=SHOWN)
-    frame = br.player_stats(page)["frame"]
-    # the server has the frame: the row plot under the heatmap is that frame's row
-    page.wait_for_function(TITLE_JS, arg=["row-profile", f"^Row of frame {frame}:"], timeout=SHOWN)
+    # the server has the frame the viewer shows: the row plot under the heatmap is that frame's row
+    page.wait_for_function(ROW_OF_SHOWN_FRAME_JS, timeout=SHOWN)
     _to_top(page, ".word-buttons", above=16)  # the word curves, the heatmap and the row under it
     _picture(page, screens, "attention", clip=_right(page))
 
