@@ -17,6 +17,9 @@ from app.attention_record import AttentionRecord, plan_steps
 from app.model_cache import SAMPLING_SLOT
 from engine.analysis.followed import follow_generated
 from engine.checkpoint import LoadedModel
+from engine.clauses import clause_prompts
+from engine.methods.doubletake import DoubleTakeConfig, second_take_timesteps
+from engine.methods.sequence import generate_sequence, plan, timeline_frames
 from engine.generate import Request, SampleConfig, finish, frames_for, sample_states
 from engine.duration import resolve_seconds
 from engine.representation import features_to_joints
@@ -34,6 +37,14 @@ class GenerationSettings:
     guidance_from: int = DEFAULT_GUIDANCE_FROM  # the guidance applies at timesteps t >= this
     eta: float = DEFAULT_ETA  # the fresh noise each sampling step adds (0: deterministic DDIM)
     record_steps: int = 10
+    # a prompt of several actions in order: "clauses" (each clause as its own prompt, joined with DoubleTake; no
+    # attention maps) or "whole" (one take, attention recorded) - engine.methods.sequence
+    sequence: str = "clauses"
+
+    def clauses(self) -> tuple[str, ...]:
+        """The clauses this prompt is generated as, one each; () where it is one take of the whole prompt."""
+        clauses = clause_prompts(self.prompt)
+        return clauses if self.sequence == "clauses" and len(clauses) > 1 else ()
 
 
 @dataclass
@@ -44,6 +55,15 @@ class Checked:
     tokens: TokenizedPrompt
     frames: int
     config: SampleConfig
+    intervals: list | None = None  # the clauses as DoubleTake intervals (engine.methods.sequence), or one take
+
+    @property
+    def total_steps(self) -> int:
+        """Sampling steps the run makes: clause by clause, DoubleTake's first take and then its second."""
+        take = DoubleTakeConfig().second_take
+        if self.intervals is None or take is None:
+            return self.config.steps
+        return self.config.steps + len(second_take_timesteps(take, self.config.steps))
 
 
 @dataclass(frozen=True, eq=False)
@@ -179,13 +199,16 @@ def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:
     """Validate everything before any work starts; raises ValueError (PromptError) with a user-facing message."""
     tokens = loaded.tokenizer.encode(settings.prompt)
     frames = checked_frames(loaded, resolve_seconds(settings.seconds, settings.prompt))
+    intervals = plan(settings.prompt, seconds=settings.seconds, sequence=settings.sequence)
+    if intervals is not None:
+        frames = timeline_frames(intervals, DoubleTakeConfig().handshakes(2)[0])
     if int(settings.seed) < 0:
         raise ValueError("the seed must be >= 0")
     config = SampleConfig(steps=int(settings.steps), guidance=float(settings.guidance),
                           guidance_from=int(settings.guidance_from), eta=float(settings.eta), seed=int(settings.seed))
     if settings.record_steps < 0:
         raise ValueError("record_steps must be >= 0")
-    return Checked(settings=settings, tokens=tokens, frames=frames, config=config)
+    return Checked(settings=settings, tokens=tokens, frames=frames, config=config, intervals=intervals)
 
 
 def run_generation(
@@ -209,6 +232,8 @@ def run_generation(
     from engine.attention import AttentionStore, StoreConfig
 
     cancel = cancel or threading.Event()
+    if checked.intervals is not None:
+        return _run_sequence(loaded, checked, on_step=on_step, cancel=cancel, on_wait=on_wait)
     with sampling_slot(cancel, on_wait):
         start = time.perf_counter()
         settings, config = checked.settings, checked.config
@@ -253,3 +278,32 @@ def run_generation(
                             attention=record, seconds_taken=seconds_taken,
                             denoising=Denoising.collect(history, num_steps=config.steps, recorded=recorded),
                             followed=follow, notes=notes)
+
+
+def _run_sequence(loaded: LoadedModel, checked: Checked, *, on_step, cancel: threading.Event, on_wait) -> GenerationResult:
+    """A prompt of several actions in order, clause by clause (``checked.intervals``), joined with DoubleTake: both
+    takes' steps are counted in ``on_step``; no attention is recorded (each clause is a prompt of its own)."""
+    settings, config = checked.settings, checked.config
+    total, done = checked.total_steps, 0
+
+    def step(state) -> None:
+        nonlocal done
+        if cancel.is_set():
+            raise Cancelled()
+        done += 1
+        if on_step is not None:
+            on_step(min(done, total), total)
+
+    with sampling_slot(cancel, on_wait):
+        start = time.perf_counter()
+        composed = generate_sequence(loaded, checked.intervals, config, on_step=step)
+        joints = np.asarray(composed.joints, dtype=np.float32)
+        if not np.isfinite(joints).all():
+            raise ValueError("the model produced non-finite joints")
+        seconds_taken = time.perf_counter() - start
+    follow, notes = follow_generated(settings.prompt, joints, checked.tokens)
+    clauses = " → ".join(repr(iv.prompt) for iv in checked.intervals)
+    return GenerationResult(settings=settings, words=checked.tokens.words, joints=joints,
+                            features=np.asarray(composed.features, dtype=np.float32), attention=None,
+                            seconds_taken=seconds_taken, followed=follow,
+                            notes=(f"generated clause by clause: {clauses}", *notes))

@@ -19,6 +19,7 @@ from app.session.items import MotionItem
 from app.session.jobs import Delivery, JobDescription, Worker
 from app.session.viewer_rule import Preview
 from engine.duration import resolve_seconds
+from engine.methods.generate_options import GenerateOptions
 from engine.sampling_options import SampleOptions
 from engine.units import FPS, MAX_SECONDS, MIN_SECONDS
 
@@ -38,8 +39,9 @@ class GenerateJob:
 
     def describe(self) -> JobDescription:
         c = self.checked
-        return JobDescription(what="generation", status=f"generating {c.frames / FPS:.1f} s: step 0 / {c.config.steps}",
-                              verb="generating", total=c.config.steps)
+        how = f" clause by clause ({len(c.intervals)} clauses)" if c.intervals else ""
+        return JobDescription(what="generation", status=f"generating {c.frames / FPS:.1f} s{how}: step 0 / "
+                                                        f"{c.total_steps}", verb="generating", total=c.total_steps)
 
     def run(self, loaded, worker: Worker) -> GenerationResult:
         title = f"{self.settings.prompt} · seed {self.settings.seed}"
@@ -114,6 +116,8 @@ class GenerateBox(param.Parameterized):
     guidance = param_for(SampleOptions, "guidance")
     record_steps = param.Integer(default=10, bounds=(0, 1000), label="Recorded steps",
                                  doc="sampling steps whose attention is recorded (0 = none)")
+    # a prompt of several actions in order: clause by clause (DoubleTake) or in one take (engine.methods.sequence)
+    sequence = param_for(GenerateOptions, "sequence", label="Actions in order")
 
     # ---- derived from the prompt
     prompt_words = param.List(default=[], doc="words of the prompt")
@@ -135,7 +139,7 @@ class GenerateBox(param.Parameterized):
 
     def settings(self) -> GenerationSettings:
         return GenerationSettings(prompt=self.prompt, seconds=self.seconds, seed=self.seed, steps=self.steps,
-                                  guidance=self.guidance, record_steps=self.record_steps)
+                                  guidance=self.guidance, record_steps=self.record_steps, sequence=self.sequence)
 
     def sample_config(self, **overrides):
         """How every tab samples: the box's seed, steps and guidance, the engine's defaults for the rest
@@ -162,8 +166,12 @@ class GenerateBox(param.Parameterized):
             self.error("only a motion generated in the Generate box can be re-recorded")
             return False
         s = item.settings
+        if s.clauses():
+            self.error("this motion was generated clause by clause: it has no attention maps of one prompt; "
+                       "generate it with 'Actions in order: whole' to see its attention")
+            return False
         self.param.update(prompt=s.prompt, seconds=s.seconds, seed=s.seed, steps=s.steps, guidance=s.guidance,
-                          record_steps=max(1, s.record_steps))
+                          record_steps=max(1, s.record_steps), sequence=s.sequence)
         # its own settings, those the box does not show included (the guidance's interval, eta): the same motion
         return self.launch(RerecordJob(session=self, settings=replace(s, record_steps=max(1, s.record_steps)),
                                        on_preview=self._preview, name=item.name))

@@ -46,6 +46,7 @@ def recipe_of(item: MotionItem, *, model_dir: str | Path | None) -> dict:
         recipe.update(prompt=s.prompt, seed=s.seed, steps=s.steps, guidance=s.guidance, guidance_from=s.guidance_from,
                       eta=s.eta, seconds=s.seconds)
         info["record_steps"] = s.record_steps
+        info["sequence"] = s.sequence
     elif "seed" in info:
         recipe["seed"] = info.pop("seed")
     if kind == "import":
@@ -88,7 +89,9 @@ def settings_from_recipe(recipe: Mapping) -> GenerationSettings | None:
                                   # a recipe from before guidance_from was kept: classic guidance, at every step
                                   guidance_from=int(recipe.get("guidance_from", 0)),
                                   eta=float(recipe.get("eta", 0.0)),  # before eta was kept: deterministic DDIM
-                                  record_steps=int(operation.get("record_steps", 10) or 10))
+                                  record_steps=int(operation.get("record_steps", 10) or 10),
+                                  # before sequences were generated clause by clause: one take of the whole prompt
+                                  sequence=str(operation.get("sequence", "whole")))
     except (KeyError, TypeError, ValueError, AttributeError):
         return None
 

@@ -65,6 +65,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--drawn must be 0 or more")
     if args.lengths is not None and not args.adherence:
         raise ValueError("--lengths goes with --adherence")
+    if args.sequence is not None and not args.adherence:
+        raise ValueError("--sequence goes with --adherence")
     if args.prompts is not None and not (args.adherence or args.sampling or args.levers):
         raise ValueError("--prompts goes with --adherence, --sampling or --levers")
     if args.calibrate and not args.edits:
@@ -221,7 +223,7 @@ def run_priormdm(args: argparse.Namespace) -> int:
 def run_adherence(args: argparse.Namespace) -> int:
     from engine.evaluation.bench_adherence import AdherenceBenchConfig, bench_adherence, format_table, read_prompts
 
-    config = preset(AdherenceBenchConfig, args, seeds=args.seeds, lengths=args.lengths,
+    config = preset(AdherenceBenchConfig, args, seeds=args.seeds, lengths=args.lengths, sequence=args.sequence,
                     guidance=args.guidance, guidance_from=args.guidance_from, eta=args.eta)  # fails before the model loads
     prompts = read_prompts(args.prompts) if args.prompts is not None else None
     result = bench_adherence(_model(args), config, prompts=prompts, log=_log)

@@ -30,8 +30,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from engine.checkpoint import load_model
-    from engine.generate import Request, frames_for, generate
+    from engine.generate import FPS, Request, frames_for, generate
     from engine.io import save_motion
+    from engine.methods.sequence import generate_sequence, plan
 
     args.out = args.out or []
     if not args.out and args.no_library:
@@ -39,6 +40,11 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(args.out, MOTION_SUFFIXES + RENDER_SUFFIXES)  # every --out, before the model loads
     if args.vecs and any(out.suffix.lower() == ".bvh" for out in args.out):
         raise CLIError("--vecs writes 263-dim features to .npy; a .bvh --out holds joints: drop --vecs or the .bvh")
+    try:  # a prompt of several actions in order: one interval per clause (engine.methods.sequence)
+        intervals = plan(args.prompt, seconds=None if args.seconds == AUTO else float(args.seconds),
+                         sequence=args.sequence)
+    except ValueError as exc:
+        raise CLIError(str(exc)) from None
     seconds = resolve_seconds(args.seconds, args.prompt)
     frames = frames_for(seconds)
     loaded = load_model(args.model, runtime=runtime_from_args(args))
@@ -47,9 +53,16 @@ def run(args: argparse.Namespace) -> int:
     def progress(state):
         print(f"\rstep {state.step + 1}/{state.num_steps}", end="", file=sys.stderr, flush=True)
 
-    gen = generate(loaded, Request(prompts=[args.prompt], frames=[frames]), config, on_step=progress)
+    if intervals is None:
+        gen = generate(loaded, Request(prompts=[args.prompt], frames=[frames]), config, on_step=progress)
+        joints, features, tokens = gen.joints[0], gen.features[0, :frames], gen.tokens[0]
+    else:
+        print("clause by clause: " + " -> ".join(f"{iv.prompt!r} ({iv.seconds:.1f} s)" for iv in intervals),
+              file=sys.stderr)
+        composed = generate_sequence(loaded, intervals, config, on_step=progress)
+        joints, features, tokens = composed.joints, composed.features, loaded.tokenizer.encode(args.prompt)
+        seconds, frames = len(joints) / FPS, len(joints)
     print(file=sys.stderr)
-    joints = gen.joints[0]
     for out in args.out:
         suffix = out.suffix.lower()
         if suffix in (".png", ".gif", ".mp4"):
@@ -60,18 +73,20 @@ def run(args: argparse.Namespace) -> int:
             save_motion(joints, out, to="vecs" if args.vecs else "joints")
         print(f"wrote {out}")
     keep(args, joints, kind="generate", title=f"{args.prompt} · seed {args.seed}",
-         features=gen.features[0, :frames],
+         features=features,
          recipe=cli_recipe(args, made_by="moattn generate", prompt=args.prompt,
                            seconds=None if args.seconds == AUTO else seconds, sampler=args.sampler,
-                           seconds_used=seconds))
+                           seconds_used=seconds, sequence=args.sequence,
+                           clauses=None if intervals is None else [iv.prompt for iv in intervals]))
     # what was and was not followed: the prompt's intent beside what the detectors see in the motion
     from engine.analysis.followed import follow_generated
 
-    follow, notes = follow_generated(args.prompt, joints, gen.tokens[0])
+    follow, notes = follow_generated(args.prompt, joints, tokens)
     for line in follow_lines(follow, notes):
         print(printable(line, sys.stdout))
     print(json.dumps({"prompt": args.prompt, "seconds": seconds, "seconds_from": "prompt" if args.seconds == AUTO
-                      else "given", "frames": len(joints), "seed": args.seed, "steps": args.steps,
+                      else "given", "frames": len(joints),
+                      "clauses": None if intervals is None else [iv.prompt for iv in intervals], "seed": args.seed, "steps": args.steps,
                       "guidance": args.guidance, "guidance_from": args.guidance_from, "eta": args.eta,
                       "followed": follow.to_json() if not isinstance(follow, str) else {"error": follow},
                       "notes": list(notes)}))

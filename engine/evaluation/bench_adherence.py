@@ -26,6 +26,8 @@ from engine.evaluation.adherence import (ATTRIBUTES, check_motion, ground_truth_
                                          validate)
 from engine.generate import SampleConfig
 from engine.intent import Intent, parse_intent
+from engine.methods.generate_options import SEQUENCE_MODES
+from engine.units import FPS
 
 PROMPTS_FILE = Path(__file__).with_name("data") / "adherence_prompts.txt"
 TOTALS = ("action", "count", "side", "direction", "order")
@@ -56,8 +58,13 @@ class AdherenceBenchConfig:
     # the model's lengths: "auto" = what a user gets (the length predicted from the prompt, the studio's and the
     # CLI's default, engine.duration); "truth" = each seed's ground-truth length (the model at its best window)
     lengths: str = "auto"
+    # prompts of several actions in order: "clauses" = what a user gets (clause by clause, joined with DoubleTake,
+    # engine.methods.sequence); "whole" = one take of the whole prompt (the model alone)
+    sequence: str = "clauses"
 
     def __post_init__(self) -> None:
+        if self.sequence not in SEQUENCE_MODES:
+            raise ValueError(f"sequence must be one of {', '.join(SEQUENCE_MODES)}, got {self.sequence!r}")
         if self.seeds < 1:
             raise ValueError("--seeds must be at least 1")
         if self.lengths not in ("auto", "truth"):
@@ -78,9 +85,21 @@ def guidance_text(guidance: float, guidance_from: int = 0, eta: float = 0.0) -> 
 
 def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: AdherenceBenchConfig) -> list[np.ndarray]:
     """One motion per seed (a batch slot each, noise drawn from ``config.seed``), each with the given number of
-    joint frames."""
+    joint frames; a prompt of several actions in order as a user gets it (``config.sequence``): clause by clause,
+    one DoubleTake run per seed (seed ``config.seed + k``), its clauses as long as predicted under ``lengths``
+    "auto", else sharing the seed's length."""
     from engine.generate import Request, generate
+    from engine.methods.sequence import generate_sequence, plan
 
+    if plan(prompt, sequence=config.sequence) is not None:
+        motions = []
+        for k, n in enumerate(lengths):
+            intervals = plan(prompt, sequence=config.sequence, seconds=None if config.lengths == "auto" else
+                             max((n - 1) / FPS, 0.0))
+            sample = SampleConfig(steps=config.steps, guidance=config.guidance, guidance_from=config.guidance_from,
+                                  eta=config.eta, seed=config.seed + k)
+            motions.append(generate_sequence(loaded, intervals, sample).joints)
+        return motions
     frames = [min(n - 1, loaded.model.config.max_frames) for n in lengths]  # one batch: a slot per seed
     gen = generate(loaded, Request(prompts=[prompt] * len(frames), frames=frames),
                    SampleConfig(steps=config.steps, guidance=config.guidance,
@@ -150,6 +169,7 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
             "foot_skate": _skate_summary(skates),
             "settings": {"seeds": config.seeds, "steps": config.steps, "guidance": config.guidance,
                          "guidance_from": config.guidance_from, "eta": config.eta, "lengths": config.lengths,
+                         "sequence": config.sequence,
                          "prompts": len(prompts), "validation_motions": config.validation_motions},
             "seconds": time.perf_counter() - t0}
 
@@ -227,6 +247,8 @@ def format_table(result: dict) -> str:
     s = result["settings"]
     lengths = ("model lengths predicted from each prompt (what a user gets)" if s.get("lengths", "auto") == "auto"
                else "model lengths = the ground truth's")
-    lines.append(f"{s['prompts']} prompts x {s['seeds']} seeds, {s['steps']} steps, guidance {guidance_text(s['guidance'], s.get('guidance_from', 0), s.get('eta', 0.0))}, {lengths}; "
+    sequences = ("sequences clause by clause (DoubleTake)" if s.get("sequence", "whole") == "clauses"
+                 else "sequences in one take")
+    lines.append(f"{s['prompts']} prompts x {s['seeds']} seeds, {s['steps']} steps, guidance {guidance_text(s['guidance'], s.get('guidance_from', 0), s.get('eta', 0.0))}, {lengths}, {sequences}; "
                  f"validation on {s['validation_motions']} corpus test motions; {result['seconds']:.0f} s")
     return "\n".join(lines)

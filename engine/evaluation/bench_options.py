@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from engine.methods.generate_options import SEQUENCE_MODES
 from engine.options import option
 from engine.paths import DUET_DIR, EVALUATOR_DIR, MODEL_DIR, shown_folder
 
@@ -50,6 +51,9 @@ class BenchOptions:
     lengths: str | None = option(None, choices=("auto", "truth"),
         help="--adherence: the model's lengths, auto (predicted from the prompt, what a user gets; default) or truth "
              "(each seed's ground-truth length)")
+    sequence: str | None = option(None, choices=SEQUENCE_MODES,
+        help="--adherence: prompts of several actions in order generated clause by clause and joined with DoubleTake "
+             "(clauses: what a user gets; default) or in one take of the whole prompt (whole: the model alone)")
     exports: bool = option(False, exclusive="benchmark",
         help="seconds to export a 9.8-s motion as the studio's Export buttons do (GIF, MP4, GLB, BVH, npy)")
     train: bool = option(False, exclusive="benchmark",

@@ -9,6 +9,7 @@ from engine.options import option, validate
 from engine.units import MAX_SECONDS, MIN_SECONDS
 
 SAMPLERS = ("ddim", "ddpm")
+SEQUENCE_MODES = ("clauses", "whole")  # engine.methods.sequence: a prompt of several actions in order
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -19,6 +20,11 @@ class GenerateOptions:
     seconds: float | str = option(AUTO, parse=seconds_argument, help=f"length in seconds ({MIN_SECONDS:g} to "
                                   f"{MAX_SECONDS:g}), or auto: predicted from the prompt (default: auto)")
     sampler: str = option("ddim", choices=SAMPLERS, help="the sampler: DDIM (deterministic; the default) or DDPM (stochastic)")
+    sequence: str = option("clauses", choices=SEQUENCE_MODES,
+                           help="a prompt of several actions in order ('waves, then kicks'): generated clause by "
+                                "clause and joined with DoubleTake (clauses, the default: each action as if asked "
+                                "alone), or in one take of the whole prompt (whole: the only way to record its "
+                                "attention)")
     vecs: bool = option(False, help="write .npy outputs as 263-dim features instead of joints")
 
     def __post_init__(self) -> None:

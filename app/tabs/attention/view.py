@@ -192,12 +192,18 @@ class AttentionExplorer(pn.viewable.Viewer):
         item = self.state.item
         self._syncing = True
         try:
+            composed = bool(item is not None and item.settings is not None and item.settings.clauses())
             self.rerecord.visible = bool(item is not None and (item.evicted or item.from_library)
-                                         and item.settings is not None)
+                                         and item.settings is not None and not composed)
             if record is None:
                 self.words.options = {}
                 if item is None:
                     self.info.object = "Generate a motion to see its attention."
+                elif composed:
+                    self.info.object = ("It was generated clause by clause (" + " → ".join(
+                        f"'{html.escape(c)}'" for c in item.settings.clauses()) + "), each clause a prompt of its "
+                        "own: it has no attention maps of one prompt. Generate it with *Actions in order: whole* "
+                        "(Generate box) to see its attention.")
                 elif item.from_library and item.source != "imported":
                     self.info.object = ("This motion was kept in the motion library, which stores motions and their "
                                         "recipes but not attention maps. "

@@ -12,8 +12,12 @@ from app.components.number_box import FloatBox, IntBox
 from app.components.words import WORD_CSS, intent_line, word_chips
 from app.session.state import StudioState
 from app.tabs.generate.followed import FOLLOWED_CSS, item_followed_html
+from engine.clauses import clause_prompts
 from engine.duration import auto_seconds
 from engine.units import FPS, MAX_SECONDS, MIN_SECONDS
+
+
+SEQUENCE_LABELS = {"clause by clause": "clauses", "whole prompt": "whole"}  # engine.methods.generate_options
 
 
 class GenerateControls(pn.viewable.Viewer):
@@ -44,6 +48,13 @@ class GenerateControls(pn.viewable.Viewer):
         self.guidance = FloatBox.from_param(s.param.guidance, width=90, css_classes=["guidance-input"])
         self.record = IntBox.from_param(s.param.record_steps, width=120, css_classes=["record-input"])
         self.memory = pn.pane.Markdown("", css_classes=["record-memory"], margin=(0, 10))
+        # a prompt of several actions in order: how it is generated, shown only for such a prompt
+        self.sequence = pn.widgets.RadioButtonGroup(options=SEQUENCE_LABELS, value=s.sequence, color="light",
+                                                    css_classes=["sequence-mode"], margin=(0, 10),
+                                                    description=s.param.sequence.doc)
+        self.sequence.param.watch(lambda e: setattr(self.state, "sequence", e.new), "value")
+        self.clauses = pn.pane.HTML("", css_classes=["sequence-clauses"], sizing_mode="stretch_width",
+                                    margin=(0, 10), styles={"font-size": "12px", "color": "#555"})
         self.generate = pn.widgets.Button(label="Generate", color="primary", sizing_mode="stretch_width",
                                           css_classes=["generate-button"])
         self.cancel = pn.widgets.Button(label="Cancel", color="warning", disabled=True, width=90,
@@ -63,12 +74,14 @@ class GenerateControls(pn.viewable.Viewer):
         s.param.watch(self._on_analysis, ["prompt_words", "reading"])
         s.param.watch(self._on_prompt, "prompt")
         s.param.watch(self._on_progress, ["running", "progress", "progress_total", "status"])
-        s.param.watch(self._on_memory, ["steps", "record_steps", "seconds", "prompt_words"])
+        s.param.watch(self._on_memory, ["steps", "record_steps", "seconds", "prompt_words", "sequence"])
+        s.param.watch(self._on_sequence, ["prompt", "sequence"])
         s.param.watch(self._on_followed, ["current", "items", "preview", "running"])
         self._on_analysis()
         self._on_followed()
         self._on_progress()
         self._on_memory()
+        self._on_sequence()
         self._describe_model()
 
     def _on_typed(self, event):
@@ -116,8 +129,28 @@ class GenerateControls(pn.viewable.Viewer):
             self.followed.object = text
         self.followed.visible = bool(text)
 
+    def _on_sequence(self, *_):
+        s = self.state
+        clauses = clause_prompts(s.prompt)
+        several = len(clauses) > 1
+        if self.sequence.value != s.sequence:
+            self.sequence.value = s.sequence
+        self.sequence.visible = self.clauses.visible = several
+        if not several:
+            return
+        if s.sequence == "clauses":
+            text = (f"{len(clauses)} actions in order, generated clause by clause and joined (DoubleTake): "
+                    + " → ".join(f"‘{html.escape(c)}’" for c in clauses) + ". No attention maps: choose "
+                    "<i>whole prompt</i> to record them.")
+        else:
+            text = f"{len(clauses)} actions in order, generated in one take of the whole prompt (attention recorded)."
+        self.clauses.object = text
+
     def _on_memory(self, *_):
         s = self.state
+        if len(clause_prompts(s.prompt)) > 1 and s.sequence == "clauses":
+            self.memory.object = "attention kept: none (actions in order are generated clause by clause)"
+            return
         try:
             config = s.model.config["model"]
             layers, heads = config["layers"], config["heads"]
@@ -154,7 +187,8 @@ class GenerateControls(pn.viewable.Viewer):
                            sizing_mode="stretch_width")
         vocab = pn.Card(self.vocab, title="Vocabulary", collapsed=True, sizing_mode="stretch_width")
         return pn.Column(
-            self.prompt, self.words, self.intent, self.suggestion_row, settings, advanced,
+            self.prompt, self.words, self.intent, self.suggestion_row, self.sequence, self.clauses, settings,
+            advanced,
             pn.Row(self.generate, self.cancel, sizing_mode="stretch_width"),
             self.progress, self.status, self.followed, self.model_info, vocab,
             sizing_mode="stretch_width", css_classes=["generate-controls"],

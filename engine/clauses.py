@@ -1,0 +1,69 @@
+"""A prompt of several actions in order, cut into one prompt per action, as a person would say each alone.
+
+``clause_prompts("a man waves, then kicks twice")`` gives ``("a man waves", "a man kicks twice")``: the subject of the
+first clause is said again before the later ones. The cut is the intent parser's own reading
+(:func:`engine.intent.parse_intent`): the prompt is split at its sequence marks ("then", "and then", "after that", ...),
+commas and "and", pieces that name no action stay with the piece before them ("walks forward, slowly"), and the cut is
+kept only where each piece reads as exactly one of the whole prompt's actions, in the prompt's order. Anything else
+("claps after jumping", "walks while waving", "walks forward and turns left") is one clause: the whole prompt.
+
+Torch-free: the CLI, the studio and the benches plan a sequence with it before any model loads.
+"""
+from __future__ import annotations
+
+import re
+from functools import lru_cache
+
+from engine.intent import SEQUENCE_MARKS, parse_intent
+
+# where a prompt may be cut: a comma, a semicolon or a full stop, a sequence mark, or "and" (longest marks first)
+_MARKS = sorted(SEQUENCE_MARKS + ("and",), key=len, reverse=True)
+_CUT = re.compile(r"\s*[,;.]\s*(?:(?:" + "|".join(re.escape(m) for m in _MARKS) + r")\b\s*)?|\s+(?:"
+                  + "|".join(re.escape(m) for m in _MARKS) + r")\b\s*", re.IGNORECASE)
+# words that name who moves: a later clause that starts with one keeps its own subject, unless it is a pronoun ("...,
+# then she waves": the first clause's subject is said instead, as a prompt of its own would say it)
+_SUBJECT_WORDS = frozenset("a an the someone somebody person man woman".split())
+_PRONOUNS = frozenset("he she they i we".split())
+
+
+def _actions(text: str) -> tuple[str, ...]:
+    return tuple(s.action for s in parse_intent(text).segments)
+
+
+def _subject(words: list[str]) -> list[str]:
+    """The words of a clause before its first action word ("a tired old man" of "a tired old man walks ...")."""
+    for k in range(len(words)):
+        if _actions(" ".join(words[: k + 1])):
+            return words[:k]
+    return []
+
+
+@lru_cache(maxsize=256)
+def clause_prompts(text: str) -> tuple[str, ...]:
+    """The prompt's actions in time order, one prompt each; ``(text,)`` when it asks for one action or its order
+    cannot be cut from the words (see the module docstring)."""
+    text = " ".join(str(text).split())
+    whole = _actions(text)
+    if len(whole) < 2:
+        return (text,)
+    pieces: list[str] = []
+    for piece in _CUT.split(text):
+        piece = piece.strip(" ,;.")
+        if not piece:
+            continue
+        if pieces and not _actions(piece):  # a piece with no action of its own: a modifier of the one before it
+            pieces[-1] = f"{pieces[-1]}, {piece}"
+        else:
+            pieces.append(piece)
+    if len(pieces) != len(whole) or any(_actions(p) != (a,) for p, a in zip(pieces, whole)):
+        return (text,)
+    subject = _subject(pieces[0].split()) or ["a", "person"]
+    out = [pieces[0]]
+    for piece in pieces[1:]:
+        words = piece.split()
+        own = _subject(words)
+        if any(w.lower() in _SUBJECT_WORDS for w in own):
+            out.append(piece)
+        else:
+            out.append(" ".join(subject + [w for w in own if w.lower() not in _PRONOUNS] + words[len(own):]))
+    return tuple(out)

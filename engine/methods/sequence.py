@@ -1,0 +1,62 @@
+"""A prompt of several actions in order ("a man waves, then kicks"), generated clause by clause and joined with
+DoubleTake (PriorMDM): each clause is one interval of its own prompt, consecutive intervals share a handshake.
+
+Why: the base model, asked the whole sequence at once, often makes only one of its actions. The same model asked
+each action alone does it, and DoubleTake is the paper's way to join short motions into one (``moattn bench
+--adherence --sequence whole`` against the default reads the difference on the bench's sequence prompts).
+
+The clauses come from :func:`engine.clauses.clause_prompts`; each clause gets the length predicted for it alone
+(:func:`engine.duration.auto_seconds`), or its share of a length the user gave. What the generate command and the
+studio's Generate box do with a prompt is :func:`plan` (None: one take of the whole prompt).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from engine.checkpoint import LoadedModel
+from engine.clauses import clause_prompts
+from engine.diffusion import StepState
+from engine.duration import auto_seconds
+from engine.generate import FPS, SampleConfig
+from engine.methods.doubletake import MIN_OWN_FRAMES, Composed, DoubleTakeConfig, Interval, compose
+from engine.methods.generate_options import SEQUENCE_MODES  # noqa: F401 (re-exported)
+from engine.units import MAX_FRAMES
+
+
+def plan(prompt: str, *, seconds: float | None = None, sequence: str = "clauses",
+         handshake: int | None = None) -> list[Interval] | None:
+    """The intervals ``prompt`` is generated as, or None where it is one take (one action, ``sequence`` "whole", or
+    an order its words do not let cut). ``seconds`` None: each clause's predicted length; else the motion's total
+    length, shared between the clauses as their predicted lengths are. A ValueError (one line) where ``seconds`` is
+    too short for the clauses."""
+    if sequence not in SEQUENCE_MODES:
+        raise ValueError(f"sequence must be one of {', '.join(SEQUENCE_MODES)}, got {sequence!r}")
+    clauses = clause_prompts(prompt)
+    if sequence == "whole" or len(clauses) < 2:
+        return None
+    h = DoubleTakeConfig().handshakes(2)[0] if handshake is None else int(handshake)
+    own = [auto_seconds(c) for c in clauses]
+    if seconds is not None:
+        own = [float(seconds) * s / sum(own) for s in own]
+    intervals = []
+    for i, (clause, secs) in enumerate(zip(clauses, own)):
+        shared = h * ((i > 0) + (i < len(clauses) - 1))  # frames this interval shares with its neighbours
+        frames = int(round(secs * FPS)) + shared // 2  # half of each handshake is this clause's own time
+        frames = min(max(frames, shared + MIN_OWN_FRAMES), MAX_FRAMES)
+        intervals.append(Interval(prompt=clause, seconds=frames / FPS))
+    total = timeline_frames(intervals, h)
+    if seconds is not None and total > int(round(float(seconds) * FPS)) + len(clauses):
+        raise ValueError(f"{prompt!r} asks for {len(clauses)} actions in order: generated clause by clause it needs "
+                         f"at least {total / FPS:.1f} s; give a longer duration, or sequence 'whole' (the whole prompt in one take)")
+    return intervals
+
+
+def timeline_frames(intervals: list[Interval], handshake: int) -> int:
+    """Frames of the joined motion: every interval's, less one handshake per transition."""
+    return sum(int(round(iv.seconds * FPS)) for iv in intervals) - handshake * (len(intervals) - 1)
+
+
+def generate_sequence(loaded: LoadedModel, intervals: list[Interval], sample: SampleConfig = SampleConfig(), *,
+                      on_step: Callable[[StepState], None] | None = None) -> Composed:
+    """The clauses sampled together (one batch slot each, DoubleTake's first and second takes), joined."""
+    return compose(loaded, intervals, DoubleTakeConfig(), sample=sample, on_step=on_step)

@@ -1,0 +1,148 @@
+"""Prompts of several actions in order: cut into clauses the way the intent parser reads them
+(engine.clauses), planned as DoubleTake intervals (engine.methods.sequence), generated clause by clause by the CLI,
+the studio and the adherence bench, with "whole" as the one-take way."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from engine.clauses import clause_prompts
+from engine.duration import auto_seconds
+from engine.methods.doubletake import MIN_OWN_FRAMES, DoubleTakeConfig
+from engine.methods.sequence import plan, timeline_frames
+from engine.units import FPS, MAX_FRAMES
+
+H = DoubleTakeConfig().handshakes(2)[0]
+
+
+@pytest.mark.parametrize("prompt, clauses", [
+    ("a man waves, then kicks", ("a man waves", "a man kicks")),
+    ("someone jumps twice and then walks backwards", ("someone jumps twice", "someone walks backwards")),
+    ("A woman squats. Then jumps three times.", ("A woman squats", "A woman jumps three times")),
+    ("a man jumps once, then claps twice, then bows", ("a man jumps once", "a man claps twice", "a man bows")),
+    # a piece with no action of its own stays with the one before it
+    ("a man walks forward, slowly, then jumps", ("a man walks forward, slowly", "a man jumps")),
+    # a pronoun is said as the first clause's subject; a subject of its own is kept
+    ("a woman kicks with her left leg and then she waves", ("a woman kicks with her left leg", "a woman waves")),
+    ("a man claps and then a woman bows", ("a man claps", "a woman bows")),
+    ("an old man walks slowly, then sits down", ("an old man walks slowly", "an old man sits down")),
+])
+def test_a_sequence_is_cut_into_one_prompt_per_action(prompt, clauses):
+    assert clause_prompts(prompt) == clauses
+
+
+@pytest.mark.parametrize("prompt", [
+    "a person jumps twice",  # one action
+    "a man claps after jumping",  # the order is not the words' order
+    "someone walks while waving",  # at the same time, not in order
+    "a person walks forward and turns left",  # a walk's direction, not a second action
+    "",
+])
+def test_what_is_not_a_sequence_in_order_stays_whole(prompt):
+    assert clause_prompts(prompt) == (" ".join(prompt.split()),)
+
+
+def test_plan_gives_each_clause_its_own_predicted_length():
+    prompt = "a man waves, then kicks twice"
+    intervals = plan(prompt)
+    assert [iv.prompt for iv in intervals] == ["a man waves", "a man kicks twice"]
+    own = [auto_seconds(iv.prompt) for iv in intervals]
+    # each interval holds its clause's time and half of the handshake it shares
+    assert [round(iv.seconds * FPS) for iv in intervals] == [round(s * FPS) + H // 2 for s in own]
+    assert abs(timeline_frames(intervals, H) - round(sum(own) * FPS)) <= 1
+
+
+def test_plan_shares_a_given_length_and_refuses_one_too_short():
+    intervals = plan("a person waves, then jogs forward, then squats", seconds=9.0)
+    assert len(intervals) == 3
+    assert abs(timeline_frames(intervals, H) - 9.0 * FPS) <= 2
+    for i, iv in enumerate(intervals):  # every interval keeps frames of its own beside its handshakes
+        shared = H * ((i > 0) + (i < 2))
+        assert shared + MIN_OWN_FRAMES <= round(iv.seconds * FPS) <= MAX_FRAMES
+    with pytest.raises(ValueError, match="asks for 3 actions in order.*needs at least .* s"):
+        plan("a person waves, then jogs forward, then squats", seconds=2.0)
+
+
+def test_whole_and_single_actions_are_one_take():
+    assert plan("a man waves, then kicks", sequence="whole") is None
+    assert plan("a man waves twice") is None
+    with pytest.raises(ValueError, match="sequence must be one of clauses, whole"):
+        plan("a man waves, then kicks", sequence="both")
+
+
+def test_cli_generates_a_sequence_clause_by_clause(capsys, tiny_model_dir, tmp_path):
+    from engine.cli import main
+
+    out = tmp_path / "seq.npy"
+    code = main(["generate", "a person walks forward, then jumps", "--model", str(tiny_model_dir), "--steps", "3",
+                 "--out", str(out), "--no-library"])
+    stdout, stderr = capsys.readouterr()
+    assert code == 0, stderr
+    assert "clause by clause: 'a person walks forward'" in stderr and "'a person jumps'" in stderr
+    report = json.loads(stdout.strip().splitlines()[-1])
+    intervals = plan("a person walks forward, then jumps")
+    assert report["clauses"] == ["a person walks forward", "a person jumps"]
+    joints = np.load(out)
+    assert joints.shape == (timeline_frames(intervals, H), 22, 3) == (report["frames"], 22, 3)
+    assert np.isfinite(joints).all()
+
+    code = main(["generate", "a person walks forward, then jumps", "--model", str(tiny_model_dir), "--steps", "3",
+                 "--out", str(out), "--no-library", "--sequence", "whole", "--seconds", "2"])
+    stdout, stderr = capsys.readouterr()
+    assert code == 0, stderr
+    assert "clause by clause" not in stderr and json.loads(stdout.strip().splitlines()[-1])["clauses"] is None
+    assert np.load(out).shape == (40, 22, 3)
+
+
+def test_the_studio_generates_a_sequence_clause_by_clause_and_says_it_has_no_maps(tiny_model_dir):
+    from app.main import Studio
+    from app.session.library import recipe_of, settings_from_recipe
+
+    st = Studio(model_dir=tiny_model_dir, initial=None)
+    try:
+        s, view = st.state, st.attention
+        prompt = "a person walks forward, then jumps"
+        s.param.update(prompt=prompt, seconds=None, steps=3, record_steps=2, seed=1)
+        # the Generate box says how the prompt will be made before it runs
+        assert st.controls.sequence.visible and "2 actions in order" in st.controls.clauses.object
+        assert "attention kept: none" in st.controls.memory.object
+        assert s.generate() and s.wait(120), s.notices[-1:]
+        item = s.item
+        assert item.attention is None and item.settings.sequence == "clauses"
+        assert len(item.joints) == timeline_frames(plan(prompt), H)
+        assert any("generated clause by clause: 'a person walks forward' → 'a person jumps'" in n
+                   for n in item.info["notes"])
+        assert "generated clause by clause" in view.info.object and not view.rerecord.visible
+        assert not s.rerecord() and "clause by clause" in s.notices[-1][1]
+        # the library keeps how it was made; a recipe from before keeps meaning one take
+        assert settings_from_recipe(recipe_of(item, model_dir=tiny_model_dir)).sequence == "clauses"
+        old = recipe_of(item, model_dir=tiny_model_dir)
+        del old["operation"]["sequence"]
+        assert settings_from_recipe(old).sequence == "whole"
+
+        s.sequence = "whole"  # one take of the whole prompt: its attention is recorded
+        assert "one take" in st.controls.clauses.object and "attention kept: none" not in st.controls.memory.object
+        assert s.generate() and s.wait(120), s.notices[-1:]
+        assert s.item.attention is not None and s.item.settings.sequence == "whole"
+        s.prompt = "a person jumps twice"  # one action: nothing to choose
+        assert not st.controls.sequence.visible
+    finally:
+        st.close()
+
+
+def test_the_adherence_bench_scores_sequences_as_a_user_gets_them(tiny_model_dir):
+    from engine.checkpoint import load_model
+    from engine.evaluation.bench_adherence import AdherenceBenchConfig, _model_motions
+
+    loaded = load_model(tiny_model_dir)
+    prompt = "a person walks forward, then jumps"
+    config = AdherenceBenchConfig(seeds=2, steps=2, validation_motions=1)
+    clauses = _model_motions(loaded, prompt, [41, 41], config)
+    assert [len(m) for m in clauses] == [timeline_frames(plan(prompt), H)] * 2
+    assert not np.allclose(clauses[0], clauses[1])  # one seed each
+    whole = _model_motions(loaded, prompt, [41, 41], AdherenceBenchConfig(seeds=2, steps=2, sequence="whole"))
+    assert [len(m) for m in whole] == [40, 40]
+    with pytest.raises(ValueError, match="sequence must be one of"):
+        AdherenceBenchConfig(sequence="both")
