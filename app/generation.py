@@ -201,7 +201,7 @@ def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:
     frames = checked_frames(loaded, resolve_seconds(settings.seconds, settings.prompt))
     intervals = plan(settings.prompt, seconds=settings.seconds, sequence=settings.sequence)
     if intervals is not None:
-        frames = timeline_frames(intervals, DoubleTakeConfig().handshakes(2)[0])
+        frames = timeline_frames(intervals)
     if int(settings.seed) < 0:
         raise ValueError("the seed must be >= 0")
     config = SampleConfig(steps=int(settings.steps), guidance=float(settings.guidance),

@@ -11,10 +11,14 @@ import pytest
 from engine.clauses import clause_prompts
 from engine.duration import auto_seconds
 from engine.methods.doubletake import MIN_OWN_FRAMES, DoubleTakeConfig
-from engine.methods.sequence import plan, timeline_frames
+from engine.methods.sequence import HANDSHAKE, plan, timeline_frames
 from engine.units import FPS, MAX_FRAMES
 
-H = DoubleTakeConfig().handshakes(2)[0]
+H = DoubleTakeConfig().handshakes(2)[0]  # the default handshake
+
+
+def test_clauses_share_the_default_handshake():
+    assert HANDSHAKE == H
 
 
 @pytest.mark.parametrize("prompt, clauses", [
@@ -108,6 +112,8 @@ def test_the_studio_generates_a_sequence_clause_by_clause_and_says_it_has_no_map
         # the Generate box says how the prompt will be made before it runs
         assert st.controls.sequence.visible and "2 actions in order" in st.controls.clauses.object
         assert "attention kept: none" in st.controls.memory.object
+        # the length box's placeholder is the joined motion's length
+        assert st.controls.seconds.placeholder == f"auto {timeline_frames(plan(prompt)) / FPS:.1f}"
         assert s.generate() and s.wait(120), s.notices[-1:]
         item = s.item
         assert item.attention is None and item.settings.sequence == "clauses"
@@ -124,6 +130,7 @@ def test_the_studio_generates_a_sequence_clause_by_clause_and_says_it_has_no_map
 
         s.sequence = "whole"  # one take of the whole prompt: its attention is recorded
         assert "one take" in st.controls.clauses.object and "attention kept: none" not in st.controls.memory.object
+        assert st.controls.seconds.placeholder == f"auto {auto_seconds(prompt):.1f}"
         assert s.generate() and s.wait(120), s.notices[-1:]
         assert s.item.attention is not None and s.item.settings.sequence == "whole"
         s.prompt = "a person jumps twice"  # one action: nothing to choose

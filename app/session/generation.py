@@ -168,7 +168,7 @@ class GenerateBox(param.Parameterized):
         s = item.settings
         if s.clauses():
             self.error("this motion was generated clause by clause: it has no attention maps of one prompt; "
-                       "generate it with 'Actions in order: whole' to see its attention")
+                       "choose 'whole prompt' under the prompt and generate it again to see its attention")
             return False
         self.param.update(prompt=s.prompt, seconds=s.seconds, seed=s.seed, steps=s.steps, guidance=s.guidance,
                           record_steps=max(1, s.record_steps), sequence=s.sequence)

@@ -20,7 +20,10 @@ from engine.duration import auto_seconds
 from engine.generate import FPS, SampleConfig
 from engine.methods.doubletake import MIN_OWN_FRAMES, Composed, DoubleTakeConfig, Interval, compose
 from engine.methods.generate_options import SEQUENCE_MODES  # noqa: F401 (re-exported)
+from engine.methods.doubletake_config import option_info
 from engine.units import MAX_FRAMES
+
+HANDSHAKE = int(option_info(DoubleTakeConfig, "handshake").default)  # frames two consecutive clauses share
 
 
 def plan(prompt: str, *, seconds: float | None = None, sequence: str = "clauses",
@@ -34,7 +37,7 @@ def plan(prompt: str, *, seconds: float | None = None, sequence: str = "clauses"
     clauses = clause_prompts(prompt)
     if sequence == "whole" or len(clauses) < 2:
         return None
-    h = DoubleTakeConfig().handshakes(2)[0] if handshake is None else int(handshake)
+    h = HANDSHAKE if handshake is None else int(handshake)
     own = [auto_seconds(c) for c in clauses]
     if seconds is not None:
         own = [float(seconds) * s / sum(own) for s in own]
@@ -51,7 +54,7 @@ def plan(prompt: str, *, seconds: float | None = None, sequence: str = "clauses"
     return intervals
 
 
-def timeline_frames(intervals: list[Interval], handshake: int) -> int:
+def timeline_frames(intervals: list[Interval], handshake: int = HANDSHAKE) -> int:
     """Frames of the joined motion: every interval's, less one handshake per transition."""
     return sum(int(round(iv.seconds * FPS)) for iv in intervals) - handshake * (len(intervals) - 1)
 
@@ -59,4 +62,4 @@ def timeline_frames(intervals: list[Interval], handshake: int) -> int:
 def generate_sequence(loaded: LoadedModel, intervals: list[Interval], sample: SampleConfig = SampleConfig(), *,
                       on_step: Callable[[StepState], None] | None = None) -> Composed:
     """The clauses sampled together (one batch slot each, DoubleTake's first and second takes), joined."""
-    return compose(loaded, intervals, DoubleTakeConfig(), sample=sample, on_step=on_step)
+    return compose(loaded, intervals, DoubleTakeConfig(handshake=HANDSHAKE), sample=sample, on_step=on_step)

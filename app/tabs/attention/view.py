@@ -202,8 +202,8 @@ class AttentionExplorer(pn.viewable.Viewer):
                 elif composed:
                     self.info.object = ("It was generated clause by clause (" + " → ".join(
                         f"'{html.escape(c)}'" for c in item.settings.clauses()) + "), each clause a prompt of its "
-                        "own: it has no attention maps of one prompt. Generate it with *Actions in order: whole* "
-                        "(Generate box) to see its attention.")
+                        "own: it has no attention maps of one prompt. Choose *whole prompt* under the prompt and generate "
+                        "it again to see its attention.")
                 elif item.from_library and item.source != "imported":
                     self.info.object = ("This motion was kept in the motion library, which stores motions and their "
                                         "recipes but not attention maps. "

@@ -14,6 +14,7 @@ from app.session.state import StudioState
 from app.tabs.generate.followed import FOLLOWED_CSS, item_followed_html
 from engine.clauses import clause_prompts
 from engine.duration import auto_seconds
+from engine.methods.sequence import plan, timeline_frames
 from engine.units import FPS, MAX_SECONDS, MIN_SECONDS
 
 
@@ -49,7 +50,8 @@ class GenerateControls(pn.viewable.Viewer):
         self.record = IntBox.from_param(s.param.record_steps, width=120, css_classes=["record-input"])
         self.memory = pn.pane.Markdown("", css_classes=["record-memory"], margin=(0, 10))
         # a prompt of several actions in order: how it is generated, shown only for such a prompt
-        self.sequence = pn.widgets.RadioButtonGroup(options=SEQUENCE_LABELS, value=s.sequence, color="light",
+        self.sequence = pn.widgets.RadioButtonGroup(options=SEQUENCE_LABELS, value=s.sequence, color="primary",
+                                                    button_style="outline",
                                                     css_classes=["sequence-mode"], margin=(0, 10),
                                                     description=s.param.sequence.doc)
         self.sequence.param.watch(lambda e: setattr(self.state, "sequence", e.new), "value")
@@ -148,18 +150,19 @@ class GenerateControls(pn.viewable.Viewer):
 
     def _on_memory(self, *_):
         s = self.state
-        if len(clause_prompts(s.prompt)) > 1 and s.sequence == "clauses":
-            self.memory.object = "attention kept: none (actions in order are generated clause by clause)"
-            return
         try:
             config = s.model.config["model"]
             layers, heads = config["layers"], config["heads"]
         except Exception:
             layers, heads = 6, 4
-        auto = auto_seconds(s.prompt)
+        intervals = plan(s.prompt, sequence=s.sequence)  # actions in order: clause by clause, each its own length
+        auto = auto_seconds(s.prompt) if intervals is None else timeline_frames(intervals) / FPS
         placeholder = f"auto {auto:.1f}"  # an empty box: the length predicted from the prompt
         if self.seconds.placeholder != placeholder:
             self.seconds.placeholder = placeholder
+        if intervals is not None:
+            self.memory.object = "attention kept: none (actions in order are generated clause by clause)"
+            return
         seconds = s.seconds if s.seconds is not None else auto
         frames = int(round(min(max(seconds, MIN_SECONDS), MAX_SECONDS) * FPS))
         words = max(1, len(s.prompt_words))
