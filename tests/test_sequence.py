@@ -11,7 +11,7 @@ import pytest
 from engine.clauses import clause_prompts
 from engine.duration import auto_seconds
 from engine.methods.doubletake import MIN_OWN_FRAMES, DoubleTakeConfig
-from engine.methods.sequence import HANDSHAKE, plan, timeline_frames
+from engine.methods.sequence import HANDSHAKE, SHORT_CLAUSE_FRAMES, plan, timeline_frames
 from engine.units import FPS, MAX_FRAMES
 
 H = DoubleTakeConfig().handshakes(2)[0]  # the default handshake
@@ -55,13 +55,24 @@ def test_plan_gives_each_clause_its_own_predicted_length():
     own = [auto_seconds(iv.prompt) for iv in intervals]
     # each interval holds its clause's time and half of the handshake it shares
     assert [round(iv.seconds * FPS) for iv in intervals] == [round(s * FPS) + H // 2 for s in own]
-    assert abs(timeline_frames(intervals, H) - round(sum(own) * FPS)) <= 1
+    assert abs(timeline_frames(intervals) - round(sum(own) * FPS)) <= 1
+
+
+def test_a_short_clause_keeps_all_its_time_outside_the_handshakes():
+    [jump, clap, bow] = plan("a man jumps once, then claps twice, then bows")
+    own = round(auto_seconds("a man jumps once") * FPS)
+    assert own < SHORT_CLAUSE_FRAMES  # a jump said once is short: half a handshake on top would leave it squeezed
+    assert round(jump.seconds * FPS) == own + H  # its own frames, and the whole handshake it shares
+    # two handshakes in the middle: at least the short part of its own time outside both
+    assert round(clap.seconds * FPS) == 2 * H + min(round(auto_seconds("a man claps twice") * FPS), SHORT_CLAUSE_FRAMES)
+    own_bow = round(auto_seconds("a man bows") * FPS)
+    assert own_bow > SHORT_CLAUSE_FRAMES and round(bow.seconds * FPS) == own_bow + H // 2  # long: half a handshake
 
 
 def test_plan_shares_a_given_length_and_refuses_one_too_short():
     intervals = plan("a person waves, then jogs forward, then squats", seconds=9.0)
     assert len(intervals) == 3
-    assert abs(timeline_frames(intervals, H) - 9.0 * FPS) <= 2
+    assert abs(timeline_frames(intervals) - 9.0 * FPS) <= 2
     for i, iv in enumerate(intervals):  # every interval keeps frames of its own beside its handshakes
         shared = H * ((i > 0) + (i < 2))
         assert shared + MIN_OWN_FRAMES <= round(iv.seconds * FPS) <= MAX_FRAMES
@@ -89,7 +100,7 @@ def test_cli_generates_a_sequence_clause_by_clause(capsys, tiny_model_dir, tmp_p
     intervals = plan("a person walks forward, then jumps")
     assert report["clauses"] == ["a person walks forward", "a person jumps"]
     joints = np.load(out)
-    assert joints.shape == (timeline_frames(intervals, H), 22, 3) == (report["frames"], 22, 3)
+    assert joints.shape == (timeline_frames(intervals), 22, 3) == (report["frames"], 22, 3)
     assert np.isfinite(joints).all()
 
     code = main(["generate", "a person walks forward, then jumps", "--model", str(tiny_model_dir), "--steps", "3",
@@ -117,7 +128,7 @@ def test_the_studio_generates_a_sequence_clause_by_clause_and_says_it_has_no_map
         assert s.generate() and s.wait(120), s.notices[-1:]
         item = s.item
         assert item.attention is None and item.settings.sequence == "clauses"
-        assert len(item.joints) == timeline_frames(plan(prompt), H)
+        assert len(item.joints) == timeline_frames(plan(prompt))
         assert any("generated clause by clause: 'a person walks forward' → 'a person jumps'" in n
                    for n in item.info["notes"])
         assert "generated clause by clause" in view.info.object and not view.rerecord.visible
@@ -147,7 +158,7 @@ def test_the_adherence_bench_scores_sequences_as_a_user_gets_them(tiny_model_dir
     prompt = "a person walks forward, then jumps"
     config = AdherenceBenchConfig(seeds=2, steps=2, validation_motions=1)
     clauses = _model_motions(loaded, prompt, [41, 41], config)
-    assert [len(m) for m in clauses] == [timeline_frames(plan(prompt), H)] * 2
+    assert [len(m) for m in clauses] == [timeline_frames(plan(prompt))] * 2
     assert not np.allclose(clauses[0], clauses[1])  # one seed each
     whole = _model_motions(loaded, prompt, [41, 41], AdherenceBenchConfig(seeds=2, steps=2, sequence="whole"))
     assert [len(m) for m in whole] == [40, 40]

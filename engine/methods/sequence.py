@@ -24,10 +24,10 @@ from engine.methods.doubletake_config import option_info
 from engine.units import MAX_FRAMES
 
 HANDSHAKE = int(option_info(DoubleTakeConfig, "handshake").default)  # frames two consecutive clauses share
+SHORT_CLAUSE_FRAMES = 30  # a clause predicted shorter than this (1.5 s) keeps all of it outside its handshakes
 
 
-def plan(prompt: str, *, seconds: float | None = None, sequence: str = "clauses",
-         handshake: int | None = None) -> list[Interval] | None:
+def plan(prompt: str, *, seconds: float | None = None, sequence: str = "clauses") -> list[Interval] | None:
     """The intervals ``prompt`` is generated as, or None where it is one take (one action, ``sequence`` "whole", or
     an order its words do not let cut). ``seconds`` None: each clause's predicted length; else the motion's total
     length, shared between the clauses as their predicted lengths are. A ValueError (one line) where ``seconds`` is
@@ -37,26 +37,29 @@ def plan(prompt: str, *, seconds: float | None = None, sequence: str = "clauses"
     clauses = clause_prompts(prompt)
     if sequence == "whole" or len(clauses) < 2:
         return None
-    h = HANDSHAKE if handshake is None else int(handshake)
+    h = HANDSHAKE
     own = [auto_seconds(c) for c in clauses]
     if seconds is not None:
         own = [float(seconds) * s / sum(own) for s in own]
     intervals = []
     for i, (clause, secs) in enumerate(zip(clauses, own)):
         shared = h * ((i > 0) + (i < len(clauses) - 1))  # frames this interval shares with its neighbours
-        frames = int(round(secs * FPS)) + shared // 2  # half of each handshake is this clause's own time
-        frames = min(max(frames, shared + MIN_OWN_FRAMES), MAX_FRAMES)
+        own_frames = int(round(secs * FPS))
+        frames = own_frames + shared // 2  # half of each handshake is this clause's own time
+        # a short clause ("jumps once", 1.3 s) keeps all of its time outside the handshakes, where nothing blends
+        frames = max(frames, shared + min(own_frames, SHORT_CLAUSE_FRAMES), shared + MIN_OWN_FRAMES)
+        frames = min(frames, MAX_FRAMES)
         intervals.append(Interval(prompt=clause, seconds=frames / FPS))
-    total = timeline_frames(intervals, h)
+    total = timeline_frames(intervals)
     if seconds is not None and total > int(round(float(seconds) * FPS)) + len(clauses):
         raise ValueError(f"{prompt!r} asks for {len(clauses)} actions in order: generated clause by clause it needs "
                          f"at least {total / FPS:.1f} s; give a longer duration, or sequence 'whole' (the whole prompt in one take)")
     return intervals
 
 
-def timeline_frames(intervals: list[Interval], handshake: int = HANDSHAKE) -> int:
+def timeline_frames(intervals: list[Interval]) -> int:
     """Frames of the joined motion: every interval's, less one handshake per transition."""
-    return sum(int(round(iv.seconds * FPS)) for iv in intervals) - handshake * (len(intervals) - 1)
+    return sum(int(round(iv.seconds * FPS)) for iv in intervals) - HANDSHAKE * (len(intervals) - 1)
 
 
 def generate_sequence(loaded: LoadedModel, intervals: list[Interval], sample: SampleConfig = SampleConfig(), *,
