@@ -51,7 +51,7 @@ class GenerateControls(pn.viewable.Viewer):
         self.memory = pn.pane.Markdown("", css_classes=["record-memory"], margin=(0, 10))
         # a prompt of several actions in order: how it is generated, shown only for such a prompt
         self.sequence = pn.widgets.RadioButtonGroup(options=SEQUENCE_LABELS, value=s.sequence, color="primary",
-                                                    button_style="outline",
+                                                    variant="outline",
                                                     css_classes=["sequence-mode"], margin=(0, 10),
                                                     description=s.param.sequence.doc)
         self.sequence.param.watch(lambda e: setattr(self.state, "sequence", e.new), "value")
