@@ -53,17 +53,11 @@ def test_a_slow_gait_with_short_double_support_is_a_walk():
     from engine.analysis.detectors import MIN_RUN_SPEED, gait_kind, gait_runs
 
     assert gait_kind({"double_support": 0.1, "speed": 0.6}) == "walk"
-    assert gait_kind({"double_support": 0.09, "speed": 1.2}) == "walk"  # the generated walks in a circle
     assert gait_kind({"double_support": 0.1, "speed": MIN_RUN_SPEED + 0.5}) == "run"
     assert gait_kind({"double_support": 0.3, "speed": 2.0}) == "walk"  # both feet down part of every step
     run = corpus_motion(Segment(action="run", frames=80, direction="forward"))
     assert detect(run, "run") and not detect(run, "walk")
     assert all(r["speed"] >= MIN_RUN_SPEED for r in gait_runs(MotionSignals(run)))
-    from engine.evaluation.adherence import ground_truth_motion
-
-    for seed in range(20):  # corpus jogs, the slowest gait read as a run, with their drawn speeds
-        jog = ground_truth_motion(parse_intent("a person jogs forward"), seed)
-        assert all(r["speed"] >= MIN_RUN_SPEED for r in gait_runs(MotionSignals(jog))), seed
     walk = corpus_motion(Segment(action="walk", frames=80, direction="forward"))
     assert detect(walk, "walk") and not detect(walk, "run")
 

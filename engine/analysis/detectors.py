@@ -340,12 +340,10 @@ def gait_runs(m: MotionSignals) -> list[dict]:
     return out
 
 
-#: a gait slower than this is a walk whatever its double support: every corpus run and jog is faster (jogs: 1st
-#: percentile 1.38 m/s, slowest 1.34 of 200; runs: slowest 1.71; walks 0.51-1.75), and a person sees a body stepping
-#: at 0.5-1.3 m/s with a foot always on the floor walk, not run. Generated walks with a short double support were
-#: called runs: at 0.5-0.8 m/s (session 27), and the walks in a circle at 1.1-1.3 m/s, never both feet off the
-#: floor (session 29). The shipped model's runs and jogs go 1.5-3.8 m/s.
-MIN_RUN_SPEED = 1.3  # m/s
+#: a gait slower than this is a walk whatever its double support: every corpus run and jog is faster (5th
+#: percentiles 1.41 and 1.0 m/s; walks 0.51-1.75), and a person sees a body stepping forward at 0.5-0.8 m/s with a
+#: foot always on the floor walk, not run (the generated walks the double support alone called runs, session 27)
+MIN_RUN_SPEED = 0.9  # m/s
 
 
 def gait_kind(run: dict) -> str:
