@@ -140,6 +140,15 @@ def test_the_followed_lines_are_replaced_by_the_next_generation(browser, server_
         text = report.inner_text()
         assert "jump" not in text.split("seen:")[0] and "asked: walk (forward, slowly)" in text, text
         assert "style zombie: not checked" in text and "speed not checked" in text, text
+        # actions in order: the toggle under the prompt says how they were made, and so do the result's notes
+        expect(page.locator(".sequence-mode")).to_be_visible()
+        expect(page.locator(".sequence-clauses")).to_contain_text(
+            "2 actions in order, generated clause by clause and joined (DoubleTake): ‘a zombie waves with the left "
+            "hand’ → ‘a zombie walks forward slowly’")
+        expect(page.locator(".followed-report")).to_contain_text("generated clause by clause")
+        page.locator(".sequence-mode button", has_text="whole prompt").click()
+        expect(page.locator(".sequence-clauses")).to_contain_text("in one take of the whole prompt", timeout=30000)
+        expect(page.locator(".record-memory")).not_to_contain_text("none", timeout=30000)
         grey = page.locator(".followed-report .followed-unchecked").first
         assert grey.evaluate("e => getComputedStyle(e).color") == "rgb(138, 138, 138)"
         _save(screens, "generate_followed_sequence.png", page.locator(".generate-controls").screenshot())
