@@ -18,8 +18,9 @@ from app.model_cache import SAMPLING_SLOT
 from engine.analysis.followed import follow_generated
 from engine.checkpoint import LoadedModel
 from engine.clauses import clause_prompts
-from engine.methods.doubletake import DoubleTakeConfig, second_take_timesteps
-from engine.methods.sequence import generate_sequence, plan, timeline_frames
+from engine.methods.doubletake import DoubleTakeConfig, check_intervals, second_take_timesteps
+from engine.methods.generate_options import DEFAULT_SEQUENCE
+from engine.methods.sequence import HANDSHAKE, generate_sequence, plan, timeline_frames
 from engine.generate import Request, SampleConfig, finish, frames_for, sample_states
 from engine.duration import resolve_seconds
 from engine.representation import features_to_joints
@@ -39,7 +40,7 @@ class GenerationSettings:
     record_steps: int = 10
     # a prompt of several actions in order: "clauses" (each clause as its own prompt, joined with DoubleTake; no
     # attention maps) or "whole" (one take, attention recorded) - engine.methods.sequence
-    sequence: str = "clauses"
+    sequence: str = DEFAULT_SEQUENCE
 
     def clauses(self) -> tuple[str, ...]:
         """The clauses this prompt is generated as, one each; () where it is one take of the whole prompt."""
@@ -60,7 +61,7 @@ class Checked:
     @property
     def total_steps(self) -> int:
         """Sampling steps the run makes: clause by clause, DoubleTake's first take and then its second."""
-        take = DoubleTakeConfig().second_take
+        take = DoubleTakeConfig(handshake=HANDSHAKE).second_take
         if self.intervals is None or take is None:
             return self.config.steps
         return self.config.steps + len(second_take_timesteps(take, self.config.steps))
@@ -198,9 +199,11 @@ def checked_frames(loaded: LoadedModel, seconds) -> int:
 def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:
     """Validate everything before any work starts; raises ValueError (PromptError) with a user-facing message."""
     tokens = loaded.tokenizer.encode(settings.prompt)
-    frames = checked_frames(loaded, resolve_seconds(settings.seconds, settings.prompt))
     intervals = plan(settings.prompt, seconds=settings.seconds, sequence=settings.sequence)
-    if intervals is not None:
+    if intervals is None:
+        frames = checked_frames(loaded, resolve_seconds(settings.seconds, settings.prompt))
+    else:  # clause by clause: each clause within the model's length, the joined motion as long as they make it
+        check_intervals(intervals, HANDSHAKE)
         frames = timeline_frames(intervals)
     if int(settings.seed) < 0:
         raise ValueError("the seed must be >= 0")

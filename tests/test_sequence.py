@@ -103,6 +103,12 @@ def test_cli_generates_a_sequence_clause_by_clause(capsys, tiny_model_dir, tmp_p
     assert joints.shape == (timeline_frames(intervals), 22, 3) == (report["frames"], 22, 3)
     assert np.isfinite(joints).all()
 
+    code = main(["generate", "a person walks forward, then jumps", "--model", str(tiny_model_dir), "--steps", "2",
+                 "--out", str(out), "--no-library", "--seconds", "12"])  # longer than one take: each clause is not
+    stdout, stderr = capsys.readouterr()
+    assert code == 0, stderr
+    assert abs(len(np.load(out)) - 12 * FPS) <= 2 and json.loads(stdout.strip().splitlines()[-1])["seconds"] > 11.8
+
     code = main(["generate", "a person walks forward, then jumps", "--model", str(tiny_model_dir), "--steps", "3",
                  "--out", str(out), "--no-library", "--sequence", "whole", "--seconds", "2"])
     stdout, stderr = capsys.readouterr()
@@ -164,3 +170,19 @@ def test_the_adherence_bench_scores_sequences_as_a_user_gets_them(tiny_model_dir
     assert [len(m) for m in whole] == [40, 40]
     with pytest.raises(ValueError, match="sequence must be one of"):
         AdherenceBenchConfig(sequence="both")
+
+
+def test_the_studio_checks_a_sequence_by_its_clauses(tiny_model_dir):
+    """A joined motion may outlast the model's longest one: each clause is checked against it instead."""
+    from app.generation import GenerationSettings, check
+    from engine.checkpoint import load_model
+
+    loaded = load_model(tiny_model_dir)
+    prompt = "a person walks forward, then jumps"
+    longest = loaded.model.config.max_frames / FPS
+    checked = check(loaded, GenerationSettings(prompt=prompt, seconds=longest + 2))
+    assert abs(checked.frames - (longest + 2) * FPS) <= 2 and checked.total_steps > checked.config.steps
+    with pytest.raises(ValueError, match="must be between"):
+        check(loaded, GenerationSettings(prompt=prompt, seconds=longest + 2, sequence="whole"))
+    with pytest.raises(ValueError, match="needs at least"):
+        check(loaded, GenerationSettings(prompt=prompt, seconds=1.5))

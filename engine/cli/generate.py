@@ -32,7 +32,7 @@ def run(args: argparse.Namespace) -> int:
     from engine.checkpoint import load_model
     from engine.generate import FPS, Request, frames_for, generate
     from engine.io import save_motion
-    from engine.methods.sequence import generate_sequence, plan
+    from engine.methods.sequence import generate_sequence, plan, timeline_frames
 
     args.out = args.out or []
     if not args.out and args.no_library:
@@ -45,8 +45,12 @@ def run(args: argparse.Namespace) -> int:
                          sequence=args.sequence)
     except ValueError as exc:
         raise CLIError(str(exc)) from None
-    seconds = resolve_seconds(args.seconds, args.prompt)
-    frames = frames_for(seconds)
+    if intervals is None:
+        seconds = resolve_seconds(args.seconds, args.prompt)
+        frames = frames_for(seconds)  # one take: within the model's longest motion
+    else:  # clause by clause: each clause within it, the joined motion as long as they make it
+        frames = timeline_frames(intervals)
+        seconds = frames / FPS
     loaded = load_model(args.model, runtime=runtime_from_args(args))
     config = sample_config(args, sampler=args.sampler)
 
@@ -61,7 +65,6 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         composed = generate_sequence(loaded, intervals, config, on_step=progress)
         joints, features, tokens = composed.joints, composed.features, loaded.tokenizer.encode(args.prompt)
-        seconds, frames = len(joints) / FPS, len(joints)
     print(file=sys.stderr)
     for out in args.out:
         suffix = out.suffix.lower()

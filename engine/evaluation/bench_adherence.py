@@ -26,7 +26,7 @@ from engine.evaluation.adherence import (ATTRIBUTES, check_motion, ground_truth_
                                          validate)
 from engine.generate import SampleConfig
 from engine.intent import Intent, parse_intent
-from engine.methods.generate_options import SEQUENCE_MODES
+from engine.methods.generate_options import DEFAULT_SEQUENCE, SEQUENCE_MODES
 from engine.units import FPS
 
 PROMPTS_FILE = Path(__file__).with_name("data") / "adherence_prompts.txt"
@@ -60,7 +60,7 @@ class AdherenceBenchConfig:
     lengths: str = "auto"
     # prompts of several actions in order: "clauses" = what a user gets (clause by clause, joined with DoubleTake,
     # engine.methods.sequence); "whole" = one take of the whole prompt (the model alone)
-    sequence: str = "clauses"
+    sequence: str = DEFAULT_SEQUENCE
 
     def __post_init__(self) -> None:
         if self.sequence not in SEQUENCE_MODES:

@@ -10,6 +10,7 @@ from engine.units import MAX_SECONDS, MIN_SECONDS
 
 SAMPLERS = ("ddim", "ddpm")
 SEQUENCE_MODES = ("clauses", "whole")  # engine.methods.sequence: a prompt of several actions in order
+DEFAULT_SEQUENCE = "clauses"  # what the CLI, the studio and the adherence bench do by default
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -20,7 +21,7 @@ class GenerateOptions:
     seconds: float | str = option(AUTO, parse=seconds_argument, help=f"length in seconds ({MIN_SECONDS:g} to "
                                   f"{MAX_SECONDS:g}), or auto: predicted from the prompt (default: auto)")
     sampler: str = option("ddim", choices=SAMPLERS, help="the sampler: DDIM (deterministic; the default) or DDPM (stochastic)")
-    sequence: str = option("clauses", choices=SEQUENCE_MODES,
+    sequence: str = option(DEFAULT_SEQUENCE, choices=SEQUENCE_MODES,
                            help="a prompt of several actions in order ('waves, then kicks'): generated clause by "
                                 "clause and joined with DoubleTake (clauses, the default: each action as if asked "
                                 "alone), or in one take of the whole prompt (whole: the only way to record its "

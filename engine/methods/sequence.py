@@ -19,7 +19,7 @@ from engine.diffusion import StepState
 from engine.duration import auto_seconds
 from engine.generate import FPS, SampleConfig
 from engine.methods.doubletake import MIN_OWN_FRAMES, Composed, DoubleTakeConfig, Interval, compose
-from engine.methods.generate_options import SEQUENCE_MODES  # noqa: F401 (re-exported)
+from engine.methods.generate_options import DEFAULT_SEQUENCE, SEQUENCE_MODES
 from engine.methods.doubletake_config import option_info
 from engine.units import MAX_FRAMES
 
@@ -27,7 +27,7 @@ HANDSHAKE = int(option_info(DoubleTakeConfig, "handshake").default)  # frames tw
 SHORT_CLAUSE_FRAMES = 30  # a clause predicted shorter than this (1.5 s) keeps all of it outside its handshakes
 
 
-def plan(prompt: str, *, seconds: float | None = None, sequence: str = "clauses") -> list[Interval] | None:
+def plan(prompt: str, *, seconds: float | None = None, sequence: str = DEFAULT_SEQUENCE) -> list[Interval] | None:
     """The intervals ``prompt`` is generated as, or None where it is one take (one action, ``sequence`` "whole", or
     an order its words do not let cut). ``seconds`` None: each clause's predicted length; else the motion's total
     length, shared between the clauses as their predicted lengths are. A ValueError (one line) where ``seconds`` is
