@@ -85,6 +85,19 @@ class ComposeSettings(param.Parameterized):
         rows[index], rows[j] = rows[j], rows[index]
         self.intervals = rows
 
+    def from_sentence(self, text: str) -> None:
+        """The timeline of a prompt of several actions in order ("a person walks forward, then jumps"): one interval
+        per clause, as long as the Generate box would make it (``engine.methods.sequence.plan``), default
+        handshakes. A one-line ValueError for a prompt that is not actions in order."""
+        from engine.methods.sequence import plan
+
+        intervals = plan(" ".join(str(text).split()))
+        if intervals is None:
+            raise ValueError(f"{text.strip()!r} is not actions in order: write them with 'then' or commas, e.g. "
+                             f"'a person walks forward, then jumps'")
+        self.param.update(handshakes=[int(HANDSHAKE.default)] * (len(intervals) - 1),
+                          intervals=[IntervalRow(iv.prompt, iv.seconds) for iv in intervals])
+
     def set_handshake(self, transition: int, frames: int) -> None:
         """The handshake of transition ``transition`` (0-based), in frames; out of range: a one-line ValueError."""
         from engine.methods.doubletake_config import check_option

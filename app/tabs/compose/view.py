@@ -33,7 +33,8 @@ HELP = ("Each interval is generated as its own clip; consecutive clips share a *
         "the intervals minus the handshakes. The **second take** re-denoises every transition with the neighbouring "
         "intervals around it, through soft masks (the handshake may change a lot, the intervals little), without "
         "text as in the authors' code, or *with text* (\"A, then B\"). Seed, steps and guidance come from the "
-        "sidebar.")
+        "sidebar. **Timeline from a sentence**: actions in order (\"walks forward, then jumps\"), one row per clause, "
+        "each as long as the Generate box makes it.")
 
 
 class IntervalRowView:
@@ -93,6 +94,12 @@ class ComposeTab(pn.viewable.Viewer):
         self.rows_box = pn.Column(sizing_mode="stretch_width", css_classes=["compose-rows"])
         self.add = pn.widgets.Button(label="+ Add interval", width=140, css_classes=["compose-add"])
         self.add.on_click(lambda _: c.add())
+        # a sentence of actions in order as the timeline: one interval per clause (what the Generate box joins)
+        self.sentence = pn.widgets.TextInput(placeholder="a person walks forward, then jumps, then claps",
+                                             css_classes=["compose-sentence"], sizing_mode="stretch_width")
+        self.fill = pn.widgets.Button(label="Timeline from a sentence", width=190, css_classes=["compose-fill"])
+        self.fill.on_click(lambda _: self.from_sentence(self.sentence.value_input or self.sentence.value))
+        self.sentence.param.watch(lambda _: self.from_sentence(self.sentence.value), "enter_pressed")
         self.second_take = pn.widgets.Checkbox.from_param(c.param.second_take, css_classes=["compose-second-take"])
         self.second_take_text = pn.widgets.Checkbox.from_param(c.param.second_take_text, disabled=not c.second_take,
                                                                css_classes=["compose-second-take-text"])
@@ -116,6 +123,12 @@ class ComposeTab(pn.viewable.Viewer):
     # ------------------------------------------------------------------ widgets -> settings
     def generate(self) -> bool:
         return self.state.launch(ComposeJob(session=self.state, settings=self.settings))
+
+    def from_sentence(self, text: str) -> None:
+        try:
+            self.settings.from_sentence(text or "")
+        except ValueError as exc:
+            self.state.error(str(exc))
 
     def edit_row(self, index: int, *, prompt: str | None = None, seconds: float | None = None) -> None:
         if self._syncing or index >= len(self.settings.intervals):
@@ -275,7 +288,8 @@ class ComposeTab(pn.viewable.Viewer):
     def __panel__(self):
         return pn.Column(
             pn.pane.Markdown(HELP, styles={"font-size": "12px", "color": "#444"}, margin=(0, 10)),
-            "#### Timeline", self.rows_box, self.add, self.length,
+            "#### Timeline", pn.Row(self.sentence, self.fill, sizing_mode="stretch_width"), self.rows_box, self.add,
+            self.length,
             pn.Row(self.second_take, self.second_take_text, sizing_mode="stretch_width"),
             self.bar, self.result, self.strip_pane, self.jumps,
             css_classes=["compose-tab"], sizing_mode="stretch_width")
