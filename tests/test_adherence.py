@@ -169,6 +169,7 @@ def test_lever_screen_rows_score_each_model_on_the_dev_prompts(tiny_model_dir, t
     (row,) = result["rows"]
     assert result["prompts"] == 2 and result["seeds"] == 2 and row["guidance"] == 1.5
     assert row["guidance_from"] == 600 and "guidance 1.5 at t >= 600" in format_table(result)
+    assert "actions in order in one take (the model alone)" in format_table(result)
     assert 0.0 <= row["action"] <= 1.0 and row["action_seed_std"] is not None
     assert row["foot_skate"] is not None and row["inversion_cm"] > 0 and row["refused"] == 0
     assert main(["bench", "--levers", "--model", "/nonexistent"]) == 2

@@ -73,7 +73,9 @@ def score_row(folder: Path, config: LeverBenchConfig, *, prompts: Sequence[str],
     loaded = load_model(folder)
     settings = {k: v for k, v in {"guidance": config.guidance, "guidance_from": config.guidance_from,
                                   "eta": config.eta, "steps": config.steps}.items() if v is not None}
-    adherence = bench_adherence(loaded, AdherenceBenchConfig(seeds=config.seeds,
+    # the model alone: actions in order in one take of the whole prompt (a user gets them clause by clause, which
+    # would score the clauses' single actions twice and hide what a lever does to sequences)
+    adherence = bench_adherence(loaded, AdherenceBenchConfig(seeds=config.seeds, sequence="whole",
                                                              validation_motions=config.validation_motions, **settings),
                                 prompts=prompts, log=log)
     row = {"model": str(folder), **logged_rate(folder), "guidance": adherence["settings"]["guidance"],
@@ -117,6 +119,7 @@ def format_table(result: dict) -> str:
     guidance = sorted({(r["guidance"], r.get("guidance_from", 0), r.get("eta", 0.0)) for r in result["rows"]})
     lines = [f"lever screen: {result['prompts']} dev prompts x {result['seeds']} seeds, guidance "
              f"{', '.join(guidance_text(g, t, e) for g, t, e in guidance)}"
+             + "; actions in order in one take (the model alone)"
              + (f"; inversion of {result['real_file']}" if result["real_file"] else ""),
              f"{'model':<28}{'step':>7}{'action':>8}{'±seed':>7}{'count':>7}{'side':>6}{'skate':>7}{'vs GT':>7}"
              f"{'inv cm':>8}{'noise':>7}{'smp/s':>8}{'refused':>8}"]
