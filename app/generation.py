@@ -17,10 +17,8 @@ from app.attention_record import AttentionRecord, plan_steps
 from app.model_cache import SAMPLING_SLOT
 from engine.analysis.followed import follow_generated
 from engine.checkpoint import LoadedModel
-from engine.clauses import clause_prompts
-from engine.methods.doubletake import DoubleTakeConfig, check_intervals, second_take_timesteps
 from engine.methods.generate_options import DEFAULT_SEQUENCE
-from engine.methods.sequence import HANDSHAKE, generate_sequence, plan, timeline_frames
+from engine.methods.sequence import generate_sequence, plan, sampling_steps, sequence_clauses, timeline_frames
 from engine.generate import Request, SampleConfig, finish, frames_for, sample_states
 from engine.duration import resolve_seconds
 from engine.representation import features_to_joints
@@ -44,8 +42,7 @@ class GenerationSettings:
 
     def clauses(self) -> tuple[str, ...]:
         """The clauses this prompt is generated as, one each; () where it is one take of the whole prompt."""
-        clauses = clause_prompts(self.prompt)
-        return clauses if self.sequence == "clauses" and len(clauses) > 1 else ()
+        return sequence_clauses(self.prompt, self.sequence)
 
 
 @dataclass
@@ -61,10 +58,7 @@ class Checked:
     @property
     def total_steps(self) -> int:
         """Sampling steps the run makes: clause by clause, DoubleTake's first take and then its second."""
-        take = DoubleTakeConfig(handshake=HANDSHAKE).second_take
-        if self.intervals is None or take is None:
-            return self.config.steps
-        return self.config.steps + len(second_take_timesteps(take, self.config.steps))
+        return self.config.steps if self.intervals is None else sampling_steps(self.config.steps)
 
 
 @dataclass(frozen=True, eq=False)
@@ -202,8 +196,7 @@ def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:
     intervals = plan(settings.prompt, seconds=settings.seconds, sequence=settings.sequence)
     if intervals is None:
         frames = checked_frames(loaded, resolve_seconds(settings.seconds, settings.prompt))
-    else:  # clause by clause: each clause within the model's length, the joined motion as long as they make it
-        check_intervals(intervals, HANDSHAKE)
+    else:  # clause by clause: each clause within the model's length (plan), the joined motion as long as they make it
         frames = timeline_frames(intervals)
     if int(settings.seed) < 0:
         raise ValueError("the seed must be >= 0")

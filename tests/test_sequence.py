@@ -76,6 +76,8 @@ def test_plan_shares_a_given_length_and_refuses_one_too_short():
     for i, iv in enumerate(intervals):  # every interval keeps frames of its own beside its handshakes
         shared = H * ((i > 0) + (i < 2))
         assert shared + MIN_OWN_FRAMES <= round(iv.seconds * FPS) <= MAX_FRAMES
+    with pytest.raises(ValueError, match="longer than the model's 9.8 s: give a shorter duration"):
+        plan("a man waves, then kicks", seconds=30.0)  # never cut short in silence
     with pytest.raises(ValueError, match="asks for 3 actions in order.*needs at least .* s"):
         plan("a person waves, then jogs forward, then squats", seconds=2.0)
 

@@ -26,7 +26,7 @@ from engine.evaluation.adherence import (ATTRIBUTES, check_motion, ground_truth_
                                          validate)
 from engine.generate import SampleConfig
 from engine.intent import Intent, parse_intent
-from engine.methods.generate_options import DEFAULT_SEQUENCE, SEQUENCE_MODES
+from engine.methods.generate_options import DEFAULT_SEQUENCE, check_sequence
 from engine.units import FPS
 
 PROMPTS_FILE = Path(__file__).with_name("data") / "adherence_prompts.txt"
@@ -63,8 +63,7 @@ class AdherenceBenchConfig:
     sequence: str = DEFAULT_SEQUENCE
 
     def __post_init__(self) -> None:
-        if self.sequence not in SEQUENCE_MODES:
-            raise ValueError(f"sequence must be one of {', '.join(SEQUENCE_MODES)}, got {self.sequence!r}")
+        check_sequence(self.sequence)
         if self.seeds < 1:
             raise ValueError("--seeds must be at least 1")
         if self.lengths not in ("auto", "truth"):

@@ -13,6 +13,12 @@ SEQUENCE_MODES = ("clauses", "whole")  # engine.methods.sequence: a prompt of se
 DEFAULT_SEQUENCE = "clauses"  # what the CLI, the studio and the adherence bench do by default
 
 
+def check_sequence(value: str) -> None:
+    """A one-line ValueError unless ``value`` is one of :data:`SEQUENCE_MODES`."""
+    if value not in SEQUENCE_MODES:
+        raise ValueError(f"sequence must be one of {', '.join(SEQUENCE_MODES)}, got {value!r}")
+
+
 @dataclass(frozen=True, kw_only=True)
 class GenerateOptions:
     """Text -> motion: the prompt, its length, the sampler, and what a .npy output holds."""

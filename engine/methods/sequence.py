@@ -18,13 +18,23 @@ from engine.clauses import clause_prompts
 from engine.diffusion import StepState
 from engine.duration import auto_seconds
 from engine.generate import FPS, SampleConfig
-from engine.methods.doubletake import MIN_OWN_FRAMES, Composed, DoubleTakeConfig, Interval, compose
-from engine.methods.generate_options import DEFAULT_SEQUENCE, SEQUENCE_MODES
+from engine.methods.doubletake import (MIN_OWN_FRAMES, Composed, DoubleTakeConfig, Interval, compose,
+                                       second_take_timesteps)
 from engine.methods.doubletake_config import option_info
+from engine.methods.generate_options import DEFAULT_SEQUENCE, check_sequence
 from engine.units import MAX_FRAMES
 
 HANDSHAKE = int(option_info(DoubleTakeConfig, "handshake").default)  # frames two consecutive clauses share
+JOIN = DoubleTakeConfig(handshake=HANDSHAKE)  # how the clauses are joined: DoubleTake's defaults
 SHORT_CLAUSE_FRAMES = 30  # a clause predicted shorter than this (1.5 s) keeps all of it outside its handshakes
+
+
+def sequence_clauses(prompt: str, sequence: str = DEFAULT_SEQUENCE) -> tuple[str, ...]:
+    """The clauses ``prompt`` is generated as, one prompt each; () where it is one take (one action, ``sequence``
+    "whole", or an order its words do not let cut)."""
+    check_sequence(sequence)
+    clauses = clause_prompts(prompt)
+    return clauses if sequence == "clauses" and len(clauses) > 1 else ()
 
 
 def plan(prompt: str, *, seconds: float | None = None, sequence: str = DEFAULT_SEQUENCE) -> list[Interval] | None:
@@ -32,23 +42,24 @@ def plan(prompt: str, *, seconds: float | None = None, sequence: str = DEFAULT_S
     an order its words do not let cut). ``seconds`` None: each clause's predicted length; else the motion's total
     length, shared between the clauses as their predicted lengths are. A ValueError (one line) where ``seconds`` is
     too short for the clauses."""
-    if sequence not in SEQUENCE_MODES:
-        raise ValueError(f"sequence must be one of {', '.join(SEQUENCE_MODES)}, got {sequence!r}")
-    clauses = clause_prompts(prompt)
-    if sequence == "whole" or len(clauses) < 2:
+    clauses = sequence_clauses(prompt, sequence)
+    if not clauses:
         return None
-    h = HANDSHAKE
     own = [auto_seconds(c) for c in clauses]
     if seconds is not None:
         own = [float(seconds) * s / sum(own) for s in own]
     intervals = []
     for i, (clause, secs) in enumerate(zip(clauses, own)):
-        shared = h * ((i > 0) + (i < len(clauses) - 1))  # frames this interval shares with its neighbours
+        shared = HANDSHAKE * ((i > 0) + (i < len(clauses) - 1))  # frames this interval shares with its neighbours
         own_frames = int(round(secs * FPS))
         frames = own_frames + shared // 2  # half of each handshake is this clause's own time
         # a short clause ("jumps once", 1.3 s) keeps all of its time outside the handshakes, where nothing blends
         frames = max(frames, shared + min(own_frames, SHORT_CLAUSE_FRAMES), shared + MIN_OWN_FRAMES)
-        frames = min(frames, MAX_FRAMES)
+        if frames > MAX_FRAMES:
+            if seconds is not None:
+                raise ValueError(f"{prompt!r} in {float(seconds):g} s gives its clause {clause!r} {frames / FPS:.1f} s, "
+                                 f"longer than the model's {MAX_FRAMES / FPS:.1f} s: give a shorter duration")
+            frames = MAX_FRAMES  # a clause predicted near the longest: its handshakes come out of its own time
         intervals.append(Interval(prompt=clause, seconds=frames / FPS))
     total = timeline_frames(intervals)
     if seconds is not None and total > int(round(float(seconds) * FPS)) + len(clauses):
@@ -62,7 +73,12 @@ def timeline_frames(intervals: list[Interval]) -> int:
     return sum(int(round(iv.seconds * FPS)) for iv in intervals) - HANDSHAKE * (len(intervals) - 1)
 
 
+def sampling_steps(steps: int) -> int:
+    """Sampling steps a clause-by-clause run of ``steps`` steps makes: the first take's, then the second take's."""
+    return steps + (len(second_take_timesteps(JOIN.second_take, steps)) if JOIN.second_take is not None else 0)
+
+
 def generate_sequence(loaded: LoadedModel, intervals: list[Interval], sample: SampleConfig = SampleConfig(), *,
                       on_step: Callable[[StepState], None] | None = None) -> Composed:
     """The clauses sampled together (one batch slot each, DoubleTake's first and second takes), joined."""
-    return compose(loaded, intervals, DoubleTakeConfig(handshake=HANDSHAKE), sample=sample, on_step=on_step)
+    return compose(loaded, intervals, JOIN, sample=sample, on_step=on_step)
