@@ -96,6 +96,47 @@ class AttentionRecord:
                    timesteps=tuple(int(times.get(s, -1)) for s in steps),
                    self_maps=stack("self"), cross_maps=stack("cross"))
 
+    @classmethod
+    def from_timeline(cls, store, *, words, lengths, starts, num_steps: int,
+                      timesteps: dict[int, int] | None = None) -> "AttentionRecord":
+        """One record of a motion joined from several slots (DoubleTake's first take: slot i is interval i, its
+        ``words[i]`` and ``lengths[i]`` frames, starting at frame ``starts[i]`` of the timeline).
+
+        The words are every slot's in turn. Slot i's self-attention fills its block of the timeline (rows and keys
+        of its own frames) and its cross-attention its own words' columns; a frame two slots share (a handshake)
+        takes the mean of both rows, so every row still sums to 1 and a word's curve is zero outside its slot."""
+        steps, layers = store.steps, store.layers
+        if not steps or not layers:
+            raise ValueError("no attention was recorded")
+        if store.skipped_sites:
+            raise ValueError(f"the attention store ran out of budget ({len(store.skipped_sites)} maps skipped)")
+        if not len(words) == len(lengths) == len(starts):
+            raise ValueError("give one word list, length and start per slot")
+        total = max(s + n for s, n in zip(starts, lengths))
+        cols = np.concatenate([[0], np.cumsum([len(w) for w in words])]).astype(int)
+        cover = np.zeros(total, np.float32)
+        for s, n in zip(starts, lengths):
+            cover[s:s + n] += 1
+        if (cover == 0).any():
+            raise ValueError("the slots leave frames of the timeline uncovered")
+        shape = (len(steps), len(layers), store.get(step=steps[0], layer=layers[0], kind="self").probs.shape[1])
+        self_maps = np.zeros(shape + (total, total), np.float16)
+        cross_maps = np.zeros(shape + (total, int(cols[-1])), np.float16)
+        for si, step in enumerate(steps):  # one step at a time in float32: the sums stay small
+            acc_self = np.zeros(shape[1:] + (total, total), np.float32)
+            acc_cross = np.zeros(shape[1:] + (total, int(cols[-1])), np.float32)
+            for li, layer in enumerate(layers):
+                sp = store.get(step=step, layer=layer, kind="self").probs.float().numpy()  # (B, H, N, N)
+                cp = store.get(step=step, layer=layer, kind="cross").probs.float().numpy()  # (B, H, N, W)
+                for slot, (s, n) in enumerate(zip(starts, lengths)):
+                    acc_self[li, :, s:s + n, s:s + n] += sp[slot, :, :n, :n]
+                    acc_cross[li, :, s:s + n, cols[slot]:cols[slot + 1]] += cp[slot, :, :n, :len(words[slot])]
+            self_maps[si] = acc_self / cover[:, None]
+            cross_maps[si] = acc_cross / cover[:, None]
+        times = timesteps or {}
+        return cls(words=tuple(w for ws in words for w in ws), steps=tuple(steps), num_steps=int(num_steps),
+                   timesteps=tuple(int(times.get(s, -1)) for s in steps), self_maps=self_maps, cross_maps=cross_maps)
+
     # ------------------------------------------------------------------ reading
     def step_position(self, step: int) -> int:
         try:

@@ -278,28 +278,45 @@ def run_generation(
 
 def _run_sequence(loaded: LoadedModel, checked: Checked, *, on_step, cancel: threading.Event, on_wait) -> GenerationResult:
     """A prompt of several actions in order, clause by clause (``checked.intervals``), joined with DoubleTake: both
-    takes' steps are counted in ``on_step``; no attention is recorded (each clause is a prompt of its own)."""
+    takes' steps are counted in ``on_step``. Attention is recorded in the first take, where each clause is a batch slot
+    of its own prompt, and laid on the joined timeline (``AttentionRecord.from_timeline``: each clause's words attend
+    over its own frames)."""
+    from engine.attention import AttentionStore, StoreConfig
+
     settings, config = checked.settings, checked.config
     total, done = checked.total_steps, 0
+    timesteps: dict[int, int] = {}
+    store = None
+    if settings.record_steps > 0:
+        store = AttentionStore(StoreConfig(
+            kinds=("self", "cross"), steps=frozenset(plan_steps(config.steps, settings.record_steps)),
+            conditional_only=True, budget_bytes=1024 * 1024 * 1024))
 
     def step(state) -> None:
         nonlocal done
         if cancel.is_set():
             raise Cancelled()
         done += 1
+        if done <= config.steps:  # the first take's steps: those the attention was recorded at
+            timesteps[state.step] = int(state.t)
         if on_step is not None:
             on_step(min(done, total), total)
 
     with sampling_slot(cancel, on_wait):
         start = time.perf_counter()
-        composed = generate_sequence(loaded, checked.intervals, config, on_step=step)
+        composed = generate_sequence(loaded, checked.intervals, config, on_step=step, controller=store)
         joints = np.asarray(composed.joints, dtype=np.float32)
         if not np.isfinite(joints).all():
             raise ValueError("the model produced non-finite joints")
+        record = None
+        if store is not None:
+            record = AttentionRecord.from_timeline(store, words=composed.words, lengths=composed.lengths,
+                                                   starts=composed.starts, num_steps=config.steps, timesteps=timesteps)
         seconds_taken = time.perf_counter() - start
     follow, notes = follow_generated(settings.prompt, joints, checked.tokens)
     clauses = " → ".join(repr(iv.prompt) for iv in checked.intervals)
-    return GenerationResult(settings=settings, words=checked.tokens.words, joints=joints,
-                            features=np.asarray(composed.features, dtype=np.float32), attention=None,
+    words = record.words if record is not None else checked.tokens.words
+    return GenerationResult(settings=settings, words=words, joints=joints,
+                            features=np.asarray(composed.features, dtype=np.float32), attention=record,
                             seconds_taken=seconds_taken, followed=follow,
                             notes=(f"generated clause by clause: {clauses}", *notes))

@@ -119,7 +119,7 @@ def test_cli_generates_a_sequence_clause_by_clause(capsys, tiny_model_dir, tmp_p
     assert np.load(out).shape == (40, 22, 3)
 
 
-def test_the_studio_generates_a_sequence_clause_by_clause_and_says_it_has_no_maps(tiny_model_dir):
+def test_the_studio_generates_a_sequence_clause_by_clause_with_its_attention(tiny_model_dir):
     from app.main import Studio
     from app.session.library import recipe_of, settings_from_recipe
 
@@ -128,30 +128,50 @@ def test_the_studio_generates_a_sequence_clause_by_clause_and_says_it_has_no_map
         s, view = st.state, st.attention
         prompt = "a person walks forward, then jumps"
         s.param.update(prompt=prompt, seconds=None, steps=3, record_steps=2, seed=1)
-        # the Generate box says how the prompt will be made before it runs
+        # the Generate box says how the prompt will be made before it runs, and what its maps will take
         assert st.controls.sequence.visible and "2 actions in order" in st.controls.clauses.object
-        assert "attention kept: none" in st.controls.memory.object
+        assert "attention kept: none" not in st.controls.memory.object
         # the length box's placeholder is the joined motion's length
-        assert st.controls.seconds.placeholder == f"auto {timeline_frames(plan(prompt)) / FPS:.1f}"
+        intervals = plan(prompt)
+        assert st.controls.seconds.placeholder == f"auto {timeline_frames(intervals) / FPS:.1f}"
         assert s.generate() and s.wait(120), s.notices[-1:]
         item = s.item
-        assert item.attention is None and item.settings.sequence == "clauses"
-        assert len(item.joints) == timeline_frames(plan(prompt))
+        assert item.settings.sequence == "clauses"
+        n = timeline_frames(intervals)
+        assert len(item.joints) == n
         assert any("generated clause by clause: 'a person walks forward' → 'a person jumps'" in n
                    for n in item.info["notes"])
-        assert "generated clause by clause" in view.info.object and not view.rerecord.visible
-        assert not s.rerecord() and "clause by clause" in s.notices[-1][1]
+        # its attention: each clause's words over the joined timeline, recorded in the first take
+        record = item.attention
+        assert record is not None and record.n_frames == n
+        assert record.words == ("a", "person", "walks", "forward", "a", "person", "jumps")
+        cross = record.cross_map()
+        np.testing.assert_allclose(cross.sum(1), 1.0, atol=2e-3)  # every frame's row is still a distribution
+        first = int(round(intervals[0].seconds * FPS))
+        second_start = n - int(round(intervals[1].seconds * FPS))
+        assert np.allclose(cross[:second_start, 4:], 0) and np.allclose(cross[first:, :4], 0)
+        assert (cross[second_start:first, :4].sum(1) > 0.2).all()  # the handshake hears both clauses
+        sm = record.self_map()
+        np.testing.assert_allclose(sm.sum(1), 1.0, atol=2e-3)
+        assert np.allclose(sm[:second_start, first:], 0)  # the walk's frames never attend to the jump's own
+        assert "generated clause by clause" in view.info.object and "first take" in view.info.object
+        assert view.words.options and len(view.words.options) == len(record.words)
+        # re-recording repeats it: the same seed gives the same motion and the same maps
+        assert s.rerecord() and s.wait(120), s.notices[-1:]
+        np.testing.assert_allclose(s.item.joints, item.joints, atol=1e-5)
+        assert s.item.attention is not None and s.item.attention.words == record.words
         # the library keeps how it was made; a recipe from before keeps meaning one take
         assert settings_from_recipe(recipe_of(item, model_dir=tiny_model_dir)).sequence == "clauses"
         old = recipe_of(item, model_dir=tiny_model_dir)
         del old["operation"]["sequence"]
         assert settings_from_recipe(old).sequence == "whole"
 
-        s.sequence = "whole"  # one take of the whole prompt: its attention is recorded
-        assert "one take" in st.controls.clauses.object and "attention kept: none" not in st.controls.memory.object
+        s.sequence = "whole"  # one take of the whole prompt
+        assert "one take" in st.controls.clauses.object
         assert st.controls.seconds.placeholder == f"auto {auto_seconds(prompt):.1f}"
         assert s.generate() and s.wait(120), s.notices[-1:]
         assert s.item.attention is not None and s.item.settings.sequence == "whole"
+        assert s.item.attention.words == ("a", "person", "walks", "forward", "then", "jumps")
         s.prompt = "a person jumps twice"  # one action: nothing to choose
         assert not st.controls.sequence.visible
     finally:

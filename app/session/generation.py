@@ -166,10 +166,6 @@ class GenerateBox(param.Parameterized):
             self.error("only a motion generated in the Generate box can be re-recorded")
             return False
         s = item.settings
-        if s.clauses():
-            self.error("this motion was generated clause by clause: it has no attention maps of one prompt; "
-                       "choose 'whole prompt' under the prompt and generate it again to see its attention")
-            return False
         self.param.update(prompt=s.prompt, seconds=s.seconds, seed=s.seed, steps=s.steps, guidance=s.guidance,
                           record_steps=max(1, s.record_steps), sequence=s.sequence)
         # its own settings, those the box does not show included (the guidance's interval, eta): the same motion

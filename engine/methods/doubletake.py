@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import torch
@@ -141,6 +141,8 @@ class Composed:
     transitions: list[tuple[int, int]]  # [start, end) frames of each handshake on the timeline (empty: a cut)
     first_take: np.ndarray  # (total, 263) de-normalised features before the second take
     seconds: float  # wall time
+    lengths: list[int] = field(default_factory=list)  # frames of each interval (its slot in the first take)
+    words: list[tuple[str, ...]] = field(default_factory=list)  # each interval's prompt as the model read it
 
 
 def check_intervals(intervals: Sequence[Interval], h: int | Sequence[int]) -> list[int]:
@@ -164,7 +166,10 @@ def check_intervals(intervals: Sequence[Interval], h: int | Sequence[int]) -> li
 
 
 def compose(loaded: LoadedModel, intervals: Sequence[Interval], config: DoubleTakeConfig = DoubleTakeConfig(), *,
-            sample: SampleConfig = SampleConfig(), on_step: Callable[[StepState], None] | None = None) -> Composed:
+            sample: SampleConfig = SampleConfig(), on_step: Callable[[StepState], None] | None = None,
+            controller=None) -> Composed:
+    """The intervals joined on one timeline. ``controller`` (an attention controller, e.g. an ``AttentionStore``)
+    acts in the first take only, where each interval is one batch slot of its own prompt."""
     t0 = time.perf_counter()
     if not intervals:
         raise ValueError("give at least one interval")
@@ -176,7 +181,7 @@ def compose(loaded: LoadedModel, intervals: Sequence[Interval], config: DoubleTa
             raise ValueError(f"interval {i + 1} lasts {n} frames: this model handles at most {limit} "
                              f"({limit / FPS:.1f} s)")
     request = Request(prompts=[iv.prompt for iv in intervals], frames=lengths)
-    states, *_ = sample_states(loaded, request, sample, hooks=[Handshake(lengths, hs)])
+    states, _, tokens, _ = sample_states(loaded, request, sample, hooks=[Handshake(lengths, hs)], controller=controller)
     last = None
     for last in states:
         if on_step is not None:
@@ -192,7 +197,7 @@ def compose(loaded: LoadedModel, intervals: Sequence[Interval], config: DoubleTa
     feats = loaded.normalizer.denormalize(result.numpy())
     return Composed(features=feats, joints=features_to_joints(feats), intervals=list(intervals), starts=starts,
                     transitions=transitions, first_take=loaded.normalizer.denormalize(first.numpy()),
-                    seconds=time.perf_counter() - t0)
+                    seconds=time.perf_counter() - t0, lengths=list(lengths), words=[tuple(t.words) for t in tokens])
 
 
 @dataclass(frozen=True)

@@ -79,6 +79,7 @@ def sampling_steps(steps: int) -> int:
 
 
 def generate_sequence(loaded: LoadedModel, intervals: list[Interval], sample: SampleConfig = SampleConfig(), *,
-                      on_step: Callable[[StepState], None] | None = None) -> Composed:
-    """The clauses sampled together (one batch slot each, DoubleTake's first and second takes), joined."""
-    return compose(loaded, intervals, JOIN, sample=sample, on_step=on_step)
+                      on_step: Callable[[StepState], None] | None = None, controller=None) -> Composed:
+    """The clauses sampled together (one batch slot each, DoubleTake's first and second takes), joined;
+    ``controller`` acts in the first take (where each clause is its own prompt)."""
+    return compose(loaded, intervals, JOIN, sample=sample, on_step=on_step, controller=controller)

@@ -146,6 +146,10 @@ def test_the_followed_lines_are_replaced_by_the_next_generation(browser, server_
             "2 actions in order, generated clause by clause and joined (DoubleTake): ‘a zombie waves with the left "
             "hand’ → ‘a zombie walks forward slowly’")
         expect(page.locator(".followed-report")).to_contain_text("generated clause by clause")
+        # its attention: both clauses' words, each over its own frames
+        expect(page.locator(".attention-info")).to_contain_text("generated clause by clause", timeout=30000)
+        expect(page.locator(".word-buttons button", has_text="walks")).to_be_visible(timeout=30000)
+        page.wait_for_function("window.moattnTest.plotData('cross-curves').word.length === 12", timeout=30000)
         page.locator(".sequence-mode button", has_text="whole prompt").click()
         expect(page.locator(".sequence-clauses")).to_contain_text("in one take of the whole prompt", timeout=30000)
         expect(page.locator(".record-memory")).not_to_contain_text("none", timeout=30000)

@@ -194,16 +194,11 @@ class AttentionExplorer(pn.viewable.Viewer):
         try:
             composed = bool(item is not None and item.settings is not None and item.settings.clauses())
             self.rerecord.visible = bool(item is not None and (item.evicted or item.from_library)
-                                         and item.settings is not None and not composed)
+                                         and item.settings is not None)
             if record is None:
                 self.words.options = {}
                 if item is None:
                     self.info.object = "Generate a motion to see its attention."
-                elif composed:
-                    self.info.object = ("It was generated clause by clause (" + " → ".join(
-                        f"'{html.escape(c)}'" for c in item.settings.clauses()) + "), each clause a prompt of its "
-                        "own: it has no attention maps of one prompt. Choose *whole prompt* under the prompt and generate "
-                        "it again to see its attention.")
                 elif item.from_library and item.source != "imported":
                     self.info.object = ("This motion was kept in the motion library, which stores motions and their "
                                         "recipes but not attention maps. "
@@ -242,6 +237,11 @@ class AttentionExplorer(pn.viewable.Viewer):
             self.info.object = (f"**{self.state.item.prompt}** · {record.n_frames} frames · "
                                 f"{record.n_layers} layers × {record.n_heads} heads · {len(record.steps)} recorded "
                                 f"steps of {record.num_steps} · {record.nbytes / 1e6:.1f} MB")
+            if composed:  # one record laid over the clauses: say how to read it
+                self.info.object += (" · generated clause by clause (" + " → ".join(
+                    f"'{html.escape(c)}'" for c in item.settings.clauses()) + "): each clause's words attend over its "
+                    "own frames, and a clause's frames over each other (the blocks); recorded in DoubleTake's first "
+                    "take, before the transitions are redrawn")
         finally:
             self._syncing = False
         self._update_maps()

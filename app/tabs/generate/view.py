@@ -142,8 +142,8 @@ class GenerateControls(pn.viewable.Viewer):
             return
         if s.sequence == "clauses":
             text = (f"{len(clauses)} actions in order, generated clause by clause and joined (DoubleTake): "
-                    + " → ".join(f"‘{html.escape(c)}’" for c in clauses) + ". No attention maps: choose "
-                    "<i>whole prompt</i> to record them.")
+                    + " → ".join(f"‘{html.escape(c)}’" for c in clauses) + ". Attention is recorded clause by "
+                    "clause; choose <i>whole prompt</i> for one take of the whole sentence.")
         else:
             text = f"{len(clauses)} actions in order, generated in one take of the whole prompt (attention recorded)."
         self.clauses.object = text
@@ -160,11 +160,11 @@ class GenerateControls(pn.viewable.Viewer):
         placeholder = f"auto {auto:.1f}"  # an empty box: the length predicted from the prompt
         if self.seconds.placeholder != placeholder:
             self.seconds.placeholder = placeholder
-        if intervals is not None:
-            self.memory.object = "attention kept: none (actions in order are generated clause by clause)"
-            return
-        seconds = s.seconds if s.seconds is not None else auto
-        frames = int(round(min(max(seconds, MIN_SECONDS), MAX_SECONDS) * FPS))
+        if intervals is not None:  # the clauses' maps laid over the joined timeline (app.attention_record)
+            frames = timeline_frames(intervals) if s.seconds is None else int(round(s.seconds * FPS))
+        else:
+            seconds = s.seconds if s.seconds is not None else auto
+            frames = int(round(min(max(seconds, MIN_SECONDS), MAX_SECONDS) * FPS))
         words = max(1, len(s.prompt_words))
         size = estimate_bytes(num_steps=max(1, s.steps), record_steps=s.record_steps, layers=layers, heads=heads,
                               frames=frames, words=words) if s.record_steps else 0
