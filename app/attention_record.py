@@ -35,6 +35,14 @@ def estimate_bytes(*, num_steps: int, record_steps: int, layers: int, heads: int
     return steps * layers * heads * frames * (frames + words) * BYTES_PER_VALUE
 
 
+def _check_recorded(store, steps, layers) -> None:
+    """A one-line ValueError where the store holds nothing to keep, or ran out of its budget."""
+    if not steps or not layers:
+        raise ValueError("no attention was recorded")
+    if store.skipped_sites:
+        raise ValueError(f"the attention store ran out of budget ({len(store.skipped_sites)} maps skipped)")
+
+
 @dataclass
 class AttentionRecord:
     """Recorded maps of one motion.
@@ -79,10 +87,7 @@ class AttentionRecord:
         """
         steps = store.steps if steps is None else [s for s in store.steps if s in set(steps)]
         layers = store.layers
-        if not steps or not layers:
-            raise ValueError("no attention was recorded")
-        if store.skipped_sites:
-            raise ValueError(f"the attention store ran out of budget ({len(store.skipped_sites)} maps skipped)")
+        _check_recorded(store, steps, layers)
 
         def stack(kind: str) -> np.ndarray:
             per_step = []
@@ -106,10 +111,7 @@ class AttentionRecord:
         of its own frames) and its cross-attention its own words' columns; a frame two slots share (a handshake)
         takes the mean of both rows, so every row still sums to 1 and a word's curve is zero outside its slot."""
         steps, layers = store.steps, store.layers
-        if not steps or not layers:
-            raise ValueError("no attention was recorded")
-        if store.skipped_sites:
-            raise ValueError(f"the attention store ran out of budget ({len(store.skipped_sites)} maps skipped)")
+        _check_recorded(store, steps, layers)
         if not len(words) == len(lengths) == len(starts):
             raise ValueError("give one word list, length and start per slot")
         total = max(s + n for s, n in zip(starts, lengths))
