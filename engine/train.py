@@ -27,10 +27,10 @@ from tqdm import tqdm
 
 from engine.checkpoint import export_weights, load_train_state, read_config, save_train_state, write_config
 from engine.data import ActionFocus, Batch, CorpusSource, FolderSource, MotionSource, batch_loader
-from engine.diffusion.losses import masked_losses
+from engine.diffusion.losses import foot_contact_loss, masked_losses
 from engine.diffusion.schedule import CosineSchedule
 from engine.model.denoiser import Denoiser, ModelConfig
-from engine.representation import Normalizer
+from engine.representation import Normalizer, features_to_joints
 from engine.runtime import Runtime
 from engine.text import Tokenizer
 
@@ -78,6 +78,10 @@ class TrainConfig:
                                                             "(e.g. punch,hop,wave,clap)"})
     focus_share: float = field(default=0.0, metadata={"help": "share of training items redrawn to hold a "
                                                              "--focus-actions action"})
+    # MDM's foot contact term (engine.diffusion.losses.foot_contact_loss): predicted feet kept still where the target's
+    # are planted, in (m/s)^2 of foot speed, this weight against the x0 error
+    foot_weight: float = field(default=0.0, metadata={"help": "weight of MDM's foot contact loss: the predicted feet's "
+                                                             "speed where the target's are planted, (m/s)^2 (0: off)"})
     grad_clip: float = 1.0
     seed: int = 0
     log_every: int = 20
@@ -366,7 +370,8 @@ class TrainingRun:
                                     generator=gen, velocity_weight=config.velocity_weight,
                                     grad_clip=config.grad_clip, ema_decay=config.ema_decay,
                                     control_dims=control_dims,
-                                    timestep_weights=timestep_weights(config))
+                                    timestep_weights=timestep_weights(config), foot_weight=config.foot_weight,
+                                    stats=(torch.as_tensor(self.normalizer.mean), torch.as_tensor(self.normalizer.std)))
 
     # -- what the loop writes ----------------------------------------------------------------------------------------
     def checkpoint(self) -> None:
@@ -392,11 +397,13 @@ class TrainingRun:
         self.normalizer.save(snap)
         export_weights(snap, on_cpu(self.ema.state_dict()))
 
-    def log(self, losses: list[tuple[float, float]], seconds: float) -> dict:
-        """One log.jsonl line for the steps since the last one."""
+    def log(self, losses: list[tuple[float, float, float]], seconds: float) -> dict:
+        """One log.jsonl line for the steps since the last one (``foot`` only where that term is on)."""
         entry = {"step": self.step, "mse": float(np.mean([l[0] for l in losses])),
                  "vel": float(np.mean([l[1] for l in losses])), "lr": lr_at(self.step, self.config),
                  "s_per_step": seconds / len(losses), "time": time.time()}
+        if self.config.foot_weight:
+            entry["foot"] = float(np.mean([l[2] for l in losses]))
         if self.main:
             with (self.out / "log.jsonl").open("a") as fh:
                 fh.write(json.dumps(entry) + "\n")
@@ -433,7 +440,7 @@ class TrainingRun:
                                                "rate)")
                         continue
                     self.step += 1
-                    window.append((outcome.mse, outcome.vel))
+                    window.append((outcome.mse, outcome.vel, outcome.foot))
                     bar.update(1)
                     if self.step % config.log_every == 0 or self.step == config.steps:
                         last = self.log(window, time.perf_counter() - window_t0)
@@ -510,6 +517,7 @@ class StepOutcome(NamedTuple):
     vel: float
     applied: bool  # False: the update was skipped (non-finite loss or gradient)
     overflow: bool = False  # skipped because an fp16 gradient overflowed (the scaler lowered its scale)
+    foot: float = 0.0  # the foot contact term (0 when it is off)
 
 
 @dataclass
@@ -533,12 +541,17 @@ class TrainStep:
     control_dims: torch.Tensor | None = None
     timestep_weights: torch.Tensor | None = None  # (steps,) per-timestep loss weights; None = uniform
     schedule: CosineSchedule = field(default_factory=CosineSchedule)
+    foot_weight: float = 0.0  # MDM's foot contact term (needs ``stats``)
+    stats: tuple[torch.Tensor, torch.Tensor] | None = None  # (mean, std) of the features: x0 back to metres
 
     def __post_init__(self) -> None:
         self.scaler = torch.amp.GradScaler(self.runtime.device.type, enabled=self.runtime.dtype == torch.float16)
+        if self.foot_weight and self.stats is None:
+            raise ValueError("the foot contact loss needs the feature statistics (stats)")
 
-    def losses(self, batch: Batch) -> tuple[torch.Tensor, torch.Tensor]:
-        """(mse, velocity) of the denoiser on ``batch`` at random timesteps."""
+    def losses(self, batch: Batch) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(mse, velocity, foot contact) of the denoiser on ``batch`` at random timesteps (foot 0 when its weight
+        is 0)."""
         device = self.runtime.device
         b = batch.x0.shape[0]
         t = torch.randint(0, self.schedule.steps, (b,), generator=self.generator)
@@ -550,17 +563,23 @@ class TrainStep:
         cond = batch.cond.to_device(device)
         x0_hat = self.net(x_t.to(device, non_blocking=True), t.to(device), cond)
         weights = None if self.timestep_weights is None else self.timestep_weights[t]
-        return masked_losses(x0_hat.float(), x0, cond.frame_mask, weights)
+        mse, vel = masked_losses(x0_hat.float(), x0, cond.frame_mask, weights)
+        foot = torch.zeros((), device=mse.device)
+        if self.foot_weight:
+            mean, std = (s.to(device) for s in self.stats)
+            foot = foot_contact_loss(features_to_joints(x0_hat.float() * std + mean),
+                                     features_to_joints(x0.float() * std + mean), cond.frame_mask)
+        return mse, vel, foot
 
-    def loss(self, batch: Batch) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """(the loss trained on, its mse, its velocity term)."""
-        mse, vel = self.losses(batch)
-        return mse + self.velocity_weight * vel, mse, vel
+    def loss(self, batch: Batch) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(the loss trained on, its mse, its velocity term, its foot contact term)."""
+        mse, vel, foot = self.losses(batch)
+        return mse + self.velocity_weight * vel + self.foot_weight * foot, mse, vel, foot
 
     def __call__(self, batch: Batch, *, step: int, lr: float) -> StepOutcome:
         for group in self.optimizer.param_groups:
             group["lr"] = lr
-        loss, mse, vel = self.loss(batch)
+        loss, mse, vel, foot = self.loss(batch)
         self.optimizer.zero_grad(set_to_none=True)
         self.scaler.scale(loss).backward()
         self.scaler.unscale_(self.optimizer)
@@ -570,13 +589,13 @@ class TrainStep:
             overflow = self.scaler.is_enabled() and bool(torch.isfinite(loss))
             if overflow:
                 self.scaler.update()
-            return StepOutcome(mse=float(mse), vel=float(vel), applied=False, overflow=overflow)
+            return StepOutcome(mse=float(mse), vel=float(vel), applied=False, overflow=overflow, foot=float(foot))
         self.scaler.step(self.optimizer)
         self.scaler.update()
         with torch.no_grad():
             decay = min(self.ema_decay, (1 + step) / (10 + step))
             torch._foreach_lerp_(list(self.ema.parameters()), list(self.model.parameters()), 1 - decay)
-        return StepOutcome(mse=mse.item(), vel=vel.item(), applied=True)
+        return StepOutcome(mse=mse.item(), vel=vel.item(), applied=True, foot=foot.item())
 
 
 def _runtime(config: TrainConfig, *, distributed: bool) -> Runtime:

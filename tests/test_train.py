@@ -297,3 +297,34 @@ def test_a_resume_keeps_its_schedule_length_unless_steps_is_named(tmp_path):
     # naming --steps lengthens it
     assert train(config(tmp_path, steps=40), source=ToySource(), progress=False, resume=True,
                  given=("steps",))["step"] == 40
+
+
+def test_the_foot_contact_term_counts_only_planted_feet_that_slide():
+    from engine.diffusion.losses import foot_contact_loss
+    from engine.skeleton import FOOT_JOINTS
+
+    frames = 10
+    target = torch.zeros(1, frames, 22, 3)
+    target[..., 1] = 1.0  # every joint high ...
+    left_ankle, right_ankle = FOOT_JOINTS["left"][0], FOOT_JOINTS["right"][0]
+    target[:, :, left_ankle, 1] = 0.0  # ... but the left ankle, planted on the floor the whole time
+    target[:, :, right_ankle, 1] = 0.0
+    target[:, :, right_ankle, 0] = torch.arange(frames) * 0.1  # the right ankle low but swinging fast: not planted
+    mask = torch.ones(1, frames, dtype=torch.bool)
+    assert float(foot_contact_loss(target, target, mask)) == 0.0
+    pred = target.clone()
+    pred[:, :, left_ankle, 0] = torch.arange(frames) * 0.01  # the planted ankle slides 1 cm per frame: 0.2 m/s
+    pred[:, :, right_ankle, 0] = 0.0  # the swinging one stands still: not penalised
+    assert abs(float(foot_contact_loss(pred, target, mask)) - 0.2**2) < 1e-6
+    mask[:, 5:] = False  # padding frames count for nothing
+    pred[:, 5:, left_ankle, 0] = 5.0
+    assert abs(float(foot_contact_loss(pred, target, mask)) - 0.2**2) < 1e-6
+
+
+def test_foot_contact_training_runs_and_is_logged(tmp_path):
+    result = train(config(tmp_path, steps=12, foot_weight=1.0), source=ToySource(), progress=False)
+    assert result["step"] == 12
+    log = [json.loads(line) for line in (tmp_path / "run" / "log.jsonl").read_text().splitlines()]
+    assert all("foot" in e and np.isfinite(e["foot"]) for e in log)
+    saved = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert saved["train"]["foot_weight"] == 1.0

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import torch
 
+from engine.skeleton import FOOT_JOINTS
+
 
 def masked_losses(x0_hat: torch.Tensor, x0: torch.Tensor, mask: torch.Tensor,
                   weights: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
@@ -17,3 +19,24 @@ def masked_losses(x0_hat: torch.Tensor, x0: torch.Tensor, mask: torch.Tensor,
     dv = (x0_hat[:, 1:] - x0_hat[:, :-1]) - (x0[:, 1:] - x0[:, :-1])
     vel = (dv**2 * mv).sum() / (mv.sum() * x0.shape[-1]).clamp_min(1)
     return mse, vel
+
+
+#: a target foot joint is planted where it is this low (m above the floor) in both frames of a pair and moves less than
+#: FOOT_PLANTED_SPEED (m per frame): the bounds of ``engine.evaluation.metrics.foot_skate``, the figure this term moves
+FOOT_PLANTED_HEIGHT, FOOT_PLANTED_SPEED = 0.05, 0.025
+
+
+def foot_contact_loss(joints_hat: torch.Tensor, joints: torch.Tensor, mask: torch.Tensor,
+                      fps: float = 20.0) -> torch.Tensor:
+    """MDM's foot contact term (Tevet et al. 2023, L_foot): the predicted motion's foot joints (ankles and toes) should
+    not move across the floor where the target's are planted. joints_hat, joints (B, T, 22, 3) in metres (the target's
+    floor at y = 0), mask (B, T) real frames. The mean over planted foot frame pairs of the predicted horizontal
+    foot speed squared, in (m/s)^2; 0 where nothing is planted."""
+    feet = [*FOOT_JOINTS["left"], *FOOT_JOINTS["right"]]
+    p, q = joints[:, :, feet], joints_hat[:, :, feet]  # (B, T, 4, 3)
+    low = (p[:, 1:, :, 1] < FOOT_PLANTED_HEIGHT) & (p[:, :-1, :, 1] < FOOT_PLANTED_HEIGHT)
+    still = (p[:, 1:, :, [0, 2]] - p[:, :-1, :, [0, 2]]).norm(dim=-1) < FOOT_PLANTED_SPEED
+    real = (mask[:, 1:] & mask[:, :-1])[..., None]
+    planted = (low & still & real).float()  # (B, T-1, 4)
+    speed2 = ((q[:, 1:, :, [0, 2]] - q[:, :-1, :, [0, 2]]) * fps).pow(2).sum(-1)
+    return (speed2 * planted).sum() / planted.sum().clamp_min(1.0)
