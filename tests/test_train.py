@@ -316,15 +316,16 @@ def test_the_foot_contact_term_counts_only_planted_feet_that_slide():
     pred[:, :, left_ankle, 0] = torch.arange(frames) * 0.01  # the planted ankle slides 1 cm per frame: 0.2 m/s
     pred[:, :, right_ankle, 0] = 0.0  # the swinging one stands still: not penalised
     assert abs(float(foot_contact_loss(pred, target, mask)) - 0.2**2) < 1e-6
+    assert float(foot_contact_loss(pred, target, mask, samples=torch.tensor([False]))) == 0.0  # a sample left out
     mask[:, 5:] = False  # padding frames count for nothing
     pred[:, 5:, left_ankle, 0] = 5.0
     assert abs(float(foot_contact_loss(pred, target, mask)) - 0.2**2) < 1e-6
 
 
 def test_foot_contact_training_runs_and_is_logged(tmp_path):
-    result = train(config(tmp_path, steps=12, foot_weight=1.0), source=ToySource(), progress=False)
+    result = train(config(tmp_path, steps=12, foot_weight=1.0, foot_below=400), source=ToySource(), progress=False)
     assert result["step"] == 12
     log = [json.loads(line) for line in (tmp_path / "run" / "log.jsonl").read_text().splitlines()]
     assert all("foot" in e and np.isfinite(e["foot"]) for e in log)
     saved = json.loads((tmp_path / "run" / "config.json").read_text())
-    assert saved["train"]["foot_weight"] == 1.0
+    assert saved["train"]["foot_weight"] == 1.0 and saved["train"]["foot_below"] == 400

@@ -27,16 +27,19 @@ FOOT_PLANTED_HEIGHT, FOOT_PLANTED_SPEED = 0.05, 0.025
 
 
 def foot_contact_loss(joints_hat: torch.Tensor, joints: torch.Tensor, mask: torch.Tensor,
-                      fps: float = 20.0) -> torch.Tensor:
+                      fps: float = 20.0, samples: torch.Tensor | None = None) -> torch.Tensor:
     """MDM's foot contact term (Tevet et al. 2023, L_foot): the predicted motion's foot joints (ankles and toes) should
     not move across the floor where the target's are planted. joints_hat, joints (B, T, 22, 3) in metres (the target's
-    floor at y = 0), mask (B, T) real frames. The mean over planted foot frame pairs of the predicted horizontal
-    foot speed squared, in (m/s)^2; 0 where nothing is planted."""
+    floor at y = 0), mask (B, T) real frames, ``samples`` (B,) bool: the samples the term counts (None: all). The mean
+    over planted foot frame pairs of the predicted horizontal foot speed squared, in (m/s)^2; 0 where nothing is
+    planted."""
     feet = [*FOOT_JOINTS["left"], *FOOT_JOINTS["right"]]
     p, q = joints[:, :, feet], joints_hat[:, :, feet]  # (B, T, 4, 3)
     low = (p[:, 1:, :, 1] < FOOT_PLANTED_HEIGHT) & (p[:, :-1, :, 1] < FOOT_PLANTED_HEIGHT)
     still = (p[:, 1:, :, [0, 2]] - p[:, :-1, :, [0, 2]]).norm(dim=-1) < FOOT_PLANTED_SPEED
     real = (mask[:, 1:] & mask[:, :-1])[..., None]
+    if samples is not None:
+        real = real & samples.to(real.device)[:, None, None]
     planted = (low & still & real).float()  # (B, T-1, 4)
     speed2 = ((q[:, 1:, :, [0, 2]] - q[:, :-1, :, [0, 2]]) * fps).pow(2).sum(-1)
     return (speed2 * planted).sum() / planted.sum().clamp_min(1.0)
