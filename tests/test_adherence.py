@@ -100,6 +100,33 @@ def test_bench_ground_truth_only_shape():
     assert "detector validation" in format_table(result)
 
 
+def test_root_speed_shows_a_walk_in_place(monkeypatch):
+    """The bench's root speed: the model's over the truth's where every action travels. A model that walks in place
+    (no foot slides, so skate cannot show it) reads a ratio near 0; jumps are not counted."""
+    import engine.evaluation.bench_adherence as ba
+
+    def in_place(loaded, prompt, lengths, config):
+        truths = [ba.ground_truth_motion(ba.parse_intent(prompt), 7 + k) for k in range(len(lengths))]
+        for j in truths:
+            j[:, :, [0, 2]] -= j[:, :1, [0, 2]]  # the same body, its root held where it is
+        return truths
+
+    monkeypatch.setattr(ba, "_model_motions", in_place)
+
+    class Loaded:
+        class tokenizer:
+            @staticmethod
+            def encode(prompt):
+                return prompt
+
+    result = ba.bench_adherence(Loaded(), ba.AdherenceBenchConfig(seeds=2, validation_motions=30),
+                                prompts=["a person walks forward", "a person jumps twice"])
+    speed = result["root_speed"]
+    assert speed["ground_truth"] > 0.5 and speed["model"] < 0.05 and speed["ratio"] < 0.1
+    assert "root speed where every action travels" in ba.format_table(result)
+    assert ba.mean_root_speed(np.zeros((5, 22, 3))) == 0.0
+
+
 @pytest.mark.parametrize("argv,message", [
     (["--transfer", "--prompts", "p.txt"], "--prompts goes with --adherence, --sampling or --levers"),
     (["--transfer", "--drawn", "2"], "--drawn goes with --control"),

@@ -12,6 +12,11 @@
 
 A prompt the model refuses (unknown words) counts as failing every stated attribute: that is
 what its user sees. A prompt the parser cannot fully place is listed under ``unparsed``.
+
+Beside them, two physical figures against the ground truth's motions: ``foot_skate`` (metrics.foot_skate) and
+``root_speed``: the mean horizontal root speed (m/s) over the prompts whose every action travels (walk, run, jog,
+walk backward, side step), model and truth, and their ratio. A walk in place slides no foot: the speed ratio is what
+shows it (a foot-contact lever once took skate to 0 by slowing walks to 0.36 m/s).
 """
 from __future__ import annotations
 
@@ -30,6 +35,7 @@ from engine.methods.generate_options import DEFAULT_SEQUENCE, check_sequence
 from engine.units import FPS
 
 PROMPTS_FILE = Path(__file__).with_name("data") / "adherence_prompts.txt"
+TRAVELLING = frozenset({"walk", "run", "jog", "walk_backward", "side_step"})  # actions whose root speed is the action
 TOTALS = ("action", "count", "side", "direction", "order")
 
 
@@ -119,6 +125,7 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
 
     per_prompt, model_rows, truth_rows, unparsed, refused = [], [], [], [], []
     skates = {"model": [], "ground_truth": []}
+    speeds = {"model": [], "ground_truth": []}
     for i, prompt in enumerate(prompts):
         intent: Intent = parse_intent(prompt)
         if not intent.complete:
@@ -128,6 +135,9 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
         truths = [ground_truth_motion(intent, config.seed + 1000 * i + k) for k in range(config.seeds)]
         truth_checks = [check_motion(j, intent, reliable=reliable) for j in truths]
         skates["ground_truth"] += [foot_skate(j) for j in truths]
+        travels = all(seg.action in TRAVELLING for seg in intent.segments)
+        if travels:
+            speeds["ground_truth"] += [mean_root_speed(j) for j in truths]
         truth_rows += truth_checks
         row = {"prompt": prompt, "intent": intent.describe(), "ground_truth": _shares(truth_checks)}
         if loaded is not None:
@@ -152,6 +162,8 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
                 motions = _model_motions(loaded, prompt, lengths, config)
                 model_checks = [check_motion(j, intent, reliable=reliable) for j in motions]
                 skates["model"] += [foot_skate(j) for j in motions]
+                if travels:
+                    speeds["model"] += [mean_root_speed(j) for j in motions]
                 row["counts"] = _counts(motions, intent)
             model_rows += model_checks
             row["model"] = _shares(model_checks)
@@ -165,7 +177,7 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
             "validation_absent": validation["absent"], "unreliable": unreliable,
             "model": score(model_rows) if loaded is not None else None, "ground_truth": score(truth_rows),
             "unparsed": unparsed, "refused": refused, "per_prompt": per_prompt,
-            "foot_skate": _skate_summary(skates),
+            "foot_skate": _skate_summary(skates), "root_speed": _skate_summary(speeds),
             "settings": {"seeds": config.seeds, "steps": config.steps, "guidance": config.guidance,
                          "guidance_from": config.guidance_from, "eta": config.eta, "lengths": config.lengths,
                          "sequence": config.sequence,
@@ -173,9 +185,16 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
             "seconds": time.perf_counter() - t0}
 
 
+def mean_root_speed(joints: np.ndarray) -> float:
+    """Mean horizontal speed of the root (m/s) of joints (T, 22, 3)."""
+    if len(joints) < 2:
+        return 0.0
+    return float(np.linalg.norm(np.diff(joints[:, 0, [0, 2]], axis=0), axis=-1).mean() * FPS)
+
+
 def _skate_summary(skates: dict[str, list[float]]) -> dict:
-    """Mean foot skate (share of grounded foot frame pairs that slide) of the model's and the truth's motions,
-    and their ratio (1 = slides as much as the truth)."""
+    """Mean of a figure (foot skate: the share of grounded foot frame pairs that slide; root speed) over the model's
+    and the truth's motions, and their ratio (1 = as the truth)."""
     model = float(np.mean(skates["model"])) if skates["model"] else None
     truth = float(np.mean(skates["ground_truth"])) if skates["ground_truth"] else None
     ratio = model / truth if model is not None and truth else None
@@ -226,6 +245,11 @@ def format_table(result: dict) -> str:
     if skate.get("ground_truth") is not None:
         lines.append(f"foot skate: model {_fmt(skate.get('model')).strip()}, ground truth {skate['ground_truth']:.2f}"
                      + (f" ({skate['ratio']:.1f}x the truth)" if skate.get("ratio") is not None else ""))
+    speed = result.get("root_speed") or {}
+    if speed.get("ground_truth") is not None:
+        lines.append(f"root speed where every action travels: model {_fmt(speed.get('model')).strip()} m/s, ground "
+                     f"truth {speed['ground_truth']:.2f} m/s"
+                     + (f" ({speed['ratio']:.2f}x the truth)" if speed.get("ratio") is not None else ""))
     lines.append("")
     lines.append(f"{'prompt':<52} " + " ".join(f"{a[:5]:>5}" for a in TOTALS) + "   (model / truth)")
     for row in result["per_prompt"]:

@@ -1,7 +1,8 @@
 """`moattn bench --levers RUN...`: one row per trained model folder, for a lever screen (#32).
 
 Each row: dev-set adherence (action, count, side; ``data/dev_prompts.txt``, never the default set, which is for
-reporting), foot skate of those motions against the ground truth's, the inversion round trip of one real motion
+reporting), foot skate of those motions against the ground truth's, their root speed against the truth's where every
+action travels ("speed": a walk in place slides no foot), the inversion round trip of one real motion
 file (mean error and the inverted noise's std), and the training samples/s the run logged. Rows are meant to be
 runs of equal CPU (or GPU) time from the same start, beside a control row; the noise of a figure is stated by
 the spread between seeds, which the table gives for action adherence (a lever inside it is not a lever).
@@ -89,6 +90,7 @@ def score_row(folder: Path, config: LeverBenchConfig, *, prompts: Sequence[str],
     row["refused"] = len(adherence["refused"])
     skate = adherence["foot_skate"]
     row["foot_skate"], row["foot_skate_vs_truth"] = skate["model"], skate["ratio"]
+    row["speed_vs_truth"] = adherence["root_speed"]["ratio"]  # a walk in place slides no foot: this shows it
     row["inversion_cm"] = row["inversion_noise_std"] = None
     if real_file is not None:
         from engine.evaluation.bench_inversion import given_motions, measure
@@ -122,12 +124,13 @@ def format_table(result: dict) -> str:
              + "; actions in order in one take (the model alone)"
              + (f"; inversion of {result['real_file']}" if result["real_file"] else ""),
              f"{'model':<28}{'step':>7}{'action':>8}{'±seed':>7}{'count':>7}{'side':>6}{'skate':>7}{'vs GT':>7}"
-             f"{'inv cm':>8}{'noise':>7}{'smp/s':>8}{'refused':>8}"]
+             f"{'speed':>7}{'inv cm':>8}{'noise':>7}{'smp/s':>8}{'refused':>8}"]
     for r in result["rows"]:
         name = r["model"] if len(r["model"]) <= 27 else "…" + r["model"][-26:]
         lines.append(f"{name:<28}{_f(r['step'], 'd'):>7}{_f(r['action'], '.3f'):>8}{_f(r['action_seed_std'], '.3f'):>7}"
                      f"{_f(r['count'], '.3f'):>7}{_f(r['side'], '.2f'):>6}{_f(r['foot_skate'], '.2f'):>7}"
-                     f"{_f(r['foot_skate_vs_truth'], '.1f'):>7}{_f(r['inversion_cm'], '.1f'):>8}"
+                     f"{_f(r['foot_skate_vs_truth'], '.1f'):>7}{_f(r.get('speed_vs_truth'), '.2f'):>7}"
+                     f"{_f(r['inversion_cm'], '.1f'):>8}"
                      f"{_f(r['inversion_noise_std'], '.2f'):>7}{_f(r['samples_per_s'], '.0f'):>8}{r['refused']:>8}")
     if len(result["rows"]) > 1 and all("per_prompt_action" in r for r in result["rows"]):
         lines.append(prompt_changes(result))
