@@ -27,10 +27,10 @@ from tqdm import tqdm
 
 from engine.checkpoint import export_weights, load_train_state, read_config, save_train_state, write_config
 from engine.data import ActionFocus, Batch, CorpusSource, FolderSource, MotionSource, batch_loader
-from engine.diffusion.losses import foot_contact_loss, masked_losses
+from engine.diffusion.losses import foot_term, masked_losses
 from engine.diffusion.schedule import CosineSchedule
 from engine.model.denoiser import Denoiser, ModelConfig
-from engine.representation import SLICES, Normalizer, features_to_joints
+from engine.representation import Normalizer
 from engine.runtime import Runtime
 from engine.text import Tokenizer
 
@@ -518,9 +518,6 @@ def min_snr_weights(schedule: CosineSchedule, gamma: float) -> torch.Tensor:
     return (w / w.mean()).float()
 
 
-ROOT_DIMS = SLICES["root_height"].stop  # the root's rotation velocity, linear velocity and height: features 0-3
-
-
 class StepOutcome(NamedTuple):
     mse: float
     vel: float
@@ -577,14 +574,8 @@ class TrainStep:
         foot = torch.zeros((), device=mse.device)
         if self.foot_weight:
             mean, std = (s.to(device) for s in self.stats)
-            pred = x0_hat.float() * std + mean
-            # the root's motion (heading, velocity, height) enters as predicted but detached: the term moves the legs
-            # to agree with the root the model chose; with the root in it, it slowed the root instead (walks at 0.6 of
-            # their speed), since the x0 error barely weighs 3 root dims among 263
-            pred = torch.cat([pred[..., :ROOT_DIMS].detach(), pred[..., ROOT_DIMS:]], dim=-1)
-            foot = foot_contact_loss(features_to_joints(pred),
-                                     features_to_joints(x0.float() * std + mean), cond.frame_mask,
-                                     samples=t < self.foot_below)
+            foot = foot_term(x0_hat.float() * std + mean, x0.float() * std + mean, cond.frame_mask,
+                             samples=t < self.foot_below)
         return mse, vel, foot
 
     def loss(self, batch: Batch) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:

@@ -329,3 +329,24 @@ def test_foot_contact_training_runs_and_is_logged(tmp_path):
     assert all("foot" in e and np.isfinite(e["foot"]) for e in log)
     saved = json.loads((tmp_path / "run" / "config.json").read_text())
     assert saved["train"]["foot_weight"] == 1.0 and saved["train"]["foot_below"] == 400
+
+
+def test_the_foot_term_moves_the_legs_not_the_root():
+    """Where a planted foot slides, the term's gradient reaches the legs' features, never the root's motion (with it, a
+    model learnt to walk in place)."""
+    from engine.diffusion.losses import ROOT_DIMS, foot_term
+    from engine.evaluation.adherence import ground_truth_motion
+    from engine.intent import parse_intent
+    from engine.representation import joints_to_features
+
+    walk = ground_truth_motion(parse_intent("a person walks forward"), 3)
+    target = torch.as_tensor(joints_to_features(walk), dtype=torch.float32)[None]
+    pred = target.clone()
+    pred[..., 1:3] *= 1.5  # the root runs ahead of the legs: planted feet slide
+    pred.requires_grad_(True)
+    mask = torch.ones(pred.shape[:2], dtype=torch.bool)
+    loss = foot_term(pred, target, mask)
+    assert float(loss.detach()) > 0.01
+    loss.backward()
+    assert float(pred.grad[..., :ROOT_DIMS].abs().max()) == 0.0
+    assert float(pred.grad[..., ROOT_DIMS:].abs().max()) > 0.0
