@@ -83,7 +83,7 @@ class TrainConfig:
     foot_weight: float = field(default=0.0, metadata={"help": "weight of MDM's foot contact loss: the predicted feet's "
                                                              "speed where the target's are planted, (m/s)^2 (0: off)"})
     # with the root's motion in the term and at every timestep, it taught the model to slow its root (walks at 0.36
-    # m/s instead of 0.94); below t = 400 still 0.63. The root now enters detached (TrainStep.losses), and the term can
+    # m/s instead of 0.94); below t = 400 still 0.63. The root now enters detached (losses.foot_term), and the term can
     # be kept to low noise, where the gait is already chosen
     foot_below: int = field(default=1000, metadata={"help": "the foot contact loss acts on timesteps t below this "
                                                            "(1000: all)"})
