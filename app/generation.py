@@ -225,8 +225,6 @@ def run_generation(
     Raises :class:`Cancelled` when ``cancel`` is set (checked between steps). Waits for the
     process-wide sampling slot first (``on_wait`` is called if it has to).
     """
-    from engine.attention import AttentionStore, StoreConfig
-
     cancel = cancel or threading.Event()
     if checked.intervals is not None:
         return _run_sequence(loaded, checked, on_step=on_step, cancel=cancel, on_wait=on_wait)
@@ -234,11 +232,7 @@ def run_generation(
         start = time.perf_counter()
         settings, config = checked.settings, checked.config
         request = Request(prompts=[settings.prompt], frames=[checked.frames], roles=["out"])
-        store = None
-        if settings.record_steps > 0:
-            store = AttentionStore(StoreConfig(
-                kinds=("self", "cross"), steps=frozenset(plan_steps(config.steps, settings.record_steps)),
-                conditional_only=True, budget_bytes=512 * 1024 * 1024))
+        store = _recording_store(settings, config, slots=1)
         states, cond, tokens, noise = sample_states(loaded, request, config, controller=store)
         last = None
         timesteps: dict[int, int] = {}
@@ -276,21 +270,30 @@ def run_generation(
                             followed=follow, notes=notes)
 
 
+STORE_BUDGET_PER_SLOT = 512 * 1024 * 1024  # bytes of recorded maps per batch slot (a prompt, or a clause)
+
+
+def _recording_store(settings: GenerationSettings, config: SampleConfig, *, slots: int):
+    """The attention store of a generation (both kinds, every layer and head, the conditional slots, at the planned
+    steps), or None where recording is off."""
+    from engine.attention import AttentionStore, StoreConfig
+
+    if settings.record_steps <= 0:
+        return None
+    return AttentionStore(StoreConfig(kinds=("self", "cross"),
+                                      steps=frozenset(plan_steps(config.steps, settings.record_steps)),
+                                      conditional_only=True, budget_bytes=slots * STORE_BUDGET_PER_SLOT))
+
+
 def _run_sequence(loaded: LoadedModel, checked: Checked, *, on_step, cancel: threading.Event, on_wait) -> GenerationResult:
     """A prompt of several actions in order, clause by clause (``checked.intervals``), joined with DoubleTake: both
     takes' steps are counted in ``on_step``. Attention is recorded in the first take, where each clause is a batch slot
     of its own prompt, and laid on the joined timeline (``AttentionRecord.from_timeline``: each clause's words attend
     over its own frames)."""
-    from engine.attention import AttentionStore, StoreConfig
-
     settings, config = checked.settings, checked.config
     total, done = checked.total_steps, 0
     timesteps: dict[int, int] = {}
-    store = None
-    if settings.record_steps > 0:
-        store = AttentionStore(StoreConfig(
-            kinds=("self", "cross"), steps=frozenset(plan_steps(config.steps, settings.record_steps)),
-            conditional_only=True, budget_bytes=1024 * 1024 * 1024))
+    store = _recording_store(settings, config, slots=len(checked.intervals))
 
     def step(state) -> None:
         nonlocal done

@@ -32,10 +32,11 @@ from engine.evaluation.adherence import (ATTRIBUTES, check_motion, ground_truth_
 from engine.generate import SampleConfig
 from engine.intent import Intent, parse_intent
 from engine.methods.generate_options import DEFAULT_SEQUENCE, check_sequence
+from engine.synth.program import LOCOMOTION
 from engine.units import FPS
 
 PROMPTS_FILE = Path(__file__).with_name("data") / "adherence_prompts.txt"
-TRAVELLING = frozenset({"walk", "run", "jog", "walk_backward", "side_step"})  # actions whose root speed is the action
+TRAVELLING = frozenset(LOCOMOTION) - {"turn"}  # the corpus's actions whose root speed is the action (a turn is in place)
 TOTALS = ("action", "count", "side", "direction", "order")
 
 
@@ -121,7 +122,7 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
     log(f"validating the detectors on {config.validation_motions} corpus test motions")
     validation = validate(motions=config.validation_motions, log=log)
     reliable = reliability(validation)
-    from engine.evaluation.metrics import foot_skate
+    from engine.evaluation.metrics import foot_skate, root_speed
 
     per_prompt, model_rows, truth_rows, unparsed, refused = [], [], [], [], []
     skates = {"model": [], "ground_truth": []}
@@ -137,7 +138,7 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
         skates["ground_truth"] += [foot_skate(j) for j in truths]
         travels = all(seg.action in TRAVELLING for seg in intent.segments)
         if travels:
-            speeds["ground_truth"] += [mean_root_speed(j) for j in truths]
+            speeds["ground_truth"] += [root_speed(j) for j in truths]
         truth_rows += truth_checks
         row = {"prompt": prompt, "intent": intent.describe(), "ground_truth": _shares(truth_checks)}
         if loaded is not None:
@@ -163,7 +164,7 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
                 model_checks = [check_motion(j, intent, reliable=reliable) for j in motions]
                 skates["model"] += [foot_skate(j) for j in motions]
                 if travels:
-                    speeds["model"] += [mean_root_speed(j) for j in motions]
+                    speeds["model"] += [root_speed(j) for j in motions]
                 row["counts"] = _counts(motions, intent)
             model_rows += model_checks
             row["model"] = _shares(model_checks)
@@ -183,13 +184,6 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
                          "sequence": config.sequence,
                          "prompts": len(prompts), "validation_motions": config.validation_motions},
             "seconds": time.perf_counter() - t0}
-
-
-def mean_root_speed(joints: np.ndarray) -> float:
-    """Mean horizontal speed of the root (m/s) of joints (T, 22, 3)."""
-    if len(joints) < 2:
-        return 0.0
-    return float(np.linalg.norm(np.diff(joints[:, 0, [0, 2]], axis=0), axis=-1).mean() * FPS)
 
 
 def _skate_summary(skates: dict[str, list[float]]) -> dict:

@@ -80,7 +80,7 @@ import numpy as np
 
 from engine.checkpoint import LoadedModel
 from engine.evaluation.evaluator import LoadedEvaluator
-from engine.evaluation.metrics import fid
+from engine.evaluation.metrics import fid, root_speed
 from engine.generate import SampleConfig
 from engine.methods.momo import (
     Source, TransferConfig, canonical, direction_copies, prepare, transfer, transfer_streams,
@@ -264,12 +264,6 @@ def caption_for(loaded: LoadedModel, sample) -> str | None:
             continue
         return caption
     return None
-
-
-def root_speed(joints: np.ndarray) -> float:
-    """Mean speed (m/s) of the root on the floor (x, z) over the motion, at 20 fps."""
-    xz = np.asarray(joints)[:, 0, [0, 2]]
-    return float(np.linalg.norm(np.diff(xz, axis=0), axis=1).mean() * 20) if len(xz) > 1 else 0.0
 
 
 def measure_speed(out: np.ndarray, pair: Pair) -> dict:

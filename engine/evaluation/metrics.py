@@ -88,6 +88,12 @@ def foot_skate(joints: np.ndarray, *, height: float = 0.05, speed: float = 0.025
     return float((slide[low] > speed).mean())
 
 
+def root_speed(joints: np.ndarray, *, fps: float = FPS) -> float:
+    """Mean speed (m/s) of the root on the floor (x, z) over the motion; joints (T, 22, 3)."""
+    xz = np.asarray(joints)[:, 0, [0, 2]]
+    return float(np.linalg.norm(np.diff(xz, axis=0), axis=1).mean() * fps) if len(xz) > 1 else 0.0
+
+
 def jerk(joints: np.ndarray, *, fps: float = FPS) -> float:
     """Mean magnitude of the third time derivative of joint positions (m/s³); joints (T, 22, 3)."""
     d3 = np.diff(joints, n=3, axis=0) * fps**3

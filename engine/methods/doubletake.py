@@ -141,8 +141,12 @@ class Composed:
     transitions: list[tuple[int, int]]  # [start, end) frames of each handshake on the timeline (empty: a cut)
     first_take: np.ndarray  # (total, 263) de-normalised features before the second take
     seconds: float  # wall time
-    lengths: list[int] = field(default_factory=list)  # frames of each interval (its slot in the first take)
     words: list[tuple[str, ...]] = field(default_factory=list)  # each interval's prompt as the model read it
+
+    @property
+    def lengths(self) -> list[int]:
+        """Frames of each interval: its slot in the first take (as :func:`check_intervals` counts them)."""
+        return [int(round(iv.seconds * FPS)) for iv in self.intervals]
 
 
 def check_intervals(intervals: Sequence[Interval], h: int | Sequence[int]) -> list[int]:
@@ -197,7 +201,7 @@ def compose(loaded: LoadedModel, intervals: Sequence[Interval], config: DoubleTa
     feats = loaded.normalizer.denormalize(result.numpy())
     return Composed(features=feats, joints=features_to_joints(feats), intervals=list(intervals), starts=starts,
                     transitions=transitions, first_take=loaded.normalizer.denormalize(first.numpy()),
-                    seconds=time.perf_counter() - t0, lengths=list(lengths), words=[tuple(t.words) for t in tokens])
+                    seconds=time.perf_counter() - t0, words=[tuple(t.words) for t in tokens])
 
 
 @dataclass(frozen=True)
