@@ -7,8 +7,13 @@ minutes are up (a cycle under way is finished, and every session does at least o
 - generates its own prompt (a distinct one per session, 10 steps) and checks that the Motion list shows it;
 - emphasises its prompt's action word on the Edit tab and checks the result is its own;
 - plays the motion for a second (at least two frames must be drawn);
-- reloads the page (a new server session: none of the prompts may be listed) and closes it (the next cycle opens
-  a new page).
+- reloads the page (a new server session: the Motion list is the motion library, so its motion must still be
+  listed) and closes it (the next cycle opens a new page).
+
+The server keeps its motions in a scratch workspace (never the user's library), bounded by ``--library-mb`` when
+given. Afterwards the library is read from disk (one generated motion per generation, each with its whole recipe,
+its size against the bound), and the server is started again on that workspace: its Motion list must show every
+motion kept.
 
 The sessions run round-robin in one thread (Playwright's sync API is not thread-safe): each does one step and
 hands over, and its waits are polls, so the server works on several sessions' jobs at once.
@@ -443,11 +448,13 @@ def _settle(memory: ServerMemory, settle_s: float, say) -> None:
 
 def bench_soak(model_dir: Path, *, sessions: int = 5, minutes: float = 10.0, log_path: Path | None = None,
                steps: int = 10, close_every: int = 1, settle_s: float = 40.0, timeout_s: float = 300.0,
-               log=None) -> dict:
+               library_mb: float | None = None, restart: bool = True, log=None) -> dict:
     """Drive ``sessions`` browser sessions against one server for ``minutes``; see the module's docstring.
 
     ``settle_s``: after the last page is closed, wait this long before the final memory sample (Bokeh discards a
-    closed session after about 15-30 s). ``timeout_s``: the longest wait for one result.
+    closed session after about 15-30 s). ``timeout_s``: the longest wait for one result. ``library_mb``: the
+    motion library's bound (``moattn serve --library-mb``; None: the default). ``restart``: afterwards, start the
+    server again on the same workspace and check that its Motion list lists every motion the library kept.
     """
     from playwright.sync_api import sync_playwright
 
@@ -459,10 +466,14 @@ def bench_soak(model_dir: Path, *, sessions: int = 5, minutes: float = 10.0, log
         log_path = Path(tempfile.mkdtemp(prefix="moattn-soak-")) / "serve.log"
     log_path = Path(log_path)
     group = [Session(i, *PROMPTS[i]) for i in range(sessions)]
+    scratch = tempfile.TemporaryDirectory(prefix="moattn-soak-workspace-")  # never the user's own library
+    workspace = Path(scratch.name)
+    serve_args = () if library_mb is None else ("--library-mb", f"{library_mb:g}")
 
     port = br.free_port()
     t_start = time.monotonic()
-    with br.studio_server(model_dir, port=port, log_path=log_path) as url, sync_playwright() as pw:
+    with br.studio_server(model_dir, port=port, log_path=log_path, workspace=workspace,
+                          extra_args=serve_args) as url, sync_playwright() as pw:
         pid = _server_pid(port)
         memory = ServerMemory.start(pid)
         say(f"server {url} (pid {pid}): {memory.before['rss_mb']} MB, {memory.before['threads']} threads; "
@@ -480,12 +491,73 @@ def bench_soak(model_dir: Path, *, sessions: int = 5, minutes: float = 10.0, log
             browser.close()
         soak_s = time.monotonic() - t_start
         _settle(memory, settle_s, say)
-    settings = {"sessions": sessions, "minutes": minutes, "model": str(model_dir), "steps": steps}
-    return _soak_report(group, memory, burst, log_path, settings, soak_s=soak_s, settle_s=settle_s)
+    with scratch:
+        library = library_report(group, workspace, model_dir=model_dir, restart=restart, timeout_s=timeout_s,
+                                 serve_args=serve_args, log_path=log_path.with_name(log_path.stem + "-restart.log"),
+                                 say=say)
+    settings = {"sessions": sessions, "minutes": minutes, "model": str(model_dir), "steps": steps,
+                "library_mb": library_mb}
+    return _soak_report(group, memory, burst, log_path, settings, soak_s=soak_s, settle_s=settle_s, library=library)
+
+
+def library_report(group: list[Session], workspace: Path, *, model_dir: Path, restart: bool, timeout_s: float,
+                   serve_args: tuple = (), log_path: Path | None = None, say=lambda line: None) -> dict:
+    """What the motion library holds after the soak, read from disk: one generated entry per generation, each
+    with its whole recipe (prompt, seed, steps, guidance, model), its size against its bound; with ``restart``,
+    a server started again on the same workspace and the titles its Motion list shows, beside the entries."""
+    from engine.library import MotionLibrary
+
+    lib = MotionLibrary(workspace=workspace)
+    entries = lib.entries()
+    kinds = Counter(e.kind for e in entries)
+    generated = [e for e in entries if e.kind == "generate"]
+    missing_recipe = []
+    for e in generated:
+        recipe = lib.recipe(e.id)
+        lacking = [k for k in ("prompt", "seed", "steps", "guidance", "model") if recipe.get(k) in (None, "")]
+        if lacking:
+            missing_recipe.append({"title": e.title, "lacking": lacking})
+    report = {"generations": sum(s.generations for s in group), "edits": sum(s.edits for s in group),
+              "entries": len(entries), "by_kind": dict(sorted(kinds.items())), "generated_kept": len(generated),
+              "recipes_missing": missing_recipe, "bytes": lib.total_bytes(), "limit_bytes": lib.limit_bytes,
+              "largest_bytes": max((e.bytes for e in entries), default=0),
+              "listed_after_restart": None, "not_listed_after_restart": []}
+    if restart:
+        listed = _listed_after_restart(model_dir, workspace, serve_args=serve_args, timeout_s=timeout_s,
+                                       log_path=log_path)
+        report["listed_after_restart"] = len(listed)
+        shown = Counter(_base_title(n) for n in listed)
+        kept = Counter(e.title for e in entries)
+        report["not_listed_after_restart"] = sorted((kept - shown).elements())
+        say(f"server restarted on the same workspace: its Motion list shows {len(listed)} of {len(entries)} "
+            f"motions kept")
+    return report
+
+
+def _base_title(name: str) -> str:
+    """A Motion list name without the ``(2)`` a repeated title gets."""
+    return re.sub(r"\s+\(\d+\)$", "", name)
+
+
+def _listed_after_restart(model_dir: Path, workspace: Path, *, serve_args: tuple, timeout_s: float,
+                          log_path: Path | None) -> list[str]:
+    """Start the server again on ``workspace``, open one page and read its Motion list."""
+    from playwright.sync_api import sync_playwright
+
+    from app.bench import browser as br
+
+    with br.studio_server(model_dir, workspace=workspace, extra_args=serve_args, log_path=log_path) as url, \
+            sync_playwright() as pw:
+        browser = br.launch(pw)
+        try:
+            page = br.open_studio(browser, url, timeout_ms=timeout_s * 1000)
+            return _motion_names(page)
+        finally:
+            browser.close()
 
 
 def _soak_report(group: list[Session], memory: ServerMemory, burst: dict, log_path: Path, settings: dict, *,
-                 soak_s: float, settle_s: float) -> dict:
+                 soak_s: float, settle_s: float, library: dict | None = None) -> dict:
     """The result of :func:`bench_soak`: the server log's errors and warnings, memory, each session's counts and
     worst times, cross-talk, failures and page errors, and ``ok``."""
     sessions = len(group)
@@ -526,9 +598,23 @@ def _soak_report(group: list[Session], memory: ServerMemory, burst: dict, log_pa
         "cpus": os.cpu_count(), "load_average": [round(x, 2) for x in os.getloadavg()],
         "when": time.strftime("%Y-%m-%d %H:%M:%S"),
     }
+    result["library"] = library
     result["ok"] = (not server_errors and not cross_talk and not failures and not page_errors
-                    and all(s.generations and s.edits for s in group))
+                    and all(s.generations and s.edits for s in group) and library_ok(library))
     return result
+
+
+def library_ok(lib: dict | None) -> bool:
+    """Nothing lost and nothing past the bound: every generation kept with its whole recipe (unless the bound
+    removed motions, which only happens past it), the library within its bound, and after a restart every kept
+    motion listed."""
+    if lib is None:
+        return True
+    within = lib["bytes"] <= lib["limit_bytes"]
+    all_kept = lib["generated_kept"] == lib["generations"]
+    at_bound = lib["bytes"] + lib["largest_bytes"] > lib["limit_bytes"]  # one more would have gone past it
+    return (within and (all_kept or (lib["generated_kept"] < lib["generations"] and at_bound))
+            and not lib["recipes_missing"] and not lib["not_listed_after_restart"])
 
 
 def format_table(r: dict) -> str:
@@ -560,6 +646,17 @@ def format_table(r: dict) -> str:
     out += [f"  {c['session']} cycle {c['cycle']} {c['step']}: shows {c['shown']!r}" for c in r["cross_talk"]]
     out.append(f"failures: {'none' if not r['failures'] else len(r['failures'])}")
     out += [f"  {f['session']} cycle {f['cycle']} {f['step']}: {f['error']}" for f in r["failures"]]
+    lib = r.get("library")
+    if lib is not None:
+        out.append(f"library: {lib['generations']} generations, {lib['edits']} edits -> {lib['entries']} motions kept "
+                   f"({', '.join(f'{k} {v}' for k, v in lib['by_kind'].items())}); generated kept "
+                   f"{lib['generated_kept']} of {lib['generations']}, recipes missing a field: "
+                   f"{len(lib['recipes_missing'])}; {lib['bytes'] / 2**20:.1f} MB of its "
+                   f"{lib['limit_bytes'] / 2**20:g} MB bound")
+        if lib["listed_after_restart"] is not None:
+            out.append(f"after a server restart on the same workspace: the Motion list shows "
+                       f"{lib['listed_after_restart']} motions; kept but not listed: "
+                       f"{len(lib['not_listed_after_restart']) or 'none'}")
     out.append(f"server log: {r['server_log']}")
     out.append("OK" if r["ok"] else "NOT OK")
     return "\n".join(out)
@@ -572,6 +669,6 @@ def run_soak_bench(args) -> int:
     minutes = 10.0 if args.minutes is None else args.minutes
     steps = 10 if args.steps is None else args.steps
     result = bench_soak(args.model, sessions=sessions, minutes=minutes, log_path=args.log, steps=steps,
-                        log=lambda line: print(line, file=sys.stderr, flush=True))
+                        library_mb=args.library_mb, log=lambda line: print(line, file=sys.stderr, flush=True))
     print(json.dumps(result, indent=2) if args.json else format_table(result))
     return 0 if result["ok"] else 1

@@ -2,7 +2,8 @@
 
 --app        the studio in Chromium against a real server (app/bench/studio.py)
 --soak       several browser sessions against one real server for minutes: generate, edit, play, reload, close;
-             server-log errors, memory and threads, worst time to result, cross-talk (app/bench/soak.py)
+             server-log errors, memory and threads, worst time to result, cross-talk, the motion library after it
+             and after a server restart (app/bench/soak.py)
 --edits      MotionCLR edits against corpus ground truth (engine/evaluation/bench_edits.py)
 --inversion  DDIM inversion round trip (m) and the inverted noise's std on corpus motions, the shared real
              motions (../shared/data/real/) and given files (engine/evaluation/bench_inversion.py)
@@ -79,8 +80,10 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--no-real-data goes with --inversion")
     if args.write and args.edits and not args.calibrate:
         raise ValueError("--write stores a calibration: add --calibrate")
-    if (args.sessions is not None or args.minutes is not None) and not args.soak:
-        raise ValueError("--sessions and --minutes go with --soak")
+    if (args.sessions is not None or args.minutes is not None or args.library_mb is not None) and not args.soak:
+        raise ValueError("--sessions, --minutes and --library-mb go with --soak")
+    if args.library_mb is not None and not args.library_mb > 0:
+        raise ValueError(f"--library-mb must be above 0, got {args.library_mb:g}")
     if args.train:
         if args.control:
             raise ValueError("--train goes alone")

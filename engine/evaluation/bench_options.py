@@ -25,7 +25,7 @@ class BenchOptions:
         help="click -> first frame, playback fps, layer switch in Chromium")
     soak: bool = option(False, exclusive="benchmark",
         help="--sessions browser sessions for --minutes against one server: server errors, memory, threads, worst time"
-             " to result, cross-talk")
+             " to result, cross-talk; the motion library after it and after a server restart")
     edits: bool = option(False, exclusive="benchmark", help="score the MotionCLR edits against corpus ground truth")
     inversion: bool = option(False, exclusive="benchmark",
         help="inversion round-trip error (m) and noise std: corpus, shared real files, given files")
@@ -70,6 +70,8 @@ class BenchOptions:
         help="Chromium compositing: SwiftShader GPU emulation, CPU (--disable-gpu), or both (default)")
     sessions: int | None = option(None, type=int, group="--soak", help="browser sessions at once (default 5)")
     minutes: float | None = option(None, type=float, group="--soak", help="how long the sessions go on (default 10)")
+    library_mb: float | None = option(None, type=float, group="--soak",
+        help="the scratch motion library's size bound in MB (default: the studio's); the soak checks it holds")
     quick: bool = option(False, group=EDITS, help="fewer samples and steps")
     evaluator: Path = option(EVALUATOR_DIR, group=EDITS, help="the evaluator folder (FID features)")
     calibrate: bool = option(False, group=EDITS,

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from app.bench.soak import PROMPTS, bench_soak, format_table, scan_log
+from app.bench.soak import PROMPTS, bench_soak, format_table, library_ok, scan_log
 
 pytestmark = pytest.mark.timeout(300)
 
@@ -49,9 +49,30 @@ def test_one_short_soak_cycle(tiny_model_dir, tmp_path):
         for when in ("before", "warm", "after", "peak"):
             assert math.isfinite(r[key][when]) and r[key][when] > 0, (key, r[key])
         assert r[key]["peak"] >= max(r[key]["before"], r[key]["after"])
+    lib = r["library"]  # read from disk, then listed by a restarted server
+    assert lib["generations"] == 1 and lib["generated_kept"] == 1 and lib["by_kind"].get("edit", 0) >= 1, lib
+    assert lib["recipes_missing"] == [] and lib["not_listed_after_restart"] == [], lib
+    assert lib["listed_after_restart"] == lib["entries"] and 0 < lib["bytes"] <= lib["limit_bytes"], lib
     assert r["ok"] is True
     table = format_table(r)
     assert "cross-talk: none" in table and table.endswith("OK")
+    assert "generated kept 1 of 1" in table and "kept but not listed: none" in table, table
+
+
+def _lib(**over):
+    lib = {"generations": 40, "edits": 40, "entries": 81, "by_kind": {}, "generated_kept": 40, "recipes_missing": [],
+           "bytes": 10 * 2**20, "limit_bytes": 500 * 2**20, "largest_bytes": 2**20, "listed_after_restart": 81,
+           "not_listed_after_restart": []}
+    return {**lib, **over}
+
+
+def test_the_library_is_ok_only_when_nothing_is_lost_below_its_bound():
+    assert library_ok(_lib()) and library_ok(None)
+    assert not library_ok(_lib(generated_kept=39))  # lost one, far below the bound
+    assert library_ok(_lib(generated_kept=30, bytes=int(499.5 * 2**20)))  # the bound removed the oldest
+    assert not library_ok(_lib(bytes=501 * 2**20))  # past its bound
+    assert not library_ok(_lib(recipes_missing=[{"title": "x", "lacking": ["seed"]}]))
+    assert not library_ok(_lib(not_listed_after_restart=["a person waves · seed 0"]))
 
 
 def test_soak_flags_go_with_soak_only():
@@ -64,3 +85,15 @@ def test_soak_flags_go_with_soak_only():
         run(parser.parse_args(["bench", "--edits", "--sessions", "2"]))
     with pytest.raises(ValueError, match="--sessions must be between"):
         run(parser.parse_args(["bench", "--soak", "--sessions", "0"]))
+
+
+def test_library_mb_goes_with_soak_and_above_zero():
+    from engine.cli.bench import add_parser, run
+    from engine.cli.common import Parser
+
+    parser = Parser(prog="moattn")
+    add_parser(parser.add_subparsers())
+    with pytest.raises(ValueError, match="go with --soak"):
+        run(parser.parse_args(["bench", "--edits", "--library-mb", "5"]))
+    with pytest.raises(ValueError, match="--library-mb must be above 0"):
+        run(parser.parse_args(["bench", "--soak", "--library-mb", "0"]))
