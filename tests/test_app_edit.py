@@ -130,7 +130,7 @@ def test_erase_ground_shift_each_give_a_before_after_pair(studio):
 
 def test_example_based_and_style_transfer_with_session_sources(studio):
     s, tab = studio.state, studio.edit
-    tab.count.value = 2
+    tab.plain["count"].value = 2
     _run(studio, "example-based")
     assert s.item.name.endswith("example-based #1") and "example" in s.compare_item.name
     assert any(n.endswith("example-based #2") for n in s.items)
@@ -263,16 +263,17 @@ def test_example_based_chunk_size_is_a_setting(studio):
     s, tab = studio.state, studio.edit
     spec = option_spec("chunk_frames")
     tab.kind.value = "example-based"
-    assert tab.chunk.visible and (tab.chunk.start, tab.chunk.end, tab.chunk.value) == (4, 100, spec.default)
-    assert tab.chunk.name == spec.label and tab.chunk_help.object == spec.help
-    tab.chunk.value = 10
-    tab.count.value = 2
+    chunk = tab.plain["chunk_frames"]
+    assert chunk.visible and (chunk.start, chunk.end, chunk.value) == (4, 100, spec.default)
+    assert chunk.name == spec.label and tab.plain_help["chunk_frames"].object == spec.help
+    chunk.value = 10
+    tab.plain["count"].value = 2
     assert prepare(s, tab.settings).options.chunk_frames == 10
     _run(studio, "example-based")
     assert s.item.name.endswith("example-based (10-frame chunks) #1"), s.item.name
-    tab.chunk.value = spec.default
+    chunk.value = spec.default
     tab.kind.value = "emphasise"
-    assert not tab.chunk.visible
+    assert not chunk.visible
 
 
 def test_bad_settings_are_notifications(studio):
@@ -452,6 +453,27 @@ def test_layers_that_do_not_exist_are_refused(tiny_model_dir, tmp_path, capsys):
     assert main(["edit", "emphasize", "a person jumps", "--word", "jumps", "--layers", str(n - 1), "--steps", "2",
                  "--seconds", "1", "--model", str(tiny_model_dir), "--out", str(out)]) == 0
     assert out.exists()
+
+
+@pytest.mark.parametrize("argv, said", [
+    (["emphasize", "a person jumps", "--word", "jumps", "--fraction", "0.3"],
+     "--fraction is not read by emphasize (it is read by shift)"),
+    (["erase", "a person jumps", "--word", "jumps", "--weight", "0.2"],
+     "--weight is not read by erase (it is read by emphasize, ground)"),
+    (["replace", "a person jumps", "--edited", "a person kicks", "--word", "jumps"], "--word is not read by replace"),
+    (["shift", "a person jumps", "--to-frame", "9"], "--from-frame/--to-frame are not read by shift"),
+])
+def test_a_flag_the_kind_does_not_read_is_refused(argv, said):
+    from engine.cli.common import Parser
+    from engine.cli.edit import add_parser, options_from_args
+
+    parser = Parser(prog="moattn")
+    add_parser(parser.add_subparsers())
+    with pytest.raises(ValueError) as refused:
+        options_from_args(parser.parse_args(["edit", *argv]))
+    assert str(refused.value).startswith(said), refused.value
+    # the same flag at its declared default's value changes nothing: not refused
+    options_from_args(parser.parse_args(["edit", "emphasize", "a person jumps", "--word", "jumps", "--fraction", "0.5"]))
 
 
 def test_cli_and_tab_share_the_option_mapping():

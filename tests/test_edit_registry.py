@@ -28,8 +28,7 @@ def test_the_tab_shows_exactly_the_fields_a_kind_reads(tiny_model_dir):
     try:
         tab = st.edit
         widgets = {"word": tab.words, "weight": tab.weight, "mode": tab.mode, "frames": tab.frames,
-                   "edited": tab.edited, "fraction": tab.fraction, "count": tab.count, "style": tab.style_source,
-                   "chunk_frames": tab.chunk}
+                   "edited": tab.edited, "style": tab.style_source, **tab.plain}
         for name, entry in REGISTRY.items():
             tab.kind.value = entry.label
             shown = {field for field, w in widgets.items() if w.visible}
@@ -67,3 +66,26 @@ def test_an_entry_names_only_known_inputs():
     with pytest.raises(ValueError, match="unknown inputs"):
         EditKind("bad", "bad", "", inputs=frozenset({"colour"}))
     assert {f for k in REGISTRY.values() for f in k.inputs} <= INPUTS
+
+
+def test_every_input_without_a_widget_of_its_own_gets_one_from_its_declaration(tiny_model_dir):
+    """A new kind's new plain option (a number, a choice) reaches the Edit tab with nothing written in the app: its
+    parameter, widget and help come from ``EditOptions``; only the inputs with widgets of their own are named."""
+    from app.main import Studio
+    from app.tabs.edit.settings import OWN_WIDGETS, PLAIN_INPUTS, EditSettings
+    from engine.methods.edit_options import option_spec
+
+    assert set(PLAIN_INPUTS) == INPUTS - OWN_WIDGETS and {"fraction", "count", "chunk_frames"} <= set(PLAIN_INPUTS)
+    settings = EditSettings()
+    for name in PLAIN_INPUTS:
+        spec = option_spec(name)
+        assert settings.param[name].default == spec.default and settings.param[name].label == spec.label, name
+    st = Studio(model_dir=tiny_model_dir, initial=None)
+    try:
+        tab = st.edit
+        assert set(tab.plain) == set(PLAIN_INPUTS)
+        for name in PLAIN_INPUTS:
+            assert tab.plain[name].value == option_spec(name).default
+            assert tab.plain_help[name].object == option_spec(name).help
+    finally:
+        st.close()

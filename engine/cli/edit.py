@@ -63,8 +63,26 @@ def _source(text: str | None, what: str):
     return text
 
 
+def check_read(args: argparse.Namespace) -> None:
+    """A flag the kind does not read is refused in one line, naming the kinds that read it (given with its
+    default's value it changes nothing and passes)."""
+    from engine.options import spec
+
+    entry = REGISTRY[args.kind]
+    for name in sorted(INPUTS - {"seed"} - entry.inputs):
+        declared = spec(EditOptions, name)
+        if hasattr(args, declared.dest) and getattr(args, declared.dest) != declared.default:
+            readers = kinds_reading(name)
+            raise ValueError(f"{declared.flag} is not read by {args.kind}"
+                             + (f" (it is read by {', '.join(readers)})" if readers else ""))
+    if (args.from_frame is not None or args.to_frame is not None) and "frames" not in entry.inputs:
+        raise ValueError(f"--from-frame/--to-frame are not read by {args.kind} "
+                         f"(they are read by {', '.join(kinds_reading('frames'))})")
+
+
 def options_from_args(args: argparse.Namespace):
     """The command line's options as the shared ``EditOptions`` (the Edit tab builds the same object)."""
+    check_read(args)
     span = args.frames
     if args.from_frame is not None or args.to_frame is not None:
         if span is not None:

@@ -166,8 +166,7 @@ def prepare(state, settings: EditSettings) -> EditPlan:
         span = check_spans([tuple(int(v) for v in s) for s in cfg.spans], frames=frames) or None
     options = EditOptions(
         kind=entry.name, prompt=source, word=word, occurrence=cfg.occurrence, weight=float(cfg.weight),
-        mode=cfg.mode, frames=span, edited=cfg.edited, fraction=float(cfg.fraction), style=style,
-        count=int(cfg.count), chunk_frames=int(cfg.chunk_frames),
+        mode=cfg.mode, frames=span, edited=cfg.edited, style=style, **cfg.plain_values(),
         step_window=tuple(cfg.step_window) if cfg.step_window is not None else None,
         layers=tuple(cfg.layers) or None, seed=int(state.seed))
     # built once, here: the config's own checks (weight ranges, windows) before any work; the worker runs it

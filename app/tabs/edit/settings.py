@@ -9,13 +9,19 @@ from dataclasses import dataclass
 import param
 
 from app.components.option_params import param_for
-from engine.methods.edit_kinds import REGISTRY, EditKind
+from engine.methods.edit_kinds import INPUTS, REGISTRY, EditKind
 from engine.methods.edit_options import EditOptions
 
 #: label shown in the tab -> ``moattn edit`` kind, and each kind's help: both from the engine's registry
 KIND_LABELS = {k.label: name for name, k in REGISTRY.items()}
 KIND_HELP = {name: k.help for name, k in REGISTRY.items()}
 PROMPT_SOURCE = "(the prompt)"
+#: the inputs this tab shows with widgets of its own: a word clicked in the prompt, a weight whose range follows the
+#: mode, frames dragged on a curve, an edited prompt with its alignment, a style source among the motions, the
+#: Generate box's seed. Every other input a kind reads (``INPUTS``) is a plain value: its parameter, widget and help
+#: come from its declaration on ``EditOptions``, so a new kind's new option needs nothing here.
+OWN_WIDGETS = frozenset({"word", "weight", "mode", "frames", "edited", "style", "seed"})
+PLAIN_INPUTS: tuple[str, ...] = tuple(f for f in EditOptions.__dataclass_fields__ if f in INPUTS - OWN_WIDGETS)
 
 
 class EditSettings(param.Parameterized):
@@ -33,9 +39,6 @@ class EditSettings(param.Parameterized):
                            "attention curve or typed ([] = the whole motion)")
     step_window = param_for(EditOptions, "step_window")  # None: the method's window
     layers = param_for(EditOptions, "layers", default=[])  # [] = the kind's default (the engine's None)
-    fraction = param_for(EditOptions, "fraction")
-    count = param_for(EditOptions, "count")
-    chunk_frames = param_for(EditOptions, "chunk_frames")
     edited = param_for(EditOptions, "edited", default="")  # '' = none typed yet
     source = param.String(default=PROMPT_SOURCE, doc="example / content source: the prompt or a session motion")
     style_source = param.String(default=PROMPT_SOURCE, doc="style source: a prompt or a session motion")
@@ -54,6 +57,14 @@ class EditSettings(param.Parameterized):
     def entry(self) -> EditKind:
         """The chosen kind's entry in the engine's registry: what it reads, how it is described, what it makes."""
         return REGISTRY[self.engine_kind]
+
+    def plain_values(self) -> dict:
+        """The plain inputs' values, by their ``EditOptions`` names."""
+        return {name: getattr(self, name) for name in PLAIN_INPUTS}
+
+
+for _name in PLAIN_INPUTS:  # e.g. fraction, count, chunk_frames: each from its declaration
+    EditSettings.param.add_parameter(_name, param_for(EditOptions, _name))
 
 
 @dataclass

@@ -22,7 +22,7 @@ from app.components.how_to_read import reading_caption
 from app.components.jobbar import WRAP_BUTTONS_CSS, JobBar, text_from_param
 from app.session.state import StudioState
 from app.tabs.edit.job import alignment, count_current, run_edit, swap_example, word_choice
-from app.tabs.edit.settings import KIND_HELP, PROMPT_SOURCE, EditSettings
+from app.tabs.edit.settings import KIND_HELP, PLAIN_INPUTS, PROMPT_SOURCE, EditSettings
 from engine.analysis.counting import COUNTING_METHODS
 from engine.methods.edit_options import WEIGHT_RANGES, option_spec
 from engine.methods.spans import check_spans, parse_spans, spans_text
@@ -59,15 +59,14 @@ class EditTab(pn.viewable.Viewer):
                                             value=(0.0, 1.0), css_classes=["edit-steps"], sizing_mode="stretch_width")
         self.layers = pn.widgets.MultiChoice(label="Layers (empty = the edit's default)", options={}, value=[],
                                              css_classes=["edit-layers"], sizing_mode="stretch_width")
-        self.fraction = pn.widgets.FloatSlider.from_param(e.param.fraction, css_classes=["edit-fraction"],
-                                                          sizing_mode="stretch_width")
-        self.count = pn.widgets.IntSlider.from_param(e.param.count, css_classes=["edit-count"],
-                                                     sizing_mode="stretch_width")
-        self.chunk = pn.widgets.IntSlider.from_param(e.param.chunk_frames, css_classes=["edit-chunk"],
-                                                     sizing_mode="stretch_width")
-        # the declared help (the slider shows the range)
-        self.chunk_help = pn.pane.Markdown(option_spec("chunk_frames").help, margin=(0, 10),
-                                           styles={"font-size": "11px", "color": "#555"})
+        # the plain inputs (fraction, count, chunk_frames, ...): the widget pn.Param makes of each declared option,
+        # its declared help under it (the widget shows the range); shown when the kind reads it
+        self.plain = {name: pn.Param.widget_type(e.param[name]).from_param(
+                          e.param[name], css_classes=[f"edit-{name.replace('_', '-')}"], sizing_mode="stretch_width")
+                      for name in PLAIN_INPUTS}
+        self.plain_help = {name: pn.pane.Markdown(option_spec(name).help, margin=(0, 10),
+                                                  styles={"font-size": "11px", "color": "#555"})
+                           for name in PLAIN_INPUTS}
         self._build_spans()
         self.edited = text_from_param(e.param.edited, placeholder="a person kicks twice", css_classes=["edit-edited"],
                                       sizing_mode="stretch_width")
@@ -363,9 +362,8 @@ class EditTab(pn.viewable.Viewer):
         self.frames.visible = "frames" in reads and not entry.spans
         self.spans_box.visible = "frames" in reads and entry.spans  # several spans, dragged on the curve
         self.steps.visible = self.layers.visible = is_edit
-        self.fraction.visible = "fraction" in reads
-        self.count.visible = "count" in reads
-        self.chunk.visible = self.chunk_help.visible = "chunk_frames" in reads
+        for name in PLAIN_INPUTS:
+            self.plain[name].visible = self.plain_help[name].visible = name in reads
         self.edited.visible = self.alignment.visible = "edited" in reads
         self.source.visible = entry.source
         self.source.label = entry.source_label
@@ -477,8 +475,8 @@ class EditTab(pn.viewable.Viewer):
 
     def __panel__(self):
         settings = pn.Column(
-            self.words_label, self.words, pn.Row(self.mode), self.weight, self.frames, self.spans_box, self.fraction,
-            self.count, self.chunk, self.chunk_help, self.edited, self.alignment,
+            self.words_label, self.words, pn.Row(self.mode), self.weight, self.frames, self.spans_box,
+            *(w for name in PLAIN_INPUTS for w in (self.plain[name], self.plain_help[name])), self.edited, self.alignment,
             pn.Row(self.source, self.style_source), self.style_prompt, self.steps, self.layers,
             sizing_mode="stretch_width")
         counting = pn.Column("#### Counting", pn.Row(pn.Column(self.count_method, self.readout, self.count_button,
