@@ -193,9 +193,9 @@ def checked_frames(loaded: LoadedModel, seconds) -> int:
 def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:
     """Validate everything before any work starts; raises ValueError (PromptError) with a user-facing message."""
     tokens = loaded.tokenizer.encode(settings.prompt)
-    intervals = plan(settings.prompt, seconds=settings.seconds, sequence=settings.sequence)
+    intervals = plan(settings.prompt, seconds=settings.seconds, sequence=settings.sequence, tempo=loaded.tempo)
     if intervals is None:
-        frames = checked_frames(loaded, resolve_seconds(settings.seconds, settings.prompt))
+        frames = checked_frames(loaded, resolve_seconds(settings.seconds, settings.prompt, tempo=loaded.tempo))
     else:  # clause by clause: each clause within the model's length (plan), the joined motion as long as they make it
         frames = timeline_frames(intervals)
     if int(settings.seed) < 0:

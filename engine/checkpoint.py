@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from engine.duration import Tempo, model_tempo
 from engine.model.denoiser import Denoiser, ModelConfig
 from engine.representation import FEATURE_DIM, Normalizer
 from engine.runtime import CPU, Runtime
@@ -53,6 +54,12 @@ class LoadedModel:
     def runtime(self) -> Runtime:
         """Where the model runs (its device and autocast)."""
         return Runtime(device=self.model.device, dtype=self.model.autocast_dtype)
+
+    @property
+    def tempo(self) -> Tempo:
+        """Its count tempo: how much longer than the corpus's length a counted action's segment must be for this
+        model to make the count (config.json "durations"; () = none measured)."""
+        return model_tempo(self.config)
 
 
 def write_config(folder: Path, *, model_config: ModelConfig, vocabulary: tuple[str, ...], extra: dict) -> None:

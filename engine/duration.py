@@ -5,9 +5,13 @@ leaves open drawn as the corpus draws it, and each segment's length taken from t
 (engine.synth.splits.natural_seconds: e.g. a jump 0.95 s a count plus a crouch, a walk 2.5-5.5 s). The sum of the
 segments' mean lengths is the duration, kept inside what the model supports. "jumps twice" gets room for two
 jumps and no more; a prompt with no recognised action gets the default. An explicit length always wins.
+
+A model need not repeat at the corpus's pace: its count tempo (:func:`model_tempo`, measured by ``moattn bench
+--tempo``) scales each counted segment of an action, so "claps three times" gets the time this model takes for three.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from functools import lru_cache
 
 import numpy as np
@@ -18,10 +22,22 @@ AUTO = "auto"
 DEFAULT_SECONDS = 4.0  # a prompt whose actions the intent parser does not know
 DRAWS = 64  # realisations averaged per segment (the estimate moves by under 0.05 s beyond this)
 
+#: a model's count tempo: (action, scale) pairs, sorted; a counted segment of that action gets ``scale`` times the
+#: corpus's length, the pace at which this model makes the count asked for (measured by ``moattn bench --tempo``,
+#: kept in the model's config.json, read by :func:`model_tempo`). () = the corpus's lengths.
+Tempo = tuple[tuple[str, float], ...]
+
+
+def model_tempo(config: Mapping | None) -> Tempo:
+    """The count tempo a model's ``config.json`` holds ("durations": {"count_scale": {action: scale}}), or ()."""
+    table = ((config or {}).get("durations") or {}).get("count_scale") or {}
+    return tuple(sorted((str(a), float(s)) for a, s in table.items()))
+
 
 @lru_cache(maxsize=512)
-def auto_seconds(prompt: str) -> float:
-    """The predicted length of ``prompt``'s motion in seconds (0.1 s steps, within the model's 1-9.8 s)."""
+def auto_seconds(prompt: str, tempo: Tempo = ()) -> float:
+    """The predicted length of ``prompt``'s motion in seconds (0.1 s steps, within the model's 1-9.8 s); ``tempo``:
+    the model's count tempo (:data:`Tempo`), scaling each counted segment of its actions."""
     from engine.intent import parse_intent
     from engine.synth.intents import realise_segment
     from engine.synth.splits import natural_seconds
@@ -30,6 +46,7 @@ def auto_seconds(prompt: str) -> float:
     if not intent.segments:
         return DEFAULT_SECONDS
     rng = np.random.default_rng(0)
+    scale = dict(tempo)
     total = 0.0
     for want in intent.segments:
         draws = []
@@ -40,14 +57,15 @@ def auto_seconds(prompt: str) -> float:
                 overlay = realise_segment(want.overlay, rng)
                 secs = max(secs, overlay.count * 0.6 + 1.2)
             draws.append(secs)
-        total += float(np.mean(draws))
+        total += float(np.mean(draws)) * (scale.get(want.action, 1.0) if want.count is not None else 1.0)
     return float(np.clip(round(total, 1), MIN_SECONDS, MAX_SECONDS))
 
 
-def resolve_seconds(seconds: float | str | None, prompt: str) -> float:
-    """An explicit length as given; ``"auto"`` or None: :func:`auto_seconds` of the prompt."""
+def resolve_seconds(seconds: float | str | None, prompt: str, *, tempo: Tempo = ()) -> float:
+    """An explicit length as given; ``"auto"`` or None: :func:`auto_seconds` of the prompt (at the model's
+    ``tempo``)."""
     if seconds is None or (isinstance(seconds, str) and seconds.strip().lower() == AUTO):
-        return auto_seconds(prompt)
+        return auto_seconds(prompt, tempo)
     try:
         return float(seconds)
     except (TypeError, ValueError):

@@ -6,7 +6,9 @@ import json
 
 import pytest
 
-from engine.duration import AUTO, DEFAULT_SECONDS, auto_seconds, resolve_seconds
+from engine.checkpoint import read_config
+from engine.duration import AUTO, DEFAULT_SECONDS, auto_seconds, model_tempo, resolve_seconds
+from engine.paths import MODEL_DIR
 from engine.generate import MAX_SECONDS, MIN_SECONDS
 
 
@@ -41,7 +43,52 @@ def test_generate_defaults_to_auto_and_says_so(tmp_path, capsys):
     out = tmp_path / "m.npy"
     assert main(["generate", "someone kick twice", "--out", str(out), "--steps", "2"]) == 0
     report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
-    assert report["seconds_from"] == "prompt" and report["seconds"] == auto_seconds("someone kick twice")
+    tempo = model_tempo(read_config(MODEL_DIR))  # the shipped model's count tempo, as the command reads it
+    assert report["seconds_from"] == "prompt" and report["seconds"] == auto_seconds("someone kick twice", tempo)
     assert report["frames"] == round(report["seconds"] * 20)
     assert main(["generate", "someone kicks", "--seconds", "2", "--out", str(out), "--steps", "2"]) == 0
     assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["frames"] == 40
+
+
+def test_a_models_count_tempo_scales_its_counted_actions_only():
+    tempo = (("clap", 1.3),)
+    plain, slow = auto_seconds("a person claps three times"), auto_seconds("a person claps three times", tempo)
+    assert abs(slow - 1.3 * plain) <= 0.1  # rounded to 0.1 s
+    assert auto_seconds("a person jumps twice", tempo) == auto_seconds("a person jumps twice")  # another action
+    assert auto_seconds("a person claps", tempo) == auto_seconds("a person claps")  # no count asked
+    walk = auto_seconds("a person walks forward")
+    both = auto_seconds("a person walks forward, then claps three times", tempo)
+    assert abs(both - (walk + slow)) <= 0.15  # the walk keeps its length
+    assert resolve_seconds(None, "a person claps three times", tempo=tempo) == slow
+    assert resolve_seconds(2.0, "a person claps three times", tempo=tempo) == 2.0  # an explicit length wins
+
+
+def test_model_tempo_reads_the_config_and_the_sequence_plan_uses_it():
+    from engine.methods.sequence import plan
+
+    config = {"durations": {"count_scale": {"wave": 1.2, "clap": 1.3}}}
+    assert model_tempo(config) == (("clap", 1.3), ("wave", 1.2))
+    assert model_tempo({}) == () and model_tempo(None) == () and model_tempo({"durations": {}}) == ()
+    prompt = "a person walks forward, then claps three times"
+    plain, slow = plan(prompt), plan(prompt, tempo=model_tempo(config))
+    assert plain[0].seconds == slow[0].seconds and slow[1].seconds > plain[1].seconds
+
+
+def test_generate_reads_the_models_count_tempo(tiny_model_dir, tmp_path, capsys):
+    import shutil
+
+    from engine.checkpoint import load_model, write_config_json
+    from engine.cli import main
+
+    folder = tmp_path / "model"
+    shutil.copytree(tiny_model_dir, folder)
+    data = read_config(folder)
+    data["durations"] = {"count_scale": {"clap": 1.4}}
+    write_config_json(folder, data)
+    assert load_model(folder).tempo == (("clap", 1.4),)
+    out = tmp_path / "m.npy"
+    assert main(["generate", "a person claps three times", "--model", str(folder), "--out", str(out), "--steps", "2",
+                 "--no-library"]) == 0
+    report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert report["seconds"] == auto_seconds("a person claps three times", (("clap", 1.4),))
+    assert report["seconds"] > auto_seconds("a person claps three times")

@@ -151,7 +151,11 @@ class GenerateBox(param.Parameterized):
 
     def duration(self) -> float:
         """The Generate box's length in seconds: as typed, or predicted from the prompt when the box is empty."""
-        return resolve_seconds(self.seconds, self.prompt)
+        return resolve_seconds(self.seconds, self.prompt, tempo=self.count_tempo())
+
+    def count_tempo(self):
+        """The model's count tempo (``engine.duration.Tempo``: what ``auto`` lengths read), () without a model."""
+        return self.model.tempo if self.has_model else ()
 
     def generate(self) -> bool:
         """Check the inputs and start sampling on a worker thread; False (and a notification) if refused."""

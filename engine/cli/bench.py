@@ -18,6 +18,9 @@
 --levers     a lever screen: one row per model folder (given as FILES) on the dev prompt set: dev action,
              count and side adherence with the seeds' spread, foot skate vs the truth, one real file's inversion
              round trip, the run's logged samples/s (engine/evaluation/bench_levers.py)
+--tempo      the model's count tempo: per counted action, the scale of its predicted length at which it makes the
+             count asked for most often; --write stores it where --seconds auto reads it
+             (engine/evaluation/calibrate_tempo.py)
 --train      training steps/s, samples/s, GFLOP/s and share of the matmul peak for the shipped model's shape
              and one twice as wide (fp32 and bf16 on the CPU; --device / --precision), and whether the corpus
              generator keeps up with 0/1/2/several DataLoader workers (engine/evaluation/bench_train.py)
@@ -72,8 +75,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--prompts goes with --adherence, --sampling or --levers")
     if args.calibrate and not args.edits:
         raise ValueError("--calibrate and --write go with --edits (--write also with --control)")
-    if args.write and not (args.edits or args.control):
-        raise ValueError("--write goes with --edits --calibrate or with --control")
+    if args.write and not (args.edits or args.control or args.tempo):
+        raise ValueError("--write goes with --edits --calibrate, --tempo or --control")
     if args.write and args.control and args.drawn == 0:
         raise ValueError("--write records the drawn-path figures: --drawn must be above 0")
     if args.no_real_data and not args.inversion:
@@ -92,6 +95,10 @@ def run(args: argparse.Namespace) -> int:
         if args.control:
             raise ValueError("--exports goes alone")
         return run_exports(args)
+    if args.tempo:
+        if args.control:
+            raise ValueError("--tempo goes alone")
+        return run_tempo(args)
     if args.soak:
         if args.control:
             raise ValueError("--soak goes alone")
@@ -112,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
         return run_sampling(args)
     if not (args.app or args.edits or args.inversion or args.transfer):
         raise ValueError("choose a benchmark: --app, --soak, --edits, --inversion, --transfer, --compose and/or --control, "
-                         "--duet, --adherence, --sampling, --train, --exports")
+                         "--duet, --adherence, --sampling, --train, --exports, --tempo")
     if args.app:
         from app.bench.studio import run_app_bench
 
@@ -148,6 +155,19 @@ def _model(args: argparse.Namespace):
 
 def _log(line: str) -> None:
     print(line, file=sys.stderr, flush=True)
+
+
+def run_tempo(args: argparse.Namespace) -> int:
+    from engine.evaluation.calibrate_tempo import TempoConfig, calibrate_tempo, format_table, write_tempo
+
+    config = preset(TempoConfig, args)
+    result = calibrate_tempo(_model(args), config, log=_log)
+    if args.write:
+        write_tempo(args.model, result)
+    print(json.dumps(result, indent=2) if args.json else format_table(result) + (
+        f"\ncount tempo written to {shown_folder(args.model)}/config.json" if args.write else
+        "\n(not written: add --write)"))
+    return 0
 
 
 def run_calibration(args: argparse.Namespace) -> int:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, CLIError, check_outputs
 from engine.cli.options import add_options, add_sample_options, sample_config
-from engine.duration import AUTO, resolve_seconds
+from engine.duration import AUTO, model_tempo, resolve_seconds
 from engine.library.cli_support import add_library_arguments, cli_recipe, keep
 from engine.methods.generate_options import GenerateOptions
 from engine.runtime import add_runtime_arguments, runtime_from_args
@@ -29,7 +29,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from engine.checkpoint import load_model
+    from engine.checkpoint import load_model, read_config
     from engine.generate import FPS, Request, frames_for, generate
     from engine.io import save_motion
     from engine.methods.sequence import generate_sequence, plan, timeline_frames
@@ -40,13 +40,14 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(args.out, MOTION_SUFFIXES + RENDER_SUFFIXES)  # every --out, before the model loads
     if args.vecs and any(out.suffix.lower() == ".bvh" for out in args.out):
         raise CLIError("--vecs writes 263-dim features to .npy; a .bvh --out holds joints: drop --vecs or the .bvh")
+    tempo = model_tempo(read_config(args.model))  # the model's count tempo: what an auto length reads
     try:  # a prompt of several actions in order: one interval per clause (engine.methods.sequence)
         intervals = plan(args.prompt, seconds=None if args.seconds == AUTO else float(args.seconds),
-                         sequence=args.sequence)
+                         sequence=args.sequence, tempo=tempo)
     except ValueError as exc:
         raise CLIError(str(exc)) from None
     if intervals is None:
-        seconds = resolve_seconds(args.seconds, args.prompt)
+        seconds = resolve_seconds(args.seconds, args.prompt, tempo=tempo)
         frames = frames_for(seconds)  # one take: within the model's longest motion
     else:  # clause by clause: each clause within it, the joined motion as long as they make it
         frames = timeline_frames(intervals)

@@ -97,11 +97,11 @@ def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: Adherenc
     from engine.generate import Request, generate
     from engine.methods.sequence import generate_sequence, plan
 
-    if plan(prompt, sequence=config.sequence) is not None:
+    if plan(prompt, sequence=config.sequence, tempo=loaded.tempo) is not None:
         motions = []
         for k, n in enumerate(lengths):
-            intervals = plan(prompt, sequence=config.sequence, seconds=None if config.lengths == "auto" else
-                             max((n - 1) / FPS, 0.0))
+            intervals = plan(prompt, sequence=config.sequence, tempo=loaded.tempo,
+                             seconds=None if config.lengths == "auto" else max((n - 1) / FPS, 0.0))
             sample = SampleConfig(steps=config.steps, guidance=config.guidance, guidance_from=config.guidance_from,
                                   eta=config.eta, seed=config.seed + k)
             motions.append(generate_sequence(loaded, intervals, sample).joints)
@@ -157,7 +157,7 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
                     from engine.duration import auto_seconds
                     from engine.generate import frames_for
 
-                    lengths = [frames_for(auto_seconds(prompt)) + 1] * config.seeds
+                    lengths = [frames_for(auto_seconds(prompt, loaded.tempo)) + 1] * config.seeds
                 else:
                     lengths = [len(j) for j in truths]
                 motions = _model_motions(loaded, prompt, lengths, config)

@@ -54,6 +54,10 @@ class BenchOptions:
     sequence: str | None = option(None, choices=SEQUENCE_MODES,
         help="--adherence: prompts of several actions in order generated clause by clause and joined with DoubleTake "
              "(clauses: what a user gets; default) or in one take of the whole prompt (whole: the model alone)")
+    tempo: bool = option(False, exclusive="benchmark",
+        help="the model's count tempo: per counted action, the scale of its predicted length at which the model makes "
+             "the asked-for count most often (calibration prompts); --write stores it in config.json, where every "
+             "--seconds auto reads it")
     exports: bool = option(False, exclusive="benchmark",
         help="seconds to export a 9.8-s motion as the studio's Export buttons do (GIF, MP4, GLB, BVH, npy)")
     train: bool = option(False, exclusive="benchmark",
@@ -78,7 +82,8 @@ class BenchOptions:
         help="--edits: measure per layer whether emphasis grows the action (calibration prompts, not the benchmark's) "
              "instead of benchmarking")
     write: bool = option(False, group=EDITS,
-        help="--calibrate: store the chosen layers in the model's config.json; --control: record the drawn root + "
+        help="--calibrate: store the chosen layers in the model's config.json; --tempo: store the count tempo there; "
+             "--control: record the drawn root + "
              "wrist figures beside the control models (bench.json: the studio's Control tab opens on blending only "
              "when they have it ahead of inpainting)")
     samples: int | None = option(None, type=int, group=EDITS,

@@ -16,7 +16,7 @@ from collections.abc import Callable
 from engine.checkpoint import LoadedModel
 from engine.clauses import clause_prompts
 from engine.diffusion import StepState
-from engine.duration import auto_seconds
+from engine.duration import Tempo, auto_seconds
 from engine.generate import FPS, SampleConfig
 from engine.methods.doubletake import (MIN_OWN_FRAMES, Composed, DoubleTakeConfig, Interval, compose,
                                        second_take_timesteps)
@@ -37,7 +37,8 @@ def sequence_clauses(prompt: str, sequence: str = DEFAULT_SEQUENCE) -> tuple[str
     return clauses if sequence == "clauses" and len(clauses) > 1 else ()
 
 
-def plan(prompt: str, *, seconds: float | None = None, sequence: str = DEFAULT_SEQUENCE) -> list[Interval] | None:
+def plan(prompt: str, *, seconds: float | None = None, sequence: str = DEFAULT_SEQUENCE,
+         tempo: Tempo = ()) -> list[Interval] | None:
     """The intervals ``prompt`` is generated as, or None where it is one take (one action, ``sequence`` "whole", or
     an order its words do not let cut). ``seconds`` None: each clause's predicted length; else the motion's total
     length, shared between the clauses as their predicted lengths are. A ValueError (one line) where ``seconds`` is
@@ -45,7 +46,7 @@ def plan(prompt: str, *, seconds: float | None = None, sequence: str = DEFAULT_S
     clauses = sequence_clauses(prompt, sequence)
     if not clauses:
         return None
-    own = [auto_seconds(c) for c in clauses]
+    own = [auto_seconds(c, tempo) for c in clauses]
     if seconds is not None:
         own = [float(seconds) * s / sum(own) for s in own]
     intervals = []

@@ -85,13 +85,13 @@ class ComposeSettings(param.Parameterized):
         rows[index], rows[j] = rows[j], rows[index]
         self.intervals = rows
 
-    def from_sentence(self, text: str) -> None:
+    def from_sentence(self, text: str, *, tempo=()) -> None:
         """The timeline of a prompt of several actions in order ("a person walks forward, then jumps"): one interval
         per clause, as long as the Generate box would make it (``engine.methods.sequence.plan``), default
-        handshakes. A one-line ValueError for a prompt that is not actions in order."""
+        handshakes; ``tempo``: the model's count tempo. A one-line ValueError for a prompt that is not actions in order."""
         from engine.methods.sequence import plan
 
-        intervals = plan(" ".join(str(text).split()))
+        intervals = plan(" ".join(str(text).split()), tempo=tempo)
         if intervals is None:
             raise ValueError(f"{text.strip()!r} is not actions in order: write them with 'then' or commas, e.g. "
                              f"'a person walks forward, then jumps'")

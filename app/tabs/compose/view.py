@@ -126,7 +126,7 @@ class ComposeTab(pn.viewable.Viewer):
 
     def from_sentence(self, text: str) -> None:
         try:
-            self.settings.from_sentence(text or "")
+            self.settings.from_sentence(text or "", tempo=self.state.count_tempo())
         except ValueError as exc:
             self.state.error(str(exc))
 

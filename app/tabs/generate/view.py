@@ -155,8 +155,9 @@ class GenerateControls(pn.viewable.Viewer):
             layers, heads = config["layers"], config["heads"]
         except Exception:
             layers, heads = 6, 4
-        intervals = plan(s.prompt, sequence=s.sequence)  # actions in order: clause by clause, each its own length
-        auto = auto_seconds(s.prompt) if intervals is None else timeline_frames(intervals) / FPS
+        tempo = s.count_tempo()
+        intervals = plan(s.prompt, sequence=s.sequence, tempo=tempo)  # actions in order: clause by clause, each its own length
+        auto = auto_seconds(s.prompt, tempo) if intervals is None else timeline_frames(intervals) / FPS
         placeholder = f"auto {auto:.1f}"  # an empty box: the length predicted from the prompt
         if self.seconds.placeholder != placeholder:
             self.seconds.placeholder = placeholder
