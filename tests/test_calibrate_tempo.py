@@ -17,6 +17,9 @@ def test_choose_takes_the_best_scale_only_beyond_the_gain():
     assert choose({1.0: 0.3, 1.15: 0.4, 1.3: 0.35}, 0.12) == 1.0  # within the noise: the corpus's length
     assert choose({0.9: 0.6, 1.0: 0.6, 1.15: 0.6}, 0.0) == 1.0  # a tie: nearest 1
     assert choose({0.9: 0.9, 1.0: 0.5, 1.3: 0.9}, 0.12) == 0.9  # a tie between two beyond it: the nearer 1 first
+    # base v9's claps: 1.45 counts best by 0.06, inside the noise of 1.15, which is the smaller change
+    assert choose({0.9: 0.0, 1.0: 0.28, 1.15: 0.5, 1.3: 0.44, 1.45: 0.56}, 0.12) == 1.15
+    assert choose({0.9: 0.11, 1.0: 0.22, 1.15: 0.28, 1.3: 0.44, 1.45: 0.22}, 0.12) == 1.3  # its waves
 
 
 def test_every_calibration_prompt_is_one_counted_action_and_in_no_bench_set():
@@ -46,7 +49,7 @@ def test_a_calibration_on_the_tiny_model_is_written_where_auto_lengths_read_it(t
 
     folder = tmp_path / "model"
     shutil.copytree(tiny_model_dir, folder)
-    config = replace(TempoConfig.quick(), actions=("clap", "jump"), seeds=2, steps=2, min_gain=-1.0)
+    config = replace(TempoConfig.quick(), actions=("clap", "jump"), seeds=2, steps=2, min_gain=0.0)
     result = calibrate_tempo(load_model(folder), config)
     assert set(result["per_action"]) == {"clap", "jump"} and set(result["per_action"]["clap"]) == {"1", "1.15", "1.3"}
     assert all(0.0 <= v <= 1.0 for shares in result["per_action"].values() for v in shares.values())

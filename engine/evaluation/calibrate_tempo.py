@@ -6,8 +6,9 @@ need not repeat at the corpus's pace: base v9 makes 2 claps where 3 were asked i
 the length a counted segment gets is scaled per action, by the factor measured here for this model: for each
 counted action, calibration prompts ("the person claps three times"; none is a prompt of the adherence bench's
 default or dev sets) are generated at several scales of their predicted length, as a user samples them, and the
-repetitions are counted by the adherence bench's detectors. The scale with the most exact counts wins where it
-beats the corpus's length (scale 1) by at least ``min_gain``; otherwise the action keeps scale 1. The factors go into
+repetitions are counted by the adherence bench's detectors. Of the scales within half ``min_gain`` of the most exact
+counts, the one nearest 1 wins where it beats the corpus's length (scale 1) by at least ``min_gain``; otherwise the
+action keeps scale 1. The factors go into
 the model's ``config.json`` ("durations": {"count_scale": {...}, "calibration": {...}}), where every ``--seconds
 auto`` (the CLI, the studio's Generate box, the benches) reads them through :func:`engine.duration.model_tempo`.
 """
@@ -95,9 +96,11 @@ def _exact_shares(loaded: LoadedModel, action: str, config: TempoConfig, log) ->
 
 
 def choose(shares: dict[float, float], min_gain: float) -> float:
-    """The scale with the most exact counts (nearer 1 on a tie) where it beats scale 1 by ``min_gain``, else 1."""
-    best = max(sorted(shares, key=lambda s: abs(s - 1.0)), key=lambda s: shares[s])
-    return float(best) if shares[best] - shares[1.0] >= min_gain else 1.0
+    """The scale nearest 1 among those within half ``min_gain`` of the most exact counts (the draws cannot tell them
+    apart, and a smaller change of length is the safer one), where it beats scale 1 by ``min_gain``; else 1."""
+    best = max(shares.values())
+    near = min((s for s, v in shares.items() if v >= best - max(min_gain, 0.0) / 2), key=lambda s: (abs(s - 1.0), s))
+    return float(near) if shares[near] - shares[1.0] >= min_gain else 1.0
 
 
 def calibrate_tempo(loaded: LoadedModel, config: TempoConfig = TempoConfig(), *, log=lambda line: None) -> dict:
