@@ -90,12 +90,13 @@ def options_from_args(args: argparse.Namespace):
         from engine.generate import frames_for
 
         span = (args.from_frame or 0, args.to_frame if args.to_frame is not None else frames_for(args.seconds))
+    entry = REGISTRY[args.kind]
     source = args.prompt
-    if args.kind in ("example", "style", "count"):
-        source = _source(args.prompt, "a prompt or a motion file" if args.kind == "count"
-                         else "an example prompt or file" if args.kind == "example" else "a content prompt or file")
+    if entry.source or not entry.is_edit:  # the prompt may be a motion file: an example, a content, a motion to count
+        source = _source(args.prompt, f"{'an' if entry.source_label[0] in 'AEIOU' else 'a'} "
+                         f"{entry.source_label.lower()} prompt or file" if entry.is_edit else "a prompt or a motion file")
     return from_args(EditOptions, args, check=False, prompt=source, frames=span, seed=args.seed,
-                     style=_source(args.style, "--style") if args.kind == "style" else None)
+                     style=_source(args.style, "--style") if "style" in entry.inputs else None)
 
 
 def run(args: argparse.Namespace) -> int:
