@@ -526,12 +526,18 @@ def library_report(group: list[Session], workspace: Path, *, model_dir: Path, re
         listed = _listed_after_restart(model_dir, workspace, serve_args=serve_args, timeout_s=timeout_s,
                                        log_path=log_path)
         report["listed_after_restart"] = len(listed)
-        shown = Counter(_base_title(n) for n in listed)
-        kept = Counter(e.title for e in entries)
-        report["not_listed_after_restart"] = sorted((kept - shown).elements())
+        report["not_listed_after_restart"] = not_listed([e.title for e in entries], listed)
         say(f"server restarted on the same workspace: its Motion list shows {len(listed)} of {len(entries)} "
             f"motions kept")
     return report
+
+
+def not_listed(titles: list[str], listed: list[str]) -> list[str]:
+    """The kept titles a Motion list does not show, compared without the "(2)" that tells repeated titles apart (a
+    kept title may carry the session's own, and the list numbers its repeats again when it reads them back)."""
+    shown = Counter(_base_title(n) for n in listed)
+    kept = Counter(_base_title(t) for t in titles)
+    return sorted((kept - shown).elements())
 
 
 def _base_title(name: str) -> str:

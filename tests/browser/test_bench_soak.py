@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from app.bench.soak import PROMPTS, bench_soak, format_table, library_ok, scan_log
+from app.bench.soak import PROMPTS, bench_soak, format_table, library_ok, not_listed, scan_log
 
 pytestmark = pytest.mark.timeout(300)
 
@@ -97,3 +97,13 @@ def test_library_mb_goes_with_soak_and_above_zero():
         run(parser.parse_args(["bench", "--edits", "--library-mb", "5"]))
     with pytest.raises(ValueError, match="--library-mb must be above 0"):
         run(parser.parse_args(["bench", "--soak", "--library-mb", "0"]))
+
+
+def test_kept_titles_are_matched_to_the_list_without_their_repeat_numbers():
+    kept = ["a person waves · seed 0", "a person waves · seed 0 (2)", "emphasise 'waves' +0.30 (2)",
+            "emphasise 'waves' +0.30"]
+    listed = ["a person waves · seed 0", "a person waves · seed 0 (2)", "emphasise 'waves' +0.30",
+              "emphasise 'waves' +0.30 (2)"]
+    assert not_listed(kept, listed) == []
+    assert not_listed(kept, listed[:3]) == ["emphasise 'waves' +0.30"]  # one of the two repeats is missing
+    assert not_listed(kept + ["a person jumps · seed 0 (3)"], listed) == ["a person jumps · seed 0"]

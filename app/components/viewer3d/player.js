@@ -36,12 +36,14 @@ const Player = (() => {
     return k;
   }
   function moveCursors(ids, view, k) {
-    // the Bokeh Spans with these ids go to frame k; returns how many moved
+    // the Bokeh Spans with these ids go to frame k, in this page only (sync: false: not sent to the server, which
+    // sets them itself when its frame changes; 20 patches a second per cursor while playing were traffic for
+    // nothing, and a page closing mid-playback sent them to a session already gone); returns how many moved
     if (!ids.length || !view || !view.model || !view.model.document) return 0;
     let moved = 0;
     for (const id of ids) {
       const m = view.model.document.get_model_by_id(id);
-      if (m && m.location !== k) { m.location = k; moved += 1; }
+      if (m && m.location !== k) { m.setv({location: k}, {sync: false}); moved += 1; }
     }
     return moved;
   }
