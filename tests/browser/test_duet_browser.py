@@ -4,6 +4,7 @@ are saved (``screens``)."""
 from __future__ import annotations
 
 import io
+import re
 
 import numpy as np
 import pytest
@@ -47,6 +48,11 @@ def test_duet_tab_makes_and_plays_two_people(browser, server_url, screens):
         page.locator(".duet-readout .duet-box", has_text="person b from person a").wait_for(timeout=180000)
         # the prompt read as a handshake: contact guidance names its span
         page.locator(".duet-readout .duet-box", has_text="handshake: right hands").wait_for(timeout=5000)
+        # the people never start inside each other, and the readout says how far apart they start (#35)
+        spacing = page.locator(".duet-readout .duet-box", has_text="apart in the first 1 s").inner_text()
+        start = float(re.search(r"torsos at least ([0-9.]+) m apart", spacing).group(1))
+        least = float(re.search(r"the corpus keeps ([0-9.]+) m", spacing).group(1))
+        assert start >= least - 0.01, spacing
         br.wait_new_motion(page, key)
         assert page.evaluate("window.moattnPlayer.n_frames") == 60
         br.painted(page)

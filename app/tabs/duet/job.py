@@ -42,6 +42,7 @@ class DuetSummary:
     prefix_frames: int
     n_frames: int
     seconds_taken: float
+    spacing: str = ""  # the start's torso distance against the rule, and whether person b was moved (in words)
 
 
 @dataclass
@@ -182,7 +183,8 @@ class DuetJob:
         summary = DuetSummary(names=(first, second), mode=job.mode, prompt=job.prompt or "",
                               communicate=job.communicate, placement=p, contacts=contact_words(job, duet),
                               distance_m=float(np.hypot(p.x, p.z)), facing_each_other=face_each_other(duet.joints),
-                              prefix_frames=given, n_frames=duet.frames, seconds_taken=seconds_taken)
+                              prefix_frames=given, n_frames=duet.frames, seconds_taken=seconds_taken,
+                              spacing=spacing_words(duet))
         colors = {}
         if given:
             for k, it in enumerate(items):
@@ -209,11 +211,29 @@ def contact_words(job: DuetPlan, duet) -> str:
     return f"{duet.interaction.replace('_', ' ')}: {spans} of the clip"
 
 
+def spacing_words(duet) -> str:
+    """The readout's line on the spacing rule (engine.methods.duet_spacing): how far apart the torsos start, the
+    least the corpus's own duets of that interaction keep, and whether person b was moved to keep it."""
+    from engine.analysis.duet_pose import torso_distance
+    from engine.methods.duet_spacing import START_SECONDS
+
+    start = float(torso_distance(duet.joints)[: max(1, int(round(START_SECONDS * FPS)))].min())
+    rule = duet.spacing.rule if duet.spacing is not None else None
+    if rule is None:
+        return f"torsos at least {start:.2f} m apart in the first {START_SECONDS:g} s (as sampled: no rule applied)"
+    what = f"a {rule.interaction.replace('_', ' ')}" if rule.interaction else "two people"
+    moved = (f"person b moved up to {float(duet.spacing.push.max()):.2f} m to keep it" if duet.spacing.moved
+             else "nothing moved")
+    return (f"torsos at least {start:.2f} m apart in the first {START_SECONDS:g} s (the corpus keeps "
+            f"{max(rule.start, rule.anywhere):.2f} m for {what}); {moved}")
+
+
 def describe(summary: DuetSummary) -> list[tuple[str, str]]:
     p = summary.placement
     rows = [("method", "ComMDM" if summary.communicate else "prior twice (no block)"),
             ("person b from person a", f"{summary.distance_m:.2f} m, facing {np.degrees(p.yaw):+.0f}°"),
             ("face each other (mid-clip)", "yes" if summary.facing_each_other else "no"),
+            *([("spacing", summary.spacing)] if summary.spacing else []),
             ("contact guidance", summary.contacts),
             ("frames", f"{summary.n_frames} ({summary.n_frames / FPS:.1f} s)"
              + (f", first {summary.prefix_frames} given" if summary.prefix_frames else "")),
