@@ -19,7 +19,7 @@ The sessions run round-robin in one thread (Playwright's sync API is not thread-
 hands over, and its waits are polls, so the server works on several sessions' jobs at once.
 
 Reported: the server log's errors (``server_errors``: tracebacks, ERROR / Error: / Exception lines, deduplicated
-with counts) and, apart, its warnings (``server_warnings``, not failing), the server's resident memory (its children included) and thread count before the pages, once every
+with counts) and, apart, its warnings (``server_warnings``, not failing) and Bokeh's and Tornado's errors on a page already gone (``closed_page_errors``: a message for a session discarded, a socket closed mid-send; not failing), the server's resident memory (its children included) and thread count before the pages, once every
 session finished its first cycle (``warm``), at the end after closed sessions had time to be discarded
 (``after``) and the peak; each session's worst time to result (click -> first frame of the generated or edited
 motion, page clock); ``page_loads`` and ``rss_growth_per_load_mb`` (memory after minus warm, per page load after
@@ -114,11 +114,57 @@ def _server_pid(port: int) -> int:
 
 
 # ------------------------------------------------------------------ the server log
+#: what Bokeh's server and Tornado raise when a message arrives for a page already gone (reloaded or closed while
+#: playing): the connection's session was discarded, or the socket closed mid-send. No page sees it; it is counted
+#: apart from the server's errors.
+CLOSED_PAGE = ("assert self._session is not None", "StreamClosedError", "WebSocketClosedError")
 
 
-def scan_log(text: str, *, warnings: bool = False) -> list[dict]:
+def _traceback_end(lines: list[str], i: int) -> int:
+    """The index of a traceback's exception line (the traceback starts at ``i``)."""
+    j = i + 1
+    while j < len(lines) and (lines[j].startswith((" ", "\t")) or not lines[j].strip()):
+        j += 1
+    return j
+
+
+def _closed_page(lines: list[str], i: int, j: int) -> bool:
+    """Whether the traceback in lines i..j (and any it was raised while handling) is a page-already-gone one."""
+    block = lines[i:j + 1]
+    k = j + 1  # "During handling of the above exception, another exception occurred:" chains the next one on
+    while k + 2 < len(lines) and not lines[k].strip() and "During handling" in lines[k + 1]:
+        start = next((m for m in range(k + 2, min(k + 5, len(lines))) if "Traceback" in lines[m]), None)
+        if start is None:
+            break
+        end = _traceback_end(lines, start)
+        block += lines[start:end + 1]
+        k = end + 1
+    if i >= 2 and "During handling" in lines[i - 2]:
+        return _closed_page_before(lines, i)
+    return any(marker in line for line in block for marker in CLOSED_PAGE)
+
+
+def _closed_page_before(lines: list[str], i: int) -> bool:
+    """A chained traceback (at ``i``) takes the verdict of the one it was raised while handling."""
+    m = i - 3
+    while m >= 0 and "Traceback (most recent call last)" not in lines[m]:
+        m -= 1
+    return m >= 0 and _closed_page(lines, m, _traceback_end(lines, m))
+
+
+def _closed_page_error(lines: list[str], i: int) -> bool:
+    """An error line whose traceback (within the next lines) is a page-already-gone one."""
+    for m in range(i + 1, min(i + 4, len(lines))):
+        if "Traceback (most recent call last)" in lines[m]:
+            return _closed_page(lines, m, _traceback_end(lines, m))
+    return False
+
+
+def scan_log(text: str, *, warnings: bool = False, closed: bool = False) -> list[dict]:
     """Error lines of a server log, deduplicated with counts, in order of first appearance. A traceback counts once,
-    as ``Traceback: <its exception line>``. ``warnings``: the warning lines instead (no tracebacks)."""
+    as ``Traceback: <its exception line>``. ``warnings``: the warning lines instead (no tracebacks). ``closed``: only
+    the errors of Bokeh's server and Tornado on a page already gone (a message arriving for a session it discarded, a
+    socket closed mid-send: :data:`CLOSED_PAGE`), which the other calls leave out."""
     found: Counter = Counter()
     pattern = WARNING_PATTERN if warnings else ERROR_PATTERN
     lines = text.splitlines()
@@ -129,16 +175,16 @@ def scan_log(text: str, *, warnings: bool = False) -> list[dict]:
             i += 1
             continue
         if "Traceback (most recent call last)" in line:
-            j = i + 1
-            while j < len(lines) and (lines[j].startswith((" ", "\t")) or not lines[j].strip()):
-                j += 1
+            j = _traceback_end(lines, i)
             last = lines[j].strip() if j < len(lines) else "(cut off)"
-            if not warnings:
+            if not warnings and _closed_page(lines, i, j) == closed:
                 found[f"Traceback: {last}"] += 1
             i = j + 1
             continue
         if pattern.search(line) and not (warnings and ERROR_PATTERN.search(line)):
-            found[_TIMESTAMP.sub("", line).strip()] += 1
+            gone = not warnings and _closed_page_error(lines, i)
+            if gone == closed:
+                found[_TIMESTAMP.sub("", line).strip()] += 1
         i += 1
     return [{"line": k, "count": v} for k, v in found.items()]
 
@@ -570,6 +616,7 @@ def _soak_report(group: list[Session], memory: ServerMemory, burst: dict, log_pa
     before, warm, after, peak = memory.before, memory.warm, memory.after, memory.peak
     log_text = log_path.read_text(errors="replace")
     server_errors, server_warnings = scan_log(log_text), scan_log(log_text, warnings=True)
+    closed_page = scan_log(log_text, closed=True)
 
     def worst(xs):
         return max(xs) if xs else None
@@ -592,6 +639,7 @@ def _soak_report(group: list[Session], memory: ServerMemory, burst: dict, log_pa
         "server_log": str(log_path),
         "server_errors": server_errors,
         "server_warnings": server_warnings,
+        "closed_page_errors": closed_page,
         "rss_mb": {"before": before["rss_mb"], "warm": None if warm is None else warm["rss_mb"],
                    "after": after["rss_mb"], "peak": peak["rss_mb"]},
         "threads": {"before": before["threads"], "warm": None if warm is None else warm["threads"],
@@ -645,6 +693,7 @@ def format_table(r: dict) -> str:
             f"{r['sessions']} concurrent GET / at the start: all served in {num(r['burst_get_s']['all_s'])} s "
             f"(slowest {num(r['burst_get_s']['slowest_s'])} s)"]
     for title, rows in (("server errors", r["server_errors"]), ("server warnings (not failing)", r["server_warnings"]),
+                        ("Bokeh/Tornado on a page already gone (not failing)", r.get("closed_page_errors", [])),
                         ("page errors", r["page_errors"])):
         out.append(f"{title}: {'none' if not rows else len(rows)}")
         out += [f"  {row['count']:>3} x {row['line']}" for row in rows]

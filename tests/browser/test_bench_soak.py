@@ -107,3 +107,42 @@ def test_kept_titles_are_matched_to_the_list_without_their_repeat_numbers():
     assert not_listed(kept, listed) == []
     assert not_listed(kept, listed[:3]) == ["emphasise 'waves' +0.30"]  # one of the two repeats is missing
     assert not_listed(kept + ["a person jumps · seed 0 (3)"], listed) == ["a person jumps · seed 0"]
+
+
+CLOSED_PAGE_LOG = """\
+ERROR:bokeh.server.protocol_handler:error handling message
+ message: Message 'PATCH-DOC' content: {'events': [{'kind': 'ModelChanged', 'attr': 'frame', 'new': 38}]}
+ error: AssertionError()
+Traceback (most recent call last):
+  File "bokeh/server/protocol_handler.py", line 94, in handle
+    work = await handler(message, connection)
+  File "bokeh/server/connection.py", line 65, in session
+    assert self._session is not None
+AssertionError
+Task exception was never retrieved
+Traceback (most recent call last):
+  File "tornado/websocket.py", line 1086, in wrapper
+    await fut
+tornado.iostream.StreamClosedError: Stream is closed
+
+During handling of the above exception, another exception occurred:
+
+Traceback (most recent call last):
+  File "tornado/websocket.py", line 1088, in wrapper
+    raise WebSocketClosedError()
+tornado.websocket.WebSocketClosedError
+ERROR:app.main:callback failed
+Traceback (most recent call last):
+  File "x.py", line 1, in <module>
+ValueError: boom
+"""
+
+
+def test_errors_on_a_page_already_gone_are_counted_apart():
+    assert scan_log(CLOSED_PAGE_LOG) == [{"line": "ERROR:app.main:callback failed", "count": 1},
+                                         {"line": "Traceback: ValueError: boom", "count": 1}]
+    assert scan_log(CLOSED_PAGE_LOG, closed=True) == [
+        {"line": "ERROR:bokeh.server.protocol_handler:error handling message", "count": 1},
+        {"line": "Traceback: AssertionError", "count": 1},
+        {"line": "Traceback: tornado.iostream.StreamClosedError: Stream is closed", "count": 1},
+        {"line": "Traceback: tornado.websocket.WebSocketClosedError", "count": 1}]
