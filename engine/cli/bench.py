@@ -87,24 +87,11 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--sessions, --minutes and --library-mb go with --soak")
     if args.library_mb is not None and not args.library_mb > 0:
         raise ValueError(f"--library-mb must be above 0, got {args.library_mb:g}")
-    if args.train:
-        if args.control:
-            raise ValueError("--train goes alone")
-        return run_train(args)
-    if args.exports:
-        if args.control:
-            raise ValueError("--exports goes alone")
-        return run_exports(args)
-    if args.tempo:
-        if args.control:
-            raise ValueError("--tempo goes alone")
-        return run_tempo(args)
-    if args.soak:
-        if args.control:
-            raise ValueError("--soak goes alone")
-        from app.bench.soak import run_soak_bench
-
-        return run_soak_bench(args)
+    for name, runner in _ALONE.items():  # the benchmarks that run alone (the argparse group refuses two of them;
+        if getattr(args, name):          # --control is not in it, for --compose --control)
+            if args.control:
+                raise ValueError(f"--{name} goes alone")
+            return runner(args)
     if args.compose or args.control:
         if args.app or args.edits or args.inversion or args.transfer or args.duet:
             raise ValueError("--control goes alone or with --compose")
@@ -129,6 +116,12 @@ def run(args: argparse.Namespace) -> int:
     if args.transfer:
         return run_transfer(args)
     return run_inversion(args)
+
+
+def run_soak(args: argparse.Namespace) -> int:
+    from app.bench.soak import run_soak_bench
+
+    return run_soak_bench(args)
 
 
 def given_steps(args: argparse.Namespace) -> int | None:
@@ -319,3 +312,7 @@ def run_train(args: argparse.Namespace) -> int:
     result = bench_train(config, device=args.device, precision=args.precision, model_dir=args.model, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
     return 0
+
+
+#: benchmarks that run alone, in the order they are looked for
+_ALONE = {"train": run_train, "exports": run_exports, "tempo": run_tempo, "soak": run_soak}
