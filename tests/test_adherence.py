@@ -114,6 +114,8 @@ def test_root_speed_shows_a_walk_in_place(monkeypatch):
     monkeypatch.setattr(ba, "_model_motions", in_place)
 
     class Loaded:
+        tempo = ()  # the corpus's lengths (no count tempo measured)
+
         class tokenizer:
             @staticmethod
             def encode(prompt):

@@ -150,7 +150,7 @@ def test_the_shipped_record_speaks_for_the_shipped_control_models():
 
 def test_moattn_bench_write_flags_are_checked_before_any_work(capsys):
     assert main(["bench", "--write"]) == 2
-    assert "--write goes with --edits --calibrate or with --control" in capsys.readouterr().err
+    assert "--write goes with --edits --calibrate, --tempo or --control" in capsys.readouterr().err
     assert main(["bench", "--control", "--write", "--drawn", "0"]) == 2
     assert "--drawn must be above 0" in capsys.readouterr().err
     assert main(["bench", "--calibrate"]) == 2
