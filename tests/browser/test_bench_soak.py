@@ -81,20 +81,11 @@ def test_soak_flags_go_with_soak_only():
 
     parser = Parser(prog="moattn")  # the CLI's own: no abbreviated flags
     add_parser(parser.add_subparsers())
-    with pytest.raises(ValueError, match="go with --soak"):
-        run(parser.parse_args(["bench", "--edits", "--sessions", "2"]))
+    for flag, value in (("--sessions", "2"), ("--library-mb", "5")):
+        with pytest.raises(ValueError, match="go with --soak"):
+            run(parser.parse_args(["bench", "--edits", flag, value]))
     with pytest.raises(ValueError, match="--sessions must be between"):
         run(parser.parse_args(["bench", "--soak", "--sessions", "0"]))
-
-
-def test_library_mb_goes_with_soak_and_above_zero():
-    from engine.cli.bench import add_parser, run
-    from engine.cli.common import Parser
-
-    parser = Parser(prog="moattn")
-    add_parser(parser.add_subparsers())
-    with pytest.raises(ValueError, match="go with --soak"):
-        run(parser.parse_args(["bench", "--edits", "--library-mb", "5"]))
     with pytest.raises(ValueError, match="--library-mb must be above 0"):
         run(parser.parse_args(["bench", "--soak", "--library-mb", "0"]))
 
