@@ -87,7 +87,10 @@ class Studio:
         self.imports = ImportPanel(state=self.state)
         self.exports = ExportPanel(state=self.state)
         path = initial
-        if path is not None:
+        latest = self._latest_kept() if path is None or Path(path) == EXAMPLE else None
+        if latest is not None:  # a returning user: the page opens on their newest motion, not on the example
+            self.state.show(latest)
+        elif path is not None:
             try:
                 from engine.io import load_motion
 
@@ -99,6 +102,12 @@ class Studio:
                 self.state.model
             except Exception as exc:
                 self.state.error(f"no model loaded, generation is off: {exc}")
+
+    def _latest_kept(self) -> str | None:
+        """The newest motion the library keeps (the session's list is oldest first), or None (no library, or an
+        empty one)."""
+        kept = [name for name, item in self.state.items.items() if item.library_id]
+        return kept[-1] if kept else None
 
     def _settings(self, name: str | None) -> dict:
         """A tab view's own settings, handed to it explicitly ({} for a tab without settings)."""

@@ -344,6 +344,7 @@ def test_counting_readout_shows_count_baseline_and_peaks(studio):
                           words=("a", "person", "jumps"), attention=_periodic_record()))
     readout = s.count_result
     assert readout is not None and readout.item == "periodic"  # counted as soon as it is shown
+    assert tab.count_map_box.visible
     assert readout.rounded == 4 and readout.baseline == 4 and len(readout.peaks) > 4
     assert 'class="count-attention">4.' in tab.readout.object and 'class="count-baseline">4<' in tab.readout.object
     assert 'class="count-rounded">4<' in tab.readout.object
@@ -360,13 +361,14 @@ def test_counting_readout_shows_count_baseline_and_peaks(studio):
     s.show_motion(joints, title="imported: hops")
     assert s.count_result is None and "no recorded attention" in tab.readout.object
     assert ex.peak_src.data["x"] == []
+    assert not tab.count_map_box.visible  # no empty map beside the text that says why there is none
     assert tab.count_button.visible  # the counting section's button, while another kind is picked
     tab.kind.value = "count"
     assert tab.run.label == "Count this motion" and not tab.count_button.visible  # never two such buttons
     assert run_edit(s, tab.settings) and s.wait(120)
     readout = s.count_result
     assert readout.item == "imported: hops" and readout.baseline == 4 and "inverted" in readout.source
-    assert "count-attention" in tab.readout.object
+    assert "count-attention" in tab.readout.object and tab.count_map_box.visible
     tab.kind.value = "emphasise"
 
 
@@ -495,3 +497,40 @@ def test_cli_and_tab_share_the_option_mapping():
     assert build_config(EditOptions(kind="shift"), frames=60).window.end == 0.4  # the method's default window
     with pytest.raises(ValueError, match="needs a word"):
         build_config(EditOptions(kind="ground"), frames=60)
+
+
+def test_a_session_opens_on_its_models_calibrated_emphasis_mode(tiny_model_dir, tmp_path, capsys):
+    """A model calibrated to multiply (config.json "edits") opens the Edit tab on x2; switching the mode takes the
+    new mode's default weight (+0.3 added is not x0.3 multiplied); `moattn edit` without --mode reports the same."""
+    import json
+    import shutil
+
+    from engine.cli import main
+    from engine.evaluation.calibrate_edits import write_calibration
+    from engine.methods.edit_options import DEFAULT_WEIGHTS
+
+    folder = tmp_path / "model"
+    shutil.copytree(tiny_model_dir, folder)
+    write_calibration(folder, {"mode": "mul", "layers": [0], "response": 0.5, "change": 0.1})
+    st = Studio(model_dir=folder, initial=None)
+    try:
+        tab = st.edit
+        assert (tab.settings.mode, tab.settings.weight) == ("mul", DEFAULT_WEIGHTS["mul"])
+        assert (tab.weight.start, tab.weight.end, tab.weight.value) == (0.0, 3.0, 2.0)
+        tab.mode.value = "add"
+        assert (tab.settings.weight, tab.weight.value) == (DEFAULT_WEIGHTS["add"],) * 2
+        tab.weight.value = 0.45
+        tab.mode.value = "mul"
+        assert tab.settings.weight == DEFAULT_WEIGHTS["mul"]
+    finally:
+        st.close()
+    plain = Studio(model_dir=tiny_model_dir, initial=None)  # no calibrated mode: the paper's add, +0.3
+    try:
+        assert (plain.edit.settings.mode, plain.edit.settings.weight) == ("add", DEFAULT_WEIGHTS["add"])
+    finally:
+        plain.close()
+    out = tmp_path / "e.npy"
+    assert main(["edit", "emphasize", "a person jumps", "--word", "jumps", "--steps", "2", "--seconds", "1",
+                 "--model", str(folder), "--out", str(out), "--no-library"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert (report["mode"], report["weight"]) == ("mul", 2.0)

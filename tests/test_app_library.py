@@ -68,6 +68,7 @@ def test_every_motion_made_edited_or_imported_survives_a_new_session(tiny_model_
     try:
         t, view = second.state, second.attention
         assert list(t.items) == names  # everything, in the order it was made
+        assert t.current == names[-1]  # the page opens on the newest motion kept (here the edit)
         assert second.viewer.show_select.options == names
         t.show(generated)
         item = t.item
@@ -242,3 +243,22 @@ def test_rerecord_repeats_the_motions_own_sampling(tiny_model_dir, workspace):
         assert (again.guidance_from, again.eta, again.seed, again.prompt) == (0, 0.0, 5, "a person jumps twice")
     finally:
         st.close()
+
+
+def test_a_returning_user_opens_on_their_newest_motion_not_the_example(tiny_model_dir, workspace):
+    """`moattn serve` opens each page on the shipped example walk; a workspace with kept motions opens on the newest
+    one instead (the person's last work), and the example is not imported again."""
+    from app.main import EXAMPLE
+
+    first = Studio(model_dir=tiny_model_dir, initial=EXAMPLE, library=MotionLibrary(workspace=workspace))
+    try:
+        assert first.state.current == "imported: walk.npy"  # a new user: the example
+        _generate(first, "a person jumps twice", 3)
+        newest = first.state.current
+    finally:
+        first.close()
+    second = Studio(model_dir=tiny_model_dir, initial=EXAMPLE, library=MotionLibrary(workspace=workspace))
+    try:
+        assert second.state.current == newest and len(second.state.items) == 2
+    finally:
+        second.close()

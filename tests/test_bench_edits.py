@@ -65,7 +65,7 @@ def test_nearer_first_compares_the_two_captions(tiny_evaluator):  # noqa: F811
 
 
 def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
-    config = EditBenchConfig(counting_samples=2, emphasis_prompts=("a person jumps",), emphasis_weights=(-0.4, 0.0, 0.4),
+    config = EditBenchConfig(counting_samples=2, emphasis_prompts=("a person jumps",), emphasis_points=3,
                              emphasis_seeds=1, pairs=2, replacement_seeds=2, shift_prompts=2, examples=1,
                              outputs_per_example=4, steps=3, seconds=3.0, reference_samples=32,
                              grounding_centres=(0.25, 0.75), grounding_seconds=3.0, grounding_seeds=2)

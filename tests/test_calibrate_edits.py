@@ -9,8 +9,8 @@ from engine.checkpoint import load_model
 from engine.evaluation.calibrate_edits import CalibrationConfig, calibrate_emphasis, write_calibration
 from engine.methods.edit_options import EditOptions, build_config, calibrated_layers, default_window
 
-TINY = CalibrationConfig(prompts=(("a person jumps", "jumps"),), weights=(-0.4, 0.0, 0.4), seeds=1, steps=2,
-                         seconds=1.0)
+TINY = CalibrationConfig(prompts=(("a person jumps", "jumps"),), points=3, seeds=1, steps=2, seconds=1.0)
+ADD = CalibrationConfig(**{**TINY.__dict__, "modes": ("add",)})  # one mode: the layer selection alone
 
 
 def test_default_window_reads_calibrated_layers():
@@ -59,11 +59,11 @@ def test_layers_too_weak_alone_may_qualify_together(tiny_model_dir, monkeypatch)
     assert loaded.model.num_layers >= 2
     table = {(0,): 0.2, (1,): 0.1, (0, 1): 0.5}
     monkeypatch.setattr(cal, "response",
-                        lambda _loaded, layers, _config: cal.Response(table.get(tuple(layers), -1.0), 0.1))
-    result = calibrate_emphasis(loaded, CalibrationConfig(**{**TINY.__dict__, "threshold": 0.3}), log=lambda _: None)
+                        lambda _loaded, layers, _config, mode: cal.Response(table.get(tuple(layers), -1.0), 0.1))
+    result = calibrate_emphasis(loaded, CalibrationConfig(**{**ADD.__dict__, "threshold": 0.3}), log=lambda _: None)
     assert result["layers"] == [0, 1] and result["response"] == 0.5  # no single layer reaches 0.3, the pair does
     table[(0, 1)] = 0.25
-    assert calibrate_emphasis(loaded, CalibrationConfig(**{**TINY.__dict__, "threshold": 0.3}),
+    assert calibrate_emphasis(loaded, CalibrationConfig(**{**ADD.__dict__, "threshold": 0.3}),
                               log=lambda _: None)["layers"] == []
 
 
@@ -92,14 +92,15 @@ def test_quick_calibration_builds_sets_from_the_best_single_layers(tiny_model_di
     seen = []
     single = {(i,): 0.1 * (i + 1) for i in range(n)}  # the last layer is the best alone, then the one before it
 
-    def response(_loaded, layers, _config):
+    def response(_loaded, layers, _config, mode):
         seen.append(tuple(layers))
         return cal.Response(single.get(tuple(layers), 0.9 if set(layers) == {n - 1, n - 2} else 0.0), 0.1)
 
     monkeypatch.setattr(cal, "response", response)
     quick = CalibrationConfig.quick()
-    assert quick.weights == (-0.4, 0.0, 0.4) and quick.candidates == 3
-    result = calibrate_emphasis(loaded, CalibrationConfig(**{**TINY.__dict__, "candidates": 2}), log=lambda _: None)
+    assert quick.weights("add") == (-0.4, 0.0, 0.4) and quick.weights("mul") == (0.5, 1.0, 2.0)
+    assert quick.candidates == 3
+    result = calibrate_emphasis(loaded, CalibrationConfig(**{**ADD.__dict__, "candidates": 2}), log=lambda _: None)
     assert result["layers"] == [n - 2, n - 1] and result["candidates"] == 2
     pairs = [s for s in seen if len(s) == 2]
     assert pairs == [(n - 2, n - 1)]  # only the two best single layers were ever combined
@@ -112,11 +113,59 @@ def test_a_tie_in_score_goes_to_the_bigger_change(tiny_model_dir, monkeypatch):
     loaded = load_model(tiny_model_dir)
     assert loaded.model.num_layers >= 2
     table = {(0,): cal.Response(0.6, 0.11), (1,): cal.Response(0.3, 0.05), (0, 1): cal.Response(0.6, 0.16)}
-    monkeypatch.setattr(cal, "response", lambda _loaded, layers, _config: table.get(tuple(layers), cal.Response(-1, 0)))
-    config = CalibrationConfig(**{**TINY.__dict__, "threshold": 0.3, "candidates": 2})
+    monkeypatch.setattr(cal, "response", lambda _loaded, layers, _config, mode: table.get(tuple(layers), cal.Response(-1, 0)))
+    config = CalibrationConfig(**{**ADD.__dict__, "threshold": 0.3, "candidates": 2})
     result = calibrate_emphasis(loaded, config, log=lambda _: None)
     assert result["layers"] == [0, 1] and result["change"] == 0.16
     table[(0, 1)] = cal.Response(0.6, 0.12)  # a tie and about the same change: the smaller set stays
     assert calibrate_emphasis(loaded, config, log=lambda _: None)["layers"] == [0]
     table[(0, 1)] = cal.Response(0.5, 0.30)  # a lower score is not bought by a bigger change
     assert calibrate_emphasis(loaded, config, log=lambda _: None)["layers"] == [0]
+
+
+def test_the_better_mode_is_kept_with_its_own_layers(tiny_model_dir, monkeypatch):
+    """Each mode gets its own layer search; the mode whose set responds best is kept (the first listed on a tie)."""
+    import engine.evaluation.calibrate_edits as cal
+
+    loaded = load_model(tiny_model_dir)
+    assert loaded.model.num_layers >= 2
+    tables = {"add": {(0,): cal.Response(0.4, 0.1)}, "mul": {(1,): cal.Response(0.7, 0.12)}}
+    seen = []
+
+    def response(_loaded, layers, _config, mode):
+        seen.append(mode)
+        return tables[mode].get(tuple(layers), cal.Response(-1.0, 0.0))
+
+    monkeypatch.setattr(cal, "response", response)
+    result = calibrate_emphasis(loaded, CalibrationConfig(**{**TINY.__dict__, "threshold": 0.3}), log=lambda _: None)
+    assert set(seen) == {"add", "mul"}
+    assert result["mode"] == "mul" and result["layers"] == [1] and result["response"] == 0.7
+    assert result["modes"]["add"]["layers"] == [0] and result["modes"]["add"]["response"] == 0.4
+    assert result["weights"] == {"add": [-0.4, 0.0, 0.4], "mul": [0.5, 1.0, 2.0]}
+    tables["mul"][(1,)] = cal.Response(0.41, 0.1)  # within min_gain of add's, no bigger change: add, listed first
+    assert calibrate_emphasis(loaded, CalibrationConfig(**{**TINY.__dict__, "threshold": 0.3}),
+                              log=lambda _: None)["mode"] == "add"
+
+
+def test_the_calibrated_mode_is_the_default_of_emphasis_and_its_weight_follows(tiny_model_dir, tmp_path):
+    from engine.methods.edit_options import DEFAULT_WEIGHTS, calibrated_mode, with_defaults
+
+    folder = tmp_path / "model"
+    shutil.copytree(tiny_model_dir, folder)
+    write_calibration(folder, {"mode": "mul", "layers": [0], "response": 0.5, "change": 0.1})
+    config = load_model(folder).config
+    assert calibrated_mode(config) == "mul" and calibrated_layers(config) == (0,)
+    assert calibrated_mode(None) == "add" and calibrated_mode({"edits": {"emphasize_layers": [1]}}) == "add"
+    chosen = with_defaults(EditOptions(kind="emphasize", word="jumps"), config)
+    assert (chosen.mode, chosen.weight) == ("mul", DEFAULT_WEIGHTS["mul"])
+    cfg = build_config(EditOptions(kind="emphasize", word="jumps"), frames=40, model_config=config)
+    assert (cfg.mode, cfg.weight, cfg.window.layers) == ("mul", 2.0, (0,))
+    # what the user gives wins; a weight alone keeps the calibrated mode, a mode alone takes its own default weight
+    given = with_defaults(EditOptions(kind="emphasize", word="jumps", mode="add"), config)
+    assert (given.mode, given.weight) == ("add", DEFAULT_WEIGHTS["add"])
+    assert with_defaults(EditOptions(kind="emphasize", word="jumps", weight=1.5), config).mode == "mul"
+    # grounding is not calibrated: it adds, at its own default weight
+    ground = with_defaults(EditOptions(kind="ground", word="jumps"), config)
+    assert (ground.mode, ground.weight) == ("add", DEFAULT_WEIGHTS["add"])
+    with pytest.raises(ValueError, match="unknown emphasis mode"):
+        calibrated_mode({"edits": {"emphasize_mode": "pow"}})

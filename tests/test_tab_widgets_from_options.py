@@ -35,8 +35,8 @@ ROOT = Path(__file__).resolve().parents[1]
 FROM_OPTIONS = {
     (EditSettings, "word"): (EditOptions, "word", {"default"}),
     (EditSettings, "occurrence"): (EditOptions, "occurrence", set()),
-    (EditSettings, "mode"): (EditOptions, "mode", {"objects"}),
-    (EditSettings, "weight"): (EditOptions, "weight", set()),
+    (EditSettings, "mode"): (EditOptions, "mode", {"objects", "default"}),  # the session opens on its model's mode
+    (EditSettings, "weight"): (EditOptions, "weight", {"default"}),  # the mode's default weight
     (EditSettings, "step_window"): (EditOptions, "step_window", set()),
     (EditSettings, "layers"): (EditOptions, "layers", {"default"}),
     (EditSettings, "fraction"): (EditOptions, "fraction", set()),

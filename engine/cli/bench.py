@@ -175,15 +175,18 @@ def run_calibration(args: argparse.Namespace) -> int:
         print(json.dumps(result, indent=2))
         return 0
     print("emphasis response (mean rank correlation of weight vs amplitude, scaled down where the change is under "
-          "10 %, on the calibration prompts):")
-    for layer, rho in result["per_layer"].items():
-        print(f"  layer {layer} alone: {rho:+.2f}")
+          "10 %, on the calibration prompts), per mode:")
+    for mode, row in result["modes"].items():
+        singles = "  ".join(f"{layer}: {rho:+.2f}" for layer, rho in row["per_layer"].items())
+        print(f"  {mode} ({', '.join(f'{w:g}' for w in result['weights'][mode])}), layer alone: {singles}")
+        print(f"  {mode}, layers {', '.join(map(str, row['layers']))}: {row['response']:+.2f} "
+              f"(change {row['change']:+.0%})")
     for row in result["history"]:
-        change = f" (change {row['change']:+.0%})" if "change" in row else ""
-        print(f"  layers {', '.join(map(str, row['layers']))}: {row['response']:+.2f}{change}")
+        print(f"  {result['mode']}: layers {', '.join(map(str, row['layers']))}: {row['response']:+.2f} "
+              f"(change {row['change']:+.0%})")
     chosen = ", ".join(map(str, result["layers"])) or "none (all layers stay the default)"
-    print(f"emphasis layers: {chosen}" + (f"  (written to {shown_folder(args.model)}/config.json)" if args.write else
-                                          "  (not written: add --write)"))
+    print(f"emphasis mode: {result['mode']}, layers: {chosen}" + (
+        f"  (written to {shown_folder(args.model)}/config.json)" if args.write else "  (not written: add --write)"))
     return 0
 
 

@@ -104,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
     from engine.generate import frames_for
     from engine.io import save_motion
     from engine.methods import edits
-    from engine.methods.edit_options import run_edit
+    from engine.methods.edit_options import REGISTRY, run_edit, with_defaults
 
     check_outputs([args.out], MOTION_SUFFIXES)
     check_outputs([args.render], RENDER_SUFFIXES, flag="--render")
@@ -138,6 +138,9 @@ def run(args: argparse.Namespace) -> int:
         alignment = edits.replace_alignment(loaded, options.prompt or "", options.edited or "")
         report["alignment"] = alignment.describe()  # shown before the run: the user sees what maps onto what
         print(alignment.describe(), file=sys.stderr, flush=True)
+    options = with_defaults(options, loaded.config)  # the mode and weight left out: this model's (calibrated) ones
+    if "weight" in REGISTRY[args.kind].inputs:
+        report.update(weight=options.weight, **({"mode": options.mode} if "mode" in REGISTRY[args.kind].inputs else {}))
     out = run_edit(loaded, options, frames=frames, sample=sample)
     save_motion(out.after, args.out)
     report["out"] = str(args.out)

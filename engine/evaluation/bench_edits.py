@@ -49,7 +49,7 @@ from engine.evaluation.evaluator import LoadedEvaluator
 from engine.evaluation.metrics import diversity, fid
 from engine.generate import Request, SampleConfig, generate
 from engine.methods import edits
-from engine.methods.edit_options import EditOptions, calibrated_layers, run_edit
+from engine.methods.edit_options import EditOptions, calibrated_layers, calibrated_mode, run_edit, sweep_weights
 from engine.methods.motionclr import ExampleConfig, Ground, GroundingConfig, ReplaceConfig, ShiftConfig
 from engine.representation import SLICES, joints_to_features
 from engine.skeleton import JOINT_INDEX
@@ -64,8 +64,8 @@ class EditBenchConfig:
     counting_samples: int = 40
     emphasis_prompts: tuple[str, ...] = ("a person jumps", "a person jumps twice", "a person kicks with the right leg",
                                          "a person waves the right hand")
-    emphasis_weights: tuple[float, ...] = (-0.4, -0.2, 0.0, 0.2, 0.4)
     emphasis_seeds: int = 3
+    emphasis_points: int = 5  # of the calibrated mode's sweep (engine.methods.edit_options.SWEEP_WEIGHTS): 5 or 3
     pairs: int = 7
     replacement_seeds: int = 6  # 42 draws: "verb recognised" is a share, and 21 draws left it a +-0.1 guess
     shift_prompts: int = 7
@@ -214,18 +214,22 @@ def bench_counting(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -
 
 def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> tuple[dict, list[np.ndarray]]:
     frames = int(config.seconds * 20)
-    draws, outputs, per_prompt = [], [], {}
+    mode = calibrated_mode(loaded.config)  # as `moattn edit emphasize` and the studio act without --mode
+    weights = sweep_weights(mode, config.emphasis_points)
+    draws, outputs, per_prompt, jump_rhos = [], [], {}, []
     for prompt in config.emphasis_prompts:
         verb = next(w for w in loaded.tokenizer.encode(prompt).words if w in VERBS)
         for seed in range(config.emphasis_seeds):
             heights = []
-            for w in config.emphasis_weights:
-                options = EditOptions(kind="emphasize", prompt=prompt, word=verb, weight=w, seed=seed)
+            for w in weights:
+                options = EditOptions(kind="emphasize", prompt=prompt, word=verb, weight=w, mode=mode, seed=seed)
                 out = run_edit(loaded, options, frames=frames, sample=config.sample(seed))
                 heights.append(amplitude(out.after, verb))
                 outputs.append(out.after)
-            draw = emphasis_response(config.emphasis_weights, heights)
+            draw = emphasis_response(weights, heights)
             draws.append(draw)
+            if verb.startswith("jump"):
+                jump_rhos.append(draw["spearman"])
             per_prompt.setdefault(prompt, []).append({"seed": seed, "amplitudes": [round(h, 3) for h in heights],
                                                       **draw})
             log(f"emphasis {prompt!r} seed {seed}: rho {draw['spearman']:.2f}, change {draw['change']:+.0%}, "
@@ -233,6 +237,7 @@ def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -
     return {"spearman": float(np.mean([d["spearman"] for d in draws])),
             "change": float(np.mean([d["change"] for d in draws])),
             "visible": float(np.mean([d["visible"] for d in draws])), "per_prompt": per_prompt,
+            "jumps_min": float(min(jump_rhos)) if jump_rhos else None, "mode": mode, "weights": list(weights),
             "layers": list(calibrated_layers(loaded.config) or range(loaded.model.num_layers))}, outputs
 
 
@@ -496,11 +501,12 @@ def format_table(result: dict) -> str:
     if "by_method" in c:  # results saved before this figure existed lack it
         lines.append("  same maps, by counting method: " + ", ".join(f"{m} {v:.2f}" for m, v in c["by_method"].items()))
     lines += [
-        f"emphasis Spearman (weight vs amplitude): {result['emphasis_spearman']:.2f} (layers "
-        f"{', '.join(map(str, result['emphasis']['layers']))})" + (
+        f"emphasis Spearman (weight vs amplitude): {result['emphasis_spearman']:.2f} ("
+        f"{result['emphasis'].get('mode', 'add')}, layers {', '.join(map(str, result['emphasis']['layers']))})" + (
             f"; amplitude change lowest to highest weight {result['emphasis']['change']:+.0%}, draws visibly bigger "
             f"(rho >= 0.8, >= {VISIBLE_CHANGE:.0%}) {result['emphasis']['visible']:.2f}" if "change" in result["emphasis"]
-            else ""),
+            else "") + (f"; lowest 'jumps' draw {result['emphasis']['jumps_min']:.2f}"
+                        if result["emphasis"].get("jumps_min") is not None else ""),
         f"replacement timing IoU: {r['iou']:.2f} (same noise, no replacement: {r['iou_without_replacement']:.2f}; "
         f"{r['pairs']} draws timed (prompt pairs x seeds), {r['pairs_without_walk']} whose reference does not walk)",
     ]

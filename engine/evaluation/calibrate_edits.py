@@ -1,4 +1,4 @@
-"""Which layers emphasis should act in, measured per model (``moattn bench --edits --calibrate [--write]``).
+"""How and in which layers emphasis should act, measured per model (``moattn bench --edits --calibrate [--write]``).
 
 MotionCLR adds the weight to a word's cross-attention column in every layer. In a small denoiser the
 layers do not all agree: in some, more attention to the verb makes the action bigger; in others it
@@ -7,9 +7,11 @@ time, how the action's amplitude answers the emphasis weight (the same measure a
 correlation, scaled down where the change is too small to see, :func:`engine.evaluation.bench_edits.emphasis_response`;
 on base v5 the rank correlation alone chose a layer whose emphasis moved the amplitude by 0.6 %) on calibration
 prompts that the benchmark does not use, and builds the
-layer set by forward selection (layers interact, so a set is measured as a whole). The result goes into the model's
-``config.json`` ("edits": {"emphasize_layers": [...], "calibration": {...}}), where the CLI, the app
-and the benchmark read it as the emphasis default (grounding acts in every layer: on the shipped model the
+layer set by forward selection (layers interact, so a set is measured as a whole). It does so for each way of
+weighting the column, added (the paper's) or multiplied (which scales the word's pull where it already acts, not at
+every frame alike), and keeps the mode that responds best. The result goes into the model's
+``config.json`` ("edits": {"emphasize_mode": "add"|"mul", "emphasize_layers": [...], "calibration": {...}}), where
+the CLI, the app and the benchmark read it as the emphasis default (grounding acts in every layer: on the shipped model the
 calibrated layers put fewer jumps in the chosen spans than no grounding at all, see the edits bench's grounding row).
 """
 from __future__ import annotations
@@ -24,6 +26,7 @@ import numpy as np
 from engine.checkpoint import LoadedModel, read_config, write_config_json
 from engine.generate import SampleConfig
 from engine.methods import edits
+from engine.methods.edit_options import SWEEP_WEIGHTS, sweep_weights
 from engine.methods.motionclr import ReweightConfig
 from engine.methods.windows import Window
 from engine.units import DEFAULT_ETA, DEFAULT_GUIDANCE
@@ -36,7 +39,13 @@ class CalibrationConfig:
         ("a person jumps forward", "jumps"), ("a person kicks with the left leg", "kicks"),
         ("a person waves the left hand", "waves"), ("a person hops on the left leg", "hops"),
         ("a person punches with the left hand", "punches"))
-    weights: tuple[float, ...] = (-0.4, -0.2, 0.0, 0.2, 0.4)
+    #: the modes measured (each gets its own layer set; the better one is kept): adding to the word's attention
+    #: column as the paper does, or multiplying it (on base v9 adding in the chosen layers shrank the bench's actions,
+    #: Spearman -0.35, while multiplying in layer 0 grew jumps and kicks, +0.33)
+    modes: tuple[str, ...] = tuple(SWEEP_WEIGHTS)
+    #: how many of the mode's sweep weights (engine.methods.edit_options.SWEEP_WEIGHTS) are sampled: 5, or 3 (the
+    #: lowest, the unedited and the highest)
+    points: int = 5
     seeds: int = 2
     #: sample as the studio, ``moattn edit`` and ``moattn bench --edits`` do (50): a 10-step calibration measures another
     #: regime (on the step-16000 model the bench's emphasis figure is 0.28 at 10 steps, 0.75 at 50)
@@ -51,11 +60,21 @@ class CalibrationConfig:
     #: forward selection adds only layers among the best ``candidates`` single layers (None: any layer)
     candidates: int | None = None
 
+    def __post_init__(self) -> None:
+        unknown = [m for m in self.modes if m not in SWEEP_WEIGHTS]
+        if unknown or not self.modes:
+            raise ValueError(f"calibration modes must be among {', '.join(SWEEP_WEIGHTS)}, got {self.modes}")
+        sweep_weights(self.modes[0], self.points)  # a clear error for a sweep of another length
+
+    def weights(self, mode: str) -> tuple[float, ...]:
+        """The weights sampled for ``mode``, lowest to highest."""
+        return sweep_weights(mode, self.points)
+
     @classmethod
     def quick(cls) -> "CalibrationConfig":
-        """About a third of the work (``moattn bench --edits --calibrate --quick``): three weights, and sets built from
-        the three best single layers."""
-        return cls(weights=(-0.4, 0.0, 0.4), candidates=3)
+        """About a third of the work (``moattn bench --edits --calibrate --quick``): three weights per mode, and sets
+        built from the three best single layers."""
+        return cls(points=3, candidates=3)
 
 
 class Response(NamedTuple):
@@ -67,19 +86,20 @@ class Response(NamedTuple):
     change: float
 
 
-def response(loaded: LoadedModel, layers: tuple[int, ...], config: CalibrationConfig) -> Response:
-    """The mean emphasis response over the calibration prompts and seeds, emphasis in ``layers`` only."""
+def response(loaded: LoadedModel, layers: tuple[int, ...], config: CalibrationConfig, *, mode: str = "add") -> Response:
+    """The mean emphasis response over the calibration prompts and seeds, emphasis in ``layers`` only, in ``mode``."""
     from engine.evaluation.bench_edits import amplitude, emphasis_response
 
     frames = int(config.seconds * 20)
+    weights = config.weights(mode)
     draws = []
     for prompt, verb in config.prompts:
         loaded.tokenizer.encode(prompt).word_index(verb)  # a clear error if the model lacks a word
         for seed in range(config.seeds):
             sample = SampleConfig(steps=config.steps, guidance=config.guidance, eta=config.eta, seed=seed)
-            amps = [amplitude(edits.reweight(loaded, prompt, ReweightConfig(word=verb, weight=w, window=Window(
-                layers=layers)), frames=frames, sample=sample).after, verb) for w in config.weights]
-            draws.append(emphasis_response(config.weights, amps))
+            amps = [amplitude(edits.reweight(loaded, prompt, ReweightConfig(word=verb, weight=w, mode=mode, window=Window(
+                layers=layers)), frames=frames, sample=sample).after, verb) for w in weights]
+            draws.append(emphasis_response(weights, amps))
     return Response(score=float(np.mean([d["score"] for d in draws])),
                     change=float(np.mean([d["change"] for d in draws])))
 
@@ -94,44 +114,63 @@ def _better(trial: Response, current: Response, config: CalibrationConfig) -> bo
     return trial.score >= current.score - config.min_gain and bigger
 
 
-def calibrate_emphasis(loaded: LoadedModel, config: CalibrationConfig = CalibrationConfig(), *, log=print) -> dict:
-    """Forward selection of emphasis layers -> {"layers": [...], "per_layer": {layer: rho}, "history": [...], ...}.
-
-    Every layer is measured alone; the best one starts the set, and the layer whose addition raises the set's
-    response most is added while it beats the set (:func:`_better`: a higher score, or as high a score and a
-    bigger change). No layer is kept when the final set responds below ``threshold`` (emphasis then acts in all
-    layers): layers too weak alone may still qualify together.
-    """
-    t0 = time.perf_counter()
+def _select_layers(loaded: LoadedModel, config: CalibrationConfig, mode: str, log) -> dict:
+    """Forward selection of the layers for one mode -> {"layers", "response", "change", "per_layer", "history"}."""
     per_layer: dict[int, Response] = {}
     for layer in range(loaded.model.num_layers):
-        per_layer[layer] = response(loaded, (layer,), config)
-        log(f"layer {layer} alone: response {per_layer[layer].score:+.2f} (change {per_layer[layer].change:+.0%})")
+        per_layer[layer] = response(loaded, (layer,), config, mode=mode)
+        log(f"{mode}: layer {layer} alone: response {per_layer[layer].score:+.2f} "
+            f"(change {per_layer[layer].change:+.0%})")
     ranked = sorted(per_layer, key=lambda k: per_layer[k], reverse=True)  # the best single layer first
     pool = ranked[: config.candidates] if config.candidates else ranked
     chosen, best = ranked[:1], per_layer[ranked[0]]
     history = [{"layers": list(chosen), "response": round(best.score, 3), "change": round(best.change, 3)}]
     while len(chosen) < len(pool):
-        trials = {layer: response(loaded, tuple(sorted(chosen + [layer])), config)
+        trials = {layer: response(loaded, tuple(sorted(chosen + [layer])), config, mode=mode)
                   for layer in pool if layer not in chosen}
         for layer, r in trials.items():
-            log(f"layers {sorted(chosen + [layer])}: response {r.score:+.2f} (change {r.change:+.0%})")
+            log(f"{mode}: layers {sorted(chosen + [layer])}: response {r.score:+.2f} (change {r.change:+.0%})")
         layer = max(trials, key=lambda k: trials[k])
         if not _better(trials[layer], best, config):
             break
         chosen, best = sorted(chosen + [layer]), trials[layer]
         history.append({"layers": list(chosen), "response": round(best.score, 3), "change": round(best.change, 3)})
-    kept = chosen if best.score >= config.threshold else []
-    return {"layers": kept, "response": round(best.score, 3), "change": round(best.change, 3),
-            "per_layer": {str(k): round(v.score, 3) for k, v in per_layer.items()},
-            "history": history, "threshold": config.threshold, "prompts": [p for p, _ in config.prompts],
-            "seeds": config.seeds, "steps": config.steps, "weights": list(config.weights), "eta": config.eta,
+    return {"layers": chosen, "best": best, "per_layer": {str(k): round(v.score, 3) for k, v in per_layer.items()},
+            "history": history}
+
+
+def calibrate_emphasis(loaded: LoadedModel, config: CalibrationConfig = CalibrationConfig(), *, log=print) -> dict:
+    """The emphasis mode and layers -> {"mode", "layers": [...], "per_layer": {layer: score}, "history": [...],
+    "modes": {mode: its own figures}, ...}.
+
+    For each mode, every layer is measured alone; the best one starts the set, and the layer whose addition raises
+    the set's response most is added while it beats the set (:func:`_better`: a higher score, or as high a score and
+    a bigger change). The mode whose set responds best is kept (the first listed on a tie). No layer is kept when the
+    final set responds below ``threshold`` (emphasis then acts in all layers): layers too weak alone may still
+    qualify together.
+    """
+    t0 = time.perf_counter()
+    found = {mode: _select_layers(loaded, config, mode, log) for mode in config.modes}
+    mode = config.modes[0]
+    for other in config.modes[1:]:
+        if _better(found[other]["best"], found[mode]["best"], config):
+            mode = other
+    chosen = found[mode]
+    best = chosen["best"]
+    kept = chosen["layers"] if best.score >= config.threshold else []
+    return {"mode": mode, "layers": kept, "response": round(best.score, 3), "change": round(best.change, 3),
+            "per_layer": chosen["per_layer"], "history": chosen["history"],
+            "modes": {m: {"layers": f["layers"], "response": round(f["best"].score, 3),
+                          "change": round(f["best"].change, 3), "per_layer": f["per_layer"]} for m, f in found.items()},
+            "threshold": config.threshold, "prompts": [p for p, _ in config.prompts], "seeds": config.seeds,
+            "steps": config.steps, "weights": {m: list(config.weights(m)) for m in config.modes}, "eta": config.eta,
             "candidates": config.candidates, "seconds_taken": round(time.perf_counter() - t0, 1)}
 
 
 def write_calibration(folder: Path, result: dict) -> None:
-    """Store the chosen layers in the model folder's config.json (all layers when none qualified)."""
+    """Store the chosen mode and layers in the model folder's config.json (all layers when none qualified)."""
     data = read_config(folder)
-    data["edits"] = {**data.get("edits", {}), "emphasize_layers": result["layers"] or None,
-                     "calibration": {k: v for k, v in result.items() if k != "layers"}}
+    data["edits"] = {**data.get("edits", {}), "emphasize_mode": result.get("mode", "add"),
+                     "emphasize_layers": result["layers"] or None,
+                     "calibration": {k: v for k, v in result.items() if k not in ("layers", "mode")}}
     write_config_json(folder, data)

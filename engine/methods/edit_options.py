@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from typing import TYPE_CHECKING, Any
 
@@ -29,10 +29,25 @@ Source = Any  # a prompt (str), or joints (T, 22, 3) of a real motion (DDIM-inve
 # pitch is 36 deg unedited, 55 deg at add +0.5 or mul x3, and 68 deg ("bent double") at add +1.0.
 WEIGHT_RANGES: dict[str, tuple[float, float]] = {"add": (-0.5, 0.5), "mul": (0.0, 3.0)}
 WEIGHT_BOUNDS = (min(lo for lo, _ in WEIGHT_RANGES.values()), max(hi for _, hi in WEIGHT_RANGES.values()))
+#: the weight each mode starts from when none is given (the CLI, the Edit tab): add +0.3, multiply x2
+DEFAULT_WEIGHTS: dict[str, float] = {"add": 0.3, "mul": 2.0}
+#: the weights a benchmark or a calibration sweeps per mode, lowest to highest, the unedited weight in the middle
+#: (multiplying is swept evenly in its logarithm: x0.5 .. x2 as adding is from -0.4 to +0.4)
+SWEEP_WEIGHTS: dict[str, tuple[float, ...]] = {"add": (-0.4, -0.2, 0.0, 0.2, 0.4), "mul": (0.5, 0.75, 1.0, 1.5, 2.0)}
 
 
 def weight_range_text() -> str:
     return "; ".join(f"{mode}: {lo:g} to {hi:g}" for mode, (lo, hi) in WEIGHT_RANGES.items())
+
+
+def sweep_weights(mode: str, points: int = 5) -> tuple[float, ...]:
+    """The weights swept for ``mode``: all five, or three (lowest, unedited, highest)."""
+    weights = SWEEP_WEIGHTS[mode]
+    if points == len(weights):
+        return weights
+    if points == 3:
+        return weights[0], weights[len(weights) // 2], weights[-1]
+    raise ValueError(f"a sweep has 3 or {len(weights)} weights, not {points}")
 
 
 @dataclass(frozen=True)
@@ -69,10 +84,13 @@ class EditOptions:
     word: str | None = option(None, help="the word the edit acts on")
     occurrence: int = option(0, bounds=(0, math.inf), whole=True,
                              help="which appearance of the word in the prompt, counted from 0")
-    weight: float = option(0.3, bounds=WEIGHT_BOUNDS, step=0.05, label="Weight", help="emphasis weight",
-                           note=f"{weight_range_text()}; mul > 1 emphasises")
-    mode: str = option("add", choices=tuple(WEIGHT_RANGES), label="Mode",
-                       help="how the weight acts on the word's attention: added or multiplied")
+    weight: float | None = option(None, bounds=WEIGHT_BOUNDS, step=0.05, label="Weight", help="emphasis weight",
+                                  none="the mode's: " + ", ".join(f"{m} {w:g}" for m, w in DEFAULT_WEIGHTS.items()),
+                                  note=f"{weight_range_text()}; mul > 1 emphasises")
+    mode: str | None = option(None, choices=tuple(WEIGHT_RANGES), label="Mode",
+                              none="emphasize: the mode calibrated for the model (moattn bench --edits --calibrate); "
+                                   "else add",
+                              help="how the weight acts on the word's attention: added or multiplied")
     frames: Span | tuple[Span, ...] | None = option(
         None, parse=parse_spans, metavar="START:END[,START:END...]",
         help="the frame span(s) [start, end) the edit touches, e.g. 10:20; ground takes several, e.g. "
@@ -136,6 +154,28 @@ def calibrated_layers(model_config: dict | None) -> tuple[int, ...] | None:
     return tuple(int(i) for i in layers) if layers else None
 
 
+def calibrated_mode(model_config: dict | None) -> str:
+    """How emphasis acts on the word's attention for this model (added or multiplied), as calibrated; "add" (the
+    paper's) where no calibration chose one."""
+    mode = ((model_config or {}).get("edits") or {}).get("emphasize_mode") or "add"
+    if mode not in WEIGHT_RANGES:
+        raise ValueError(f"the model's config names an unknown emphasis mode {mode!r}")
+    return mode
+
+
+def default_mode(kind: str, model_config: dict | None = None) -> str:
+    """The mode an edit kind uses when none is given: the calibrated one for emphasis-like kinds, else "add"."""
+    return calibrated_mode(model_config) if kind in CALIBRATED_KINDS else "add"
+
+
+def with_defaults(options: EditOptions, model_config: dict | None = None) -> EditOptions:
+    """``options`` with the mode and weight the user left out filled in: the kind's default mode for this model
+    (:func:`default_mode`) and that mode's default weight."""
+    mode = options.mode or default_mode(options.kind, model_config)
+    weight = options.weight if options.weight is not None else DEFAULT_WEIGHTS[mode]
+    return options if (mode, weight) == (options.mode, options.weight) else replace(options, mode=mode, weight=weight)
+
+
 def default_window(kind: str, model_config: dict | None = None) -> Window:
     """The method's own step/layer window for an edit kind (what ``--step-window`` / ``--layers`` override).
 
@@ -166,6 +206,7 @@ def build_config(options: EditOptions, *, frames: int, model_config: dict | None
     entry = REGISTRY[options.kind]
     if not entry.is_edit:
         raise ValueError(f"{options.kind!r} is not an edit (counting is edits.count_generated / count_motion)")
+    options = with_defaults(options, model_config)
     return entry.build(options, frames=frames, steps=window(options, default_window(options.kind, model_config)))
 
 
@@ -173,6 +214,7 @@ def run_edit(loaded, options: EditOptions, *, frames: int, sample, record: bool 
              on_step: Callable | None = None, config=None):
     """Run the edit -> ``edits.EditOutput`` (``on_step(StepState)`` after every step). ``config``: the edit's
     config when it was already built (:func:`build_config`, e.g. to check it before the run); None: built here."""
+    options = with_defaults(options, loaded.config)
     cfg = config if config is not None else build_config(options, frames=frames, model_config=loaded.config)
     cfg.window.check_layers(loaded.model.num_layers)  # the user's layers, or the calibrated ones
     return REGISTRY[options.kind].run(loaded, options, cfg, frames=frames, sample=sample, record=record,

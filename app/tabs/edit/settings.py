@@ -10,7 +10,7 @@ import param
 
 from app.components.option_params import param_for
 from engine.methods.edit_kinds import INPUTS, REGISTRY, EditKind
-from engine.methods.edit_options import EditOptions
+from engine.methods.edit_options import DEFAULT_WEIGHTS, EditOptions, default_mode
 
 #: label shown in the tab -> ``moattn edit`` kind, and each kind's help: both from the engine's registry
 KIND_LABELS = {k.label: name for name, k in REGISTRY.items()}
@@ -31,8 +31,9 @@ class EditSettings(param.Parameterized):
     # '' = no word picked yet (the engine's None: the tab's text never holds None)
     word = param_for(EditOptions, "word", default="")
     occurrence = param_for(EditOptions, "occurrence")
-    mode = param_for(EditOptions, "mode", objects={"add +w": "add", "multiply ×w": "mul"})  # the modes, labelled
-    weight = param_for(EditOptions, "weight")
+    # the modes, labelled; a session opens on the mode calibrated for its model (``for_session``)
+    mode = param_for(EditOptions, "mode", default="add", objects={"add +w": "add", "multiply ×w": "mul"})
+    weight = param_for(EditOptions, "weight", default=DEFAULT_WEIGHTS["add"])
     frames = param.Range(default=None, allow_None=True, doc="frame window [start, end) (None = the kind's default)")
     spans = param.List(default=[], item_type=tuple,
                        doc="ground: the frame spans [(start, end), ...] the word is grounded to, dragged on its "
@@ -47,7 +48,9 @@ class EditSettings(param.Parameterized):
 
     @classmethod
     def for_session(cls, session) -> "EditSettings":
-        return cls()
+        """Settings opening on the emphasis mode calibrated for the session's model, at that mode's weight."""
+        mode = default_mode("emphasize", session.model.config if session.has_model else None)
+        return cls(mode=mode, weight=DEFAULT_WEIGHTS[mode])
 
     @property
     def engine_kind(self) -> str:

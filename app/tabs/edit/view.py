@@ -24,7 +24,7 @@ from app.session.state import StudioState
 from app.tabs.edit.job import alignment, count_current, run_edit, swap_example, word_choice
 from app.tabs.edit.settings import KIND_HELP, PLAIN_INPUTS, PROMPT_SOURCE, EditSettings
 from engine.analysis.counting import COUNTING_METHODS
-from engine.methods.edit_options import WEIGHT_RANGES, option_spec
+from engine.methods.edit_options import DEFAULT_WEIGHTS, WEIGHT_RANGES, option_spec
 from engine.methods.spans import check_spans, parse_spans, spans_text
 
 
@@ -87,6 +87,9 @@ class EditTab(pn.viewable.Viewer):
                                                          width=230)
         self._build_count_map()
         self.count_pane = pn.pane.Bokeh(self.count_map, margin=(0, 10))
+        # the map with its caption, hidden while there is no count to draw (a Bokeh pane's own ``visible`` is tied to
+        # its figure's and does not come back once set False)
+        self.count_map_box = pn.Column(self.count_pane, reading_caption("counting", width=320), margin=0)
 
         self.words.param.watch(self._on_word_button, "value")
         self.frames.param.watch(lambda ev: self._set("frames", tuple(ev.new)), "value")
@@ -381,10 +384,12 @@ class EditTab(pn.viewable.Viewer):
             e.edited = " ".join(swap_example(list(self.state.prompt_words)))
         self.bar.refresh()  # Run waits for aligned prompts in replacement only
 
-    def _on_mode(self, *_):
+    def _on_mode(self, *changed):
+        """The weight slider follows the mode: its range, and on a switch the new mode's default weight (+0.3 added
+        and x0.3 multiplied are opposite edits); on opening, the settings' weight where it is in range."""
         e = self.settings
         start, end = WEIGHT_RANGES[e.mode]  # the range the method checks (declared in engine.methods.edit_options)
-        value = e.weight if start <= e.weight <= end else (2.0 if e.mode == "mul" else 0.3)
+        value = e.weight if not changed and start <= e.weight <= end else DEFAULT_WEIGHTS[e.mode]
 
         self.weight.param.update(start=start, end=end, value=value)  # the widget writes the settings' weight
         e.weight = value
@@ -453,7 +458,9 @@ class EditTab(pn.viewable.Viewer):
             self.readout.object = f'<div class="count-empty">{text}</div>'
             self.count_src.data = dict(image=[np.zeros((1, 1), np.float32)], dw=[1], dh=[1])
             self.peak_src.data = dict(x=[], y=[])
+            self.count_map_box.visible = False  # no map to read: the text above says why (an empty square said nothing)
             return
+        self.count_map_box.visible = True
         n = readout.processed.shape[0] * readout.downsample
         self.count_src.data = dict(image=[readout.processed.astype(np.float32)], dw=[n], dh=[n])
         self.count_map.x_range.start, self.count_map.x_range.end = 0, n
@@ -481,8 +488,7 @@ class EditTab(pn.viewable.Viewer):
             sizing_mode="stretch_width")
         counting = pn.Column("#### Counting", pn.Row(pn.Column(self.count_method, self.readout, self.count_button,
                                                                width=250),
-                                                     pn.Column(self.count_pane,
-                                                               reading_caption("counting", width=320), margin=0)),
+                                                     self.count_map_box),
                              sizing_mode="stretch_width")
         return pn.Column(self.kind, self.help, settings, self.bar, self.result, pn.layout.Divider(), counting,
                          css_classes=["edit-tab"], sizing_mode="stretch_width")
