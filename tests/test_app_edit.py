@@ -464,6 +464,8 @@ def test_layers_that_do_not_exist_are_refused(tiny_model_dir, tmp_path, capsys):
      "--weight is not read by erase (it is read by emphasize, ground)"),
     (["replace", "a person jumps", "--edited", "a person kicks", "--word", "jumps"], "--word is not read by replace"),
     (["shift", "a person jumps", "--to-frame", "9"], "--from-frame/--to-frame are not read by shift"),
+    (["emphasize", "a person jumps", "--word", "jumps", "--copy-self-attention"],
+     "--copy-self-attention is not read by emphasize (it is read by replace)"),
 ])
 def test_a_flag_the_kind_does_not_read_is_refused(argv, said):
     from engine.cli.common import Parser
@@ -497,6 +499,12 @@ def test_cli_and_tab_share_the_option_mapping():
     assert build_config(EditOptions(kind="shift"), frames=60).window.end == 0.4  # the method's default window
     with pytest.raises(ValueError, match="needs a word"):
         build_config(EditOptions(kind="ground"), frames=60)
+    # replacement copies the cross-attention (the paper); --copy-self-attention adds the self-attention (authors' code)
+    plain = parser.parse_args(["edit", "replace", "a person jumps", "--edited", "a person kicks"])
+    assert not build_config(options_from_args(plain), frames=60).self_attention
+    both = parser.parse_args(["edit", "replace", "a person jumps", "--edited", "a person kicks",
+                              "--copy-self-attention"])
+    assert build_config(options_from_args(both), frames=60).self_attention
 
 
 def test_a_session_opens_on_its_models_calibrated_emphasis_mode(tiny_model_dir, tmp_path, capsys):

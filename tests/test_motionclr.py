@@ -95,8 +95,15 @@ def test_replace_copies_reference_maps_into_the_edit_slot():
     x = torch.randn(2, FRAMES, 263, generator=torch.Generator().manual_seed(2))
     store = AttentionStore()
     model(x, torch.full((2,), 300), c, controller=stack(Replace(ReplaceConfig(), num_steps=10), store), step=1)
+    # the paper's replacement: the cross-attention maps only; the edited prompt keeps its own self-attention
+    assert torch.equal(store.map(step=1, layer=2, kind="cross", slot=0), store.map(step=1, layer=2, kind="cross", slot=1))
+    assert not torch.equal(store.map(step=1, layer=2, kind="self", slot=0),
+                           store.map(step=1, layer=2, kind="self", slot=1))
+    both = AttentionStore()  # the authors' code: the self-attention maps too
+    model(x, torch.full((2,), 300), c, controller=stack(Replace(ReplaceConfig(self_attention=True), num_steps=10),
+                                                        both), step=1)
     for kind in ("cross", "self"):
-        assert torch.equal(store.map(step=1, layer=2, kind=kind, slot=0), store.map(step=1, layer=2, kind=kind, slot=1))
+        assert torch.equal(both.map(step=1, layer=2, kind=kind, slot=0), both.map(step=1, layer=2, kind=kind, slot=1))
     late = AttentionStore()
     model(x, torch.full((2,), 300), c, controller=stack(Replace(ReplaceConfig(), num_steps=10), late), step=8)
     assert not torch.equal(late.map(step=8, layer=2, kind="cross", slot=0), late.map(step=8, layer=2, kind="cross", slot=1))

@@ -258,7 +258,8 @@ def test_replace_between_prompts_of_different_lengths_maps_aligned_words():
     # the same-length case copies the reference's whole map, as before
     c2 = cond(("ref", "edit"), [ref, ("a", "man", "kicks", "high")])
     same = AttentionStore()
-    model(x, torch.full((2,), 300), c2, controller=stack(Replace(ReplaceConfig(), num_steps=10), same))
+    model(x, torch.full((2,), 300), c2, controller=stack(Replace(ReplaceConfig(self_attention=True), num_steps=10),
+                                                         same))
     for kind in ("cross", "self"):
         assert torch.equal(same.map(step=0, layer=1, kind=kind, slot=0), same.map(step=0, layer=1, kind=kind, slot=1))
 

@@ -98,6 +98,10 @@ class EditOptions:
     edited: str | None = option(None, label="Edited prompt (the action swapped; words may be added or dropped)",
                                 help="the edited prompt; its words are aligned to the prompt's as prompt-to-prompt "
                                      "aligns them, and the alignment is shown")
+    copy_self: bool = option(False, flag="--copy-self-attention", label="Also copy the self-attention (authors' code)",
+                             help="replace: also copy the reference's self-attention maps, as the authors' code does "
+                                  "(keeps the timing a little closer, lands the new action less often; the paper "
+                                  "copies the cross-attention only)")
     # the range a slider offers: ShiftConfig refuses 0 and 1 themselves (an open interval, which bounds cannot say)
     fraction: float = option(0.5, soft=(0.05, 0.95), step=0.05, label="Shift: part moved to the end",
                              help="the part of the motion moved to the end")
