@@ -90,6 +90,9 @@ class Studio:
         latest = self._latest_kept() if path is None or Path(path) == EXAMPLE else None
         if latest is not None:  # a returning user: the page opens on their newest motion, not on the example
             self.state.show(latest)
+            prompt = self.state.items[latest].prompt
+            if prompt:  # and its prompt in the Generate box, not the default one
+                self.state.prompt = prompt
         elif path is not None:
             try:
                 from engine.io import load_motion

@@ -253,12 +253,15 @@ def test_a_returning_user_opens_on_their_newest_motion_not_the_example(tiny_mode
     first = Studio(model_dir=tiny_model_dir, initial=EXAMPLE, library=MotionLibrary(workspace=workspace))
     try:
         assert first.state.current == "imported: walk.npy"  # a new user: the example
-        _generate(first, "a person jumps twice", 3)
+        _generate(first, "someone kicks", 3)
         newest = first.state.current
+        first.state.prompt = "a person waves"  # typed, not generated: the next page opens on the motion's prompt
     finally:
         first.close()
     second = Studio(model_dir=tiny_model_dir, initial=EXAMPLE, library=MotionLibrary(workspace=workspace))
     try:
         assert second.state.current == newest and len(second.state.items) == 2
+        assert second.state.prompt == "someone kicks"  # its prompt in the Generate box (not the default)
+        assert second.state.param.prompt.default != "someone kicks"
     finally:
         second.close()

@@ -210,8 +210,9 @@ def _run_style(loaded, options, config, **common):
 
 REGISTRY: dict[str, EditKind] = {k.name: k for k in (
     EditKind("emphasize", "emphasise",
-             "Add the weight to (or multiply) the picked word's cross-attention column: positive = more of that "
-             "action, negative = less. Paper range ±0.5; beyond that maps break.",
+             "Weight the picked word's cross-attention column: multiplied (×w: over 1 = more of that action, under "
+             "1 = less) or added (+w, the paper's form: positive = more, range ±0.5). It opens on the form and "
+             "layers measured to grow the action on this model.",
              inputs=frozenset({"word", "weight", "mode", "frames"}), build=_emphasize_config,
              run=_run("reweight"), calibrated=True, describe=_describe_weighted("emphasise")),
     EditKind("erase", "erase",
