@@ -542,3 +542,32 @@ def test_a_session_opens_on_its_models_calibrated_emphasis_mode(tiny_model_dir, 
                  "--model", str(folder), "--out", str(out), "--no-library"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert (report["mode"], report["weight"]) == ("mul", 2.0)
+
+
+def test_switching_to_ground_after_a_multiplied_emphasis_takes_a_grounding_weight(tiny_model_dir, tmp_path):
+    """Emphasis opens at x2 on a model calibrated to multiply; grounding adds a weight in (0, 1]: switching kinds
+    must not hand it the 2 (it was refused: "the grounding weight must be in (0, 1]")."""
+    import shutil
+
+    from engine.evaluation.calibrate_edits import write_calibration
+    from engine.methods.edit_options import DEFAULT_WEIGHTS
+
+    folder = tmp_path / "model"
+    shutil.copytree(tiny_model_dir, folder)
+    write_calibration(folder, {"mode": "mul", "layers": [0], "response": 0.5, "change": 0.1})
+    st = Studio(model_dir=folder, initial=None)
+    try:
+        s, tab = st.state, st.edit
+        s.param.update(prompt="a person jumps twice", seconds=2.0, steps=4, record_steps=2, seed=1)
+        assert s.generate() and s.wait(120), s.notices
+        assert (tab.settings.mode, tab.settings.weight) == ("mul", 2.0)
+        tab.kind.value = "ground"
+        assert (tab.settings.mode, tab.settings.weight) == ("add", DEFAULT_WEIGHTS["add"])
+        tab.words.value = 2
+        before = len(s.notices)
+        assert run_edit(s, tab.settings) and s.wait(120)
+        assert not [n for n in s.notices[before:] if n[0] == "error"], s.notices[before:]
+        tab.kind.value = "emphasise"  # back: the calibrated x2 again
+        assert (tab.settings.mode, tab.settings.weight) == ("mul", 2.0)
+    finally:
+        st.close()

@@ -341,8 +341,8 @@ class EditTab(pn.viewable.Viewer):
         if e.style_source not in names:
             e.style_source = PROMPT_SOURCE
 
-    def _on_kind(self, *_):
-        from engine.methods.edit_options import default_window
+    def _on_kind(self, *changed):
+        from engine.methods.edit_options import default_mode, default_window
 
         e = self.settings
         entry = e.entry
@@ -359,6 +359,10 @@ class EditTab(pn.viewable.Viewer):
         self.bar.clear()
         reads = entry.inputs  # the fields this kind reads, by the engine's registry
         is_edit = entry.is_edit
+        if changed and "weight" in reads:  # each weighted kind opens on its own mode (ground adds, in (0, 1]; emphasis
+            mode = default_mode(entry.name, self._model_config())  # the calibrated one): a x2 is no grounding weight
+            if e.mode != mode:
+                e.mode = mode  # its watcher sets that mode's default weight
         self.words_label.visible = self.words.visible = "word" in reads
         self.mode.visible = "mode" in reads
         self.weight.visible = "weight" in reads
