@@ -97,8 +97,9 @@ def response(loaded: LoadedModel, layers: tuple[int, ...], config: CalibrationCo
         loaded.tokenizer.encode(prompt).word_index(verb)  # a clear error if the model lacks a word
         for seed in range(config.seeds):
             sample = SampleConfig(steps=config.steps, guidance=config.guidance, eta=config.eta, seed=seed)
-            amps = [amplitude(edits.reweight(loaded, prompt, ReweightConfig(word=verb, weight=w, mode=mode, window=Window(
-                layers=layers)), frames=frames, sample=sample).after, verb) for w in weights]
+            configs = [ReweightConfig(word=verb, weight=w, mode=mode, window=Window(layers=layers)) for w in weights]
+            amps = [amplitude(edits.reweight(loaded, prompt, cfg, frames=frames, sample=sample).after, verb)
+                    for cfg in configs]
             draws.append(emphasis_response(weights, amps))
     return Response(score=float(np.mean([d["score"] for d in draws])),
                     change=float(np.mean([d["change"] for d in draws])))

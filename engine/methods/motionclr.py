@@ -169,9 +169,9 @@ class ReplaceConfig:
     aligns them (:mod:`engine.methods.word_alignment`): word by word when both have as many words, otherwise the
     shared words are matched and the swapped ones take the attention of the words they replace, while words only
     the edited prompt has keep their own maps. ``self_attention`` also copies the self-attention maps, as the
-    authors' code does (the paper replaces the cross-attention maps). Off by default: on base v9 (`moattn bench --edits`,
-    42 draws, the same noises) copying them kept the walk's timing a little closer (IoU 0.92 against 0.87; 0.83
-    without replacement) but held the motion to the reference's action: 0.57 of the edited motions were nearer the
+    authors' code does (the paper replaces the cross-attention maps). Off by default: on base v9 (`moattn bench
+    --edits`, 42 draws, the same noises) copying them kept the walk's timing a little closer (IoU 0.92 against 0.87;
+    0.83 without replacement) but held the motion to the reference's action: 0.57 of the edited motions were nearer the
     edited prompt, against 0.69 without the copy (0.95 for the edited prompt alone); the step window (0.2 to 0.5 of
     the steps) did not change either figure.
     """
