@@ -32,7 +32,7 @@ WEIGHT_BOUNDS = (min(lo for lo, _ in WEIGHT_RANGES.values()), max(hi for _, hi i
 #: the weight each mode starts from when none is given (the CLI, the Edit tab): add +0.3, multiply x2
 DEFAULT_WEIGHTS: dict[str, float] = {"add": 0.3, "mul": 2.0}
 #: the weights a benchmark or a calibration sweeps per mode, lowest to highest, the unedited weight in the middle
-#: (multiplying is swept evenly in its logarithm: x0.5 .. x2 as adding is from -0.4 to +0.4)
+#: (multiplying from x0.5 to x2 around the unedited x1, as adding goes from -0.4 to +0.4 around 0)
 SWEEP_WEIGHTS: dict[str, tuple[float, ...]] = {"add": (-0.4, -0.2, 0.0, 0.2, 0.4), "mul": (0.5, 0.75, 1.0, 1.5, 2.0)}
 
 
