@@ -116,7 +116,7 @@ def _better(trial: Response, current: Response, config: CalibrationConfig) -> bo
 
 
 def _select_layers(loaded: LoadedModel, config: CalibrationConfig, mode: str, log) -> dict:
-    """Forward selection of the layers for one mode -> {"layers", "response", "change", "per_layer", "history"}."""
+    """Forward selection of the layers for one mode -> {"layers", "best" (their Response), "per_layer", "history"}."""
     per_layer: dict[int, Response] = {}
     for layer in range(loaded.model.num_layers):
         per_layer[layer] = response(loaded, (layer,), config, mode=mode)
