@@ -352,3 +352,20 @@ def test_control_runs_on_the_control_models_own_base(tiny_model_dir, tmp_path):
         assert k.result.base_note == "" and "control runs on" not in tab.readout.object
     finally:
         studio.close()
+
+
+def test_planted_feet_checkbox_reaches_the_engine(studio):
+    """The Control tab's "Keep planted feet still" box is the engine's declared option (on by default), and what it
+    says is what the job runs with."""
+    from app.tabs.control.job import prepare
+    from engine.methods.control_options import ControlOptions, option_info
+
+    tab, k = studio.control, studio.control.settings
+    info = option_info(ControlOptions, "planted_feet")
+    assert k.planted_feet is info.default is True
+    assert tab.planted_feet.value is True and tab.planted_feet.name == "Keep planted feet still"
+    assert prepare(studio.state, k).planted_feet is True
+    tab.planted_feet.value = False
+    assert k.planted_feet is False and prepare(studio.state, k).planted_feet is False
+    assert tab.generate() and studio.state.wait(300), studio.state.notices[-1:]
+    assert not [n for n in studio.state.notices if n[0] == "error"], studio.state.notices

@@ -58,7 +58,9 @@ def test_engine_normalized_weights_follow_the_same_rule():
 
 def test_control_options_declare_every_option_once():
     declared = {o.name: o for o in options(ControlOptions)}
-    assert list(declared) == ["seconds", "method", "root_weight", "left_wrist_weight", "right_wrist_weight"]
+    assert list(declared) == ["seconds", "method", "root_weight", "left_wrist_weight", "right_wrist_weight",
+                              "planted_feet"]
+    assert declared["planted_feet"].default is True and declared["planted_feet"].help
     from engine.units import MAX_SECONDS, MIN_SECONDS
 
     assert declared["seconds"].default == 6.0 and declared["seconds"].bounds == (MIN_SECONDS, MAX_SECONDS)
@@ -83,7 +85,8 @@ def _result(blending: dict, inpainting: dict, *, paths: int = 9) -> dict:
     """What ``bench_control`` returns, reduced to what the record reads."""
     rows = {m: {"paths": paths, "error_m": 0.02, "off_0_5m": 0.0, **figs}
             for m, figs in (("blending", blending), ("inpainting", inpainting))}
-    return {"drawn": {"tasks": {"root+left_wrist": rows}}, "steps": 50, "motions": 64, "truth_skate": 0.05}
+    return {"drawn": {"tasks": {"root+left_wrist": rows}}, "steps": 50, "motions": 64, "truth_skate": 0.05,
+            "planted_feet": True}
 
 
 def test_judge_needs_both_figures_for_a_leader():
@@ -118,12 +121,13 @@ def test_the_bench_record_speaks_for_the_models_it_measured(tmp_path):
     record = json.loads(path.read_text())
     assert path.name == BENCH_RECORD and record["models"] == models_fingerprint(folder) and len(record["models"]) == 3
     assert record["figures"]["blending"]["skate"] == 0.1 and record["run"] == {"drawn_paths": 9, "steps": 50,
-                                                                                "motions": 64}
+                                                                                "motions": 64, "planted_feet": True}
     verdict = bench_verdict(folder)
+    assert "planted feet on" in verdict.message
     assert verdict.leader == "blending" and verdict.opening_method(blending_offered=True) == "blending"
     assert verdict.opening_method(blending_offered=False) == "inpainting"
     assert verdict.message.startswith("The control bench has blending ahead of inpainting on drawn root + left wrist")
-    assert "(moattn bench --control, 9 drawn paths, 50 steps)" in verdict.message and "\n" not in verdict.message
+    assert "(moattn bench --control, 9 drawn paths, 50 steps, planted feet on)" in verdict.message and "\n" not in verdict.message
     # a model retrained since: the record no longer speaks for the folder
     (folder / "left_wrist" / "weights.pt").write_bytes(b"retrained")
     verdict = bench_verdict(folder)
@@ -222,7 +226,29 @@ def test_moattn_control_blends_the_root_and_both_wrists(tiny_model_dir, tiny_con
     # the baseline
     assert main([*common, "--method", "inpainting"]) == 0
     report = json.loads(capsys.readouterr().out)
-    assert report["method"] == "inpainting" and "weights" not in report
+    assert report["method"] == "inpainting" and "weights" not in report and report["planted_feet"] is True
+    # the paper's sampling, feet free to slide
+    assert main([*common, "--no-planted-feet"]) == 0
+    assert json.loads(capsys.readouterr().out)["planted_feet"] is False
+
+
+def test_planted_feet_stop_the_shipped_model_sliding_along_a_drawn_path():
+    """The shipped base inpainting a drawn S-curve: with the planted-feet correction (the default) the feet slide
+    on fewer floor frames than without it, on the same noise, and the root follows the path the same."""
+    from engine.checkpoint import load_model
+    from engine.evaluation.bench_control import drawn_cases, drawn_errors
+    from engine.evaluation.metrics import foot_skate
+    from engine.generate import SampleConfig
+    from engine.methods.control import controlled
+
+    loaded = load_model("assets/model")
+    case = drawn_cases("root", 1)[0]
+    runs = {feet: controlled(loaded, case.prompt, case.controls, seconds=case.seconds,
+                             sample=SampleConfig(steps=20, seed=0), planted_feet=feet).joints[0]
+            for feet in (False, True)}
+    skate = {feet: foot_skate(j) for feet, j in runs.items()}
+    assert skate[False] > 0.1 and skate[True] < 0.5 * skate[False], skate
+    assert abs(drawn_errors(runs[True], case).mean() - drawn_errors(runs[False], case).mean()) < 0.01
 
 
 @pytest.mark.parametrize("extra, message", [
@@ -267,7 +293,7 @@ def test_a_bench_run_becomes_the_record_the_studio_reads(tiny_model_dir, tiny_co
     for method in ("blending", "inpainting"):
         assert record["figures"][method]["skate"] == drawn[method]["skate"]
         assert record["figures"][method]["action_match"] == drawn[method]["action_match"]
-    assert record["run"] == {"drawn_paths": 1, "steps": 2, "motions": 2}
+    assert record["run"] == {"drawn_paths": 1, "steps": 2, "motions": 2, "planted_feet": True}
     verdict = bench_verdict(folder)
     assert verdict.figures == record["figures"] and verdict.leader == judge(record["figures"])[0]
-    assert "(moattn bench --control, 1 drawn path, 2 steps)" in verdict.message
+    assert "(moattn bench --control, 1 drawn path, 2 steps, planted feet on)" in verdict.message

@@ -54,10 +54,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     # the method, the blend weights and the length: declared on ControlOptions (the Control tab reads them too)
     add_options(p, ControlOptions, only=("method",), given_only=True)
     add_options(p, ControlFiles, only=("inpaint",))
-    add_options(p, ControlOptions, skip=("method", "seconds"), given_only=True,
+    add_options(p, ControlOptions, skip=("method", "seconds", "planted_feet"), given_only=True,
                 notes={ControlOptions.weight_field(n): "blending only" for n in CONTROLS})
     add_options(p, ControlFiles, only=("weights",))
-    add_options(p, ControlOptions, only=("seconds",))
+    add_options(p, ControlOptions, only=("seconds", "planted_feet"))
     add_sample_options(p)
     add_options(p, ControlFiles, skip=("prompt", "inpaint", "weights"))
     add_runtime_arguments(p)
@@ -85,7 +85,8 @@ def options_from_args(args: argparse.Namespace, names: list[str]) -> ControlOpti
                          f"--{unused[0].replace('_', '-')} PATH.json too")
     if given and method == "inpainting":
         raise ValueError("blend weights apply to blending (the fine-tuned control models), not to inpainting")
-    return ControlOptions(method=method, **{ControlOptions.weight_field(n): w for n, w in given.items()})
+    return ControlOptions(method=method, planted_feet=args.planted_feet,
+                          **{ControlOptions.weight_field(n): w for n, w in given.items()})
 
 
 MAX_PATH_BYTES = 2**20  # a path JSON file larger than this (1 MiB) is refused
@@ -220,9 +221,10 @@ def run(args: argparse.Namespace) -> int:
         models = run_base.models
     sample = sample_config(args)
     gen = controlled(run_base.loaded, args.prompt, controls, seconds=args.seconds, models=models,
-                     weights=options.weights() if blending else None, sample=sample)
+                     weights=options.weights() if blending else None, sample=sample, planted_feet=options.planted_feet)
     joints = gen.joints[0]
-    report = {"out": str(args.out), "method": options.method, "controls": [c.name for c in controls],
+    report = {"out": str(args.out), "method": options.method, "planted_feet": options.planted_feet,
+              "controls": [c.name for c in controls],
               "base": str(run_base.loaded.folder) if run_base.on_prior else str(args.model)}
     if shares is not None:
         report["weights"] = {n: round(s, 6) for n, s in zip(given_paths, shares)}

@@ -34,7 +34,7 @@ inpainted on every frame and decode onto the path, so both root errors are round
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -45,6 +45,7 @@ from engine.evaluation.metrics import fid, foot_skate
 from engine.generate import FPS, SampleConfig
 from engine.intent import parse_intent
 from engine.methods.control import Control, control_base, control_dims, controlled, load_controls
+from engine.methods.control_options import ControlOptions, option_info
 from engine.methods.drawn_paths import DrawnPath, drawn_letters, drawn_root_paths
 from engine.methods.paths import to_world
 from engine.paths import shown_folder
@@ -63,6 +64,9 @@ class ControlBenchConfig:
     seed: int = 0
     min_seconds: float = 3.0
     drawn_paths: int = 9  # drawn root paths, and letters per wrist (0: true paths only)
+    # every row samples with the planted-feet correction as the CLI and the studio do by default; the drawn paths are
+    # also sampled the other way (``drawn_other_feet``), so the paper's sampling stays on the record
+    planted_feet: bool = option_info(ControlOptions, "planted_feet").default
 
     @classmethod
     def quick(cls) -> "ControlBenchConfig":
@@ -181,6 +185,7 @@ def bench_control(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Contr
     sample = SampleConfig(steps=config.steps, guidance=config.guidance, seed=config.seed)
     intents = [parse_intent(s.captions[0]) for s in items]
     result = {"motions": len(items), "steps": config.steps, "models": sorted(models), "base": base, "tasks": {},
+              "planted_feet": config.planted_feet,
               "truth_redraw_fid": floor,
               "truth_adherence": score(check_motion(s.joints, i) for s, i in zip(items, intents)),
               "truth_skate": float(np.mean([foot_skate(s.joints) for s in items]))}
@@ -194,7 +199,8 @@ def bench_control(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Contr
                 truth = features_to_joints(s.features)
                 controls = [Control(n, s.features[:, control_dims(n)]) for n in names]
                 gen = controlled(loaded, s.captions[0], controls, seconds=seconds, models=use,
-                                 sample=SampleConfig(steps=sample.steps, guidance=sample.guidance, seed=config.seed + k))
+                                 sample=SampleConfig(steps=sample.steps, guidance=sample.guidance, seed=config.seed + k),
+                                 planted_feet=config.planted_feet)
                 joints = gen.joints[0]
                 for n in names:
                     errors[n].append(control_error(joints, truth, n))
@@ -211,6 +217,10 @@ def bench_control(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Contr
         result["tasks"][task] = rows
     if config.drawn_paths > 0:
         result["drawn"] = bench_drawn(loaded, models, config, log=lambda line: log(f"{line} ({time.time() - t0:.0f} s)"))
+        other = replace(config, planted_feet=not config.planted_feet)
+        feet = "on" if other.planted_feet else "off"
+        result["drawn_other_feet"] = bench_drawn(
+            loaded, models, other, log=lambda line: log(f"{line}, planted feet {feet} ({time.time() - t0:.0f} s)"))
         result["drawn_vs_true_error"] = {task: {m: error_ratio(r["error_m"], result["tasks"][task][m]["error_m"])
                                                 for m, r in rows.items()}
                                          for task, rows in result["drawn"]["tasks"].items()}
@@ -252,7 +262,8 @@ def bench_drawn(loaded: LoadedModel, models: dict[str, LoadedModel], config: Con
             per_path = []
             for k, case in enumerate(cases):
                 gen = controlled(loaded, case.prompt, case.controls, seconds=case.seconds, models=use,
-                                 sample=SampleConfig(steps=config.steps, guidance=config.guidance, seed=config.seed + k))
+                                 sample=SampleConfig(steps=config.steps, guidance=config.guidance, seed=config.seed + k),
+                                 planted_feet=config.planted_feet)
                 joints = gen.joints[0]
                 err = drawn_errors(joints, case)
                 per_path.append({"path": case.name, "error_m": float(err.mean()), "off_0_5m": float((err > 0.5).mean()),
@@ -283,6 +294,16 @@ def format_table(result: dict) -> str:
             if d is not None:
                 lines.append(f"{'':<18}{'':<12}{'drawn':<7}{d['error_m']:>9.3f}{d['off_0_5m']:>8.3f}{'-':>8}"
                              f"{d['skate']:>8.3f}{_share(d['action_match']):>8}")
+    other = result.get("drawn_other_feet", {}).get("tasks", {})
+    if other:
+        how = "off (the paper's sampling)" if result.get("planted_feet", True) else "on"
+        lines.append(f"drawn paths with planted feet {how}:")
+        for task, rows in other.items():
+            for method, d in rows.items():
+                lines.append(f"{task:<18}{method:<12}{'drawn':<7}{d['error_m']:>9.3f}{d['off_0_5m']:>8.3f}{'-':>8}"
+                             f"{d['skate']:>8.3f}{_share(d['action_match']):>8}")
+    lines.append(f"planted feet (engine.diffusion.feet): {'on' if result.get('planted_feet', True) else 'off'} in the "
+                 "main rows")
     lines.append(f"skate: share of grounded foot frame pairs that slide; the held-out motions' own: "
                  f"{result['truth_skate']:.3f}")
     lines.append("action: share of the motions whose prompted action is detected (engine.evaluation.adherence); "

@@ -15,7 +15,8 @@ import torch
 from engine.checkpoint import LoadedModel, load_model
 from engine.diffusion import CLEAN, CosineSchedule, StepState
 from engine.generate import Generation, Request, SampleConfig, denoiser_for, frames_for, generate
-from engine.methods.control_options import CONTROLS, blend_shares
+from engine.diffusion.feet import PlantedFeet
+from engine.methods.control_options import CONTROLS, ControlOptions, blend_shares, option_info
 from engine.paths import CONTROL_PRIOR_DIR, shown_folder
 from engine.representation import SLICES, ric_dims
 from engine.runtime import CPU, Runtime
@@ -138,11 +139,14 @@ def normalized_weights(weights, n: int) -> list[float]:
 
 def controlled(loaded: LoadedModel, prompt: str, controls: list[Control], *, seconds: float,
                models: dict[str, LoadedModel] | None = None, weights=None,
-               sample: SampleConfig = SampleConfig(), on_step=None) -> Generation:
+               sample: SampleConfig = SampleConfig(), on_step=None,
+               planted_feet: bool = option_info(ControlOptions, "planted_feet").default) -> Generation:
     """Text + controls -> motion. With ``models`` (name -> fine-tuned control model): each control's
     model, blended (DiffusionBlending) with ``weights`` (None: equal; one per control in order, or control name ->
     raw weight; scaled to sum 1 by :func:`~engine.methods.control_options.blend_shares`), controls noise-free
-    (Algorithm 2). Without: plain inpainting with ``loaded`` (the baseline), which takes no weights."""
+    (Algorithm 2). Without: plain inpainting with ``loaded`` (the baseline), which takes no weights.
+    ``planted_feet``: either method's prediction is wrapped in :class:`~engine.diffusion.feet.PlantedFeet` (the legs
+    move so feet on the floor stay put; the root and the wrists, the controlled cells, are left as they are)."""
     if not controls:
         raise ValueError("give at least one control (a root or wrist path)")
     names = [c.name for c in controls]
@@ -167,8 +171,11 @@ def controlled(loaded: LoadedModel, prompt: str, controls: list[Control], *, sec
         noise_free = False
     hook = KnownLatents(known, schedule, noise_free=noise_free, generator=g)
     noise = known.put(noise, hook.latent(schedule.timesteps(sample.steps)[0], known.values.shape))
+    denoiser = Inpaint(base, known)
+    if planted_feet:
+        denoiser = PlantedFeet(denoiser, loaded.normalizer)
     return generate(loaded, Request(prompts=[prompt], frames=[frames], noise=noise), sample, hooks=[hook],
-                    denoiser=Inpaint(base, known), on_step=on_step)
+                    denoiser=denoiser, on_step=on_step)
 
 
 def control_name(loaded: LoadedModel) -> str:

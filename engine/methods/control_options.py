@@ -112,7 +112,7 @@ def blend_shares(weights: Mapping[str, float] | Sequence[float] | None, names: S
 
 @dataclass(frozen=True, kw_only=True)
 class ControlOptions:
-    """A controlled generation's length, method and blend weights (besides the prompt and the paths).
+    """A controlled generation's length, method, blend weights and planted feet (besides the prompt and the paths).
 
     ``method``: "blending" (the paper's method: every control's fine-tuned model, blended) or "inpainting" (the
     baseline). The weights are raw: :meth:`shares` scales those of the controls in use to sum to 1
@@ -131,6 +131,10 @@ class ControlOptions:
                                       help="blend weight of the left wrist's control model")
     right_wrist_weight: float = option(1.0, bounds=WEIGHT_BOUNDS, soft=(0.0, 1.0), step=0.05, metavar="W",
                                        help="blend weight of the right wrist's control model")
+    planted_feet: bool = option(True, label="Keep planted feet still",
+                                help="at the last denoising steps, move the knees and feet so that a foot on the floor "
+                                     "stays put while the root follows its path (engine.diffusion.feet); off: the "
+                                     "paper's sampling, where feet slide along drawn paths")
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -239,7 +243,8 @@ def bench_verdict(folder) -> BenchVerdict:
     run = record.get("run") or {}
     paths = run.get("drawn_paths")
     how = ", ".join(filter(None, [f"{paths} drawn path{'s' * (paths != 1)}" if paths is not None else "",
-                                  f"{run['steps']} steps" if "steps" in run else ""]))
+                                  f"{run['steps']} steps" if "steps" in run else "",
+                                  {True: "planted feet on", False: "planted feet off"}.get(run.get("planted_feet"), "")]))
     source = f" ({WRITE_COMMAND.removesuffix(' --write')}" + (f", {how})" if how else ")")
     if leader is not None:
         other = "inpainting" if leader == "blending" else "blending"
@@ -260,7 +265,7 @@ def bench_record(result: Mapping, *, folder) -> dict:
     figures = {m: {k: drawn[m].get(k) for k in ("skate", "action_match", "error_m", "off_0_5m")} for m in METHODS}
     return {"what": BENCH_WHAT, "task": BENCH_TASK, "figures": figures, "truth_skate": result.get("truth_skate"),
             "run": {"drawn_paths": drawn["blending"].get("paths"), "steps": result.get("steps"),
-                    "motions": result.get("motions")},
+                    "motions": result.get("motions"), "planted_feet": result.get("planted_feet")},
             "base": result.get("base"), "models": models_fingerprint(folder), "source": WRITE_COMMAND}
 
 

@@ -23,6 +23,7 @@ from app.session.jobs import Delivery, JobDescription, Worker
 from app.tabs.control.models import control_setup
 from app.tabs.control.paths import COLORS, LABELS, ROOT_COLOR, WRISTS
 from app.tabs.control.settings import ControlSettings
+from engine.methods.control_options import ControlOptions, option_info
 
 
 @dataclass
@@ -42,6 +43,8 @@ class ControlPlan:
     method: str
     description: str
     base_note: str = ""  # one line when ``base`` is the control models' own base, not the session's
+    # feet on the floor kept still (engine.diffusion.feet)
+    planted_feet: bool = option_info(ControlOptions, "planted_feet").default
 
 
 @dataclass
@@ -107,7 +110,7 @@ def prepare(state, settings: ControlSettings) -> ControlPlan:
     return ControlPlan(prompt=settings.prompt.strip(), controls=controls, frame=frame, wrist_targets=wrist_targets,
                       models=models, weights=weights, shares=shares, sample=sample, seconds=seconds,
                       method=settings.method, description=f"{what} by {settings.method}", base=loaded,
-                      base_note=run.note)
+                      base_note=run.note, planted_feet=settings.planted_feet)
 
 
 def run_job(loaded, job: ControlPlan, *, on_step: Callable[[int, int], None], cancel: threading.Event,
@@ -125,7 +128,8 @@ def run_job(loaded, job: ControlPlan, *, on_step: Callable[[int, int], None], ca
     t0 = time.perf_counter()
     with sampling_slot(cancel, on_wait):
         gen = controlled(job.base if job.base is not None else loaded, job.prompt, job.controls, seconds=job.seconds,
-                         models=job.models, weights=job.weights, sample=job.sample, on_step=step)
+                         models=job.models, weights=job.weights, sample=job.sample, on_step=step,
+                         planted_feet=job.planted_feet)
     joints = np.asarray(gen.joints[0], dtype=np.float32)
     if not np.isfinite(joints).all():
         raise ValueError("the model produced non-finite joints")

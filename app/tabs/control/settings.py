@@ -47,6 +47,7 @@ class ControlSettings(param.Parameterized):
                              "negative or all-zero weights")
     # the methods, labelled; "inpainting" until :meth:`discover` opens on the one the control bench has ahead
     method = param_for(ControlOptions, "method", objects=METHOD_LABELS, default="inpainting")
+    planted_feet = param_for(ControlOptions, "planted_feet")
     controls_dir = param.Parameter(default=CONTROL_DIR, doc="folder of the fine-tuned control models")
     available = param.List(default=[], doc="controls with a fine-tuned model in controls_dir")
     problem = param.String(default="", doc="why blending is not offered ('' when it is)")

@@ -66,6 +66,7 @@ class ControlTab(pn.viewable.Viewer):
         self.method_note = pn.pane.HTML("", css_classes=["control-method-note"], margin=(0, 10), stylesheets=[_CSS])
         # which method the control bench has ahead (what the tab opened on, and why)
         self.bench_note = pn.pane.HTML("", css_classes=["control-bench-note"], margin=(0, 10), stylesheets=[_CSS])
+        self.planted_feet = pn.widgets.Checkbox.from_param(k.param.planted_feet, css_classes=["control-planted-feet"])
         self.weights = {n: self._weight_slider(n) for n in LABELS}
         self.shares = pn.pane.HTML("", css_classes=["control-shares"], margin=(0, 10), stylesheets=[_CSS])
         self.bar = JobBar(state=self.state, jobs=["controlled generation"], label="Generate with control",
@@ -234,7 +235,7 @@ class ControlTab(pn.viewable.Viewer):
             self.base_note, pn.Row(self.prompt, self.seconds, sizing_mode="stretch_width"), self.flag,
             "#### Root path (top-down)", root, "#### Wrist paths (front view)", wrist,
             "#### Method", self.method, self.bench_note, self.method_note, *self.weights.values(), self.shares,
-            self.bar, self.readout, css_classes=["control-tab"], sizing_mode="stretch_width")
+            self.planted_feet, self.bar, self.readout, css_classes=["control-tab"], sizing_mode="stretch_width")
 
 
 _CSS = """

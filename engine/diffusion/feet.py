@@ -1,0 +1,87 @@
+"""Denoiser wrapper: planted feet. Where the prediction's feet are on the floor, they stop sliding.
+
+At the low-noise steps (t < ``below``) the wrapper takes the inner denoiser's clean prediction x̂0, and moves the
+legs' joint positions in it (knees, ankles, toes: their "ric" features; the root and everything else stay) so that
+each foot joint on the floor (lower than :data:`engine.evaluation.metrics.foot_skate`'s 5 cm in two neighbouring
+frames) moves as little as it can across the floor, while each leg bone keeps its length and the change stays small.
+It is a few steps of gradient descent on the joint positions, a small inverse kinematics, with the root fixed: the
+root is what a control path imposes. The next denoising step sees the corrected prediction, so the model carries the
+change into the rest of the body; at the last step it is what the user gets.
+
+The term is MDM's foot contact loss (:func:`engine.diffusion.losses.foot_contact_loss`) applied at sampling time to
+the model's own prediction, where the training loss applied it against the target. ``strength`` 0 is the inner
+denoiser unchanged, bit for bit.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from engine.representation import NUM_JOINTS, SLICES, Normalizer, features_to_joints
+from engine.skeleton import FOOT_JOINTS
+
+#: the floor height below which a foot joint counts as on the floor (the skate figure's, metres)
+ON_FLOOR = 0.05
+#: the joints the correction moves (knees, ankles, toes) and the leg bones whose lengths it keeps
+MOVED = (4, 5, 7, 8, 10, 11)
+BONES = ((1, 4), (4, 7), (7, 10), (2, 5), (5, 8), (8, 11))
+FEET = (*FOOT_JOINTS["left"], *FOOT_JOINTS["right"])
+
+
+@dataclass
+class PlantedFeet:
+    """x̂0 with the legs moved so the feet on the floor stay put (see the module). ``strength``: the weight of the
+    sliding term against keeping the pose (0: off); ``below``: the timesteps it acts at (t < below); ``iterations``
+    and ``lr`` (metres per step) of the descent."""
+
+    denoiser: object
+    normalizer: Normalizer
+    strength: float = 1.0
+    below: int = 400
+    iterations: int = 30
+    lr: float = 0.004
+
+    def __call__(self, x: torch.Tensor, t: torch.Tensor, cond, *, step: int = 0, controller=None) -> torch.Tensor:
+        x0 = self.denoiser(x, t, cond, step=step, controller=controller)
+        if self.strength <= 0 or not bool((t < self.below).any()):
+            return x0
+        fixed = x0.detach().float()  # (B, T, D) normalised
+        mean = torch.as_tensor(np.asarray(self.normalizer.mean), dtype=torch.float32)
+        std = torch.as_tensor(np.asarray(self.normalizer.std), dtype=torch.float32)
+        feats = fixed * std + mean
+        ric = SLICES["ric"]
+        with torch.enable_grad():
+            moved = torch.zeros(NUM_JOINTS - 1, 3, dtype=torch.bool)
+            moved[[j - 1 for j in MOVED]] = True
+            moved = moved.reshape(-1)
+            start = features_to_joints(feats)  # (B, T, 22, 3)
+            low = (start[:, 1:, FEET, 1] < ON_FLOOR) & (start[:, :-1, FEET, 1] < ON_FLOOR)  # (B, T-1, 4)
+            if not bool(low.any()):
+                return x0
+            low = low.float()
+            a, b = zip(*BONES)
+            length = (start[:, :, list(b)] - start[:, :, list(a)]).norm(dim=-1)  # (B, T, bones)
+            delta = torch.zeros(feats.shape[:-1] + (int(moved.sum()),), requires_grad=True)
+            opt = torch.optim.Adam([delta], lr=self.lr)
+            for _ in range(self.iterations):
+                opt.zero_grad()
+                values = feats[..., ric].clone()
+                values[..., moved] = values[..., moved] + delta
+                f = torch.cat([feats[..., :ric.start], values, feats[..., ric.stop:]], dim=-1)
+                j = features_to_joints(f)
+                slide = (j[:, 1:, FEET][..., [0, 2]] - j[:, :-1, FEET][..., [0, 2]]).pow(2).sum(-1)  # m^2 per frame
+                loss_slide = (slide * low).sum() / low.sum()
+                # on the floor the foot keeps its height: a leg stretched to reach back would lift it
+                lift = (j[:, 1:, FEET, 1] - start[:, 1:, FEET, 1]).pow(2)
+                loss_slide = loss_slide + (lift * low).sum() / low.sum()
+                bones = (j[:, :, list(b)] - j[:, :, list(a)]).norm(dim=-1)
+                loss_bones = (bones - length).pow(2).mean()
+                loss = self.strength * loss_slide + loss_bones + 1e-3 * delta.pow(2).mean()
+                loss.backward()
+                opt.step()
+        dims = torch.arange(ric.start, ric.stop)[moved]  # the moved joints' feature dims
+        result = fixed.clone()
+        result[..., dims] = (feats[..., dims] + delta.detach() - mean[dims]) / std[dims]
+        return result.to(x0.dtype)

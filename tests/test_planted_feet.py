@@ -1,0 +1,98 @@
+"""The planted-feet denoiser wrapper (engine.diffusion.feet): feet on the floor stop sliding, the legs keep their
+bones, the root and everything but the legs are left alone, and turned off it is the inner denoiser bit for bit."""
+import numpy as np
+import pytest
+import torch
+
+from engine.diffusion.feet import BONES, FEET, MOVED, PlantedFeet
+from engine.evaluation.metrics import foot_skate
+from engine.representation import FEATURE_DIM, SLICES, Normalizer, features_to_joints
+from engine.synth import Corpus
+
+
+def _walk() -> np.ndarray:
+    """A corpus walk's features (T, 263)."""
+    corpus = Corpus("test")
+    for k in range(200):
+        s = corpus.sample(k)
+        if [seg.action for seg in s.program.segments] == ["walk"]:
+            return s.features.astype(np.float32)
+    raise AssertionError("no plain walk in the first 200 test motions")
+
+
+def _sliding(features: np.ndarray, *, metres_per_frame: float) -> np.ndarray:
+    """The walk with its feet and knees dragged forward in the body frame a little more every frame: the body
+    moonwalks, each planted foot slides."""
+    out = features.copy()
+    ric = out[:, SLICES["ric"]].reshape(len(out), -1, 3)
+    drift = metres_per_frame * (np.arange(len(out)) % 20)[:, None]  # a sawtooth: a slide within every 1 s
+    for j in MOVED:
+        ric[:, j - 1, 2] += drift[:, 0]
+    out[:, SLICES["ric"]] = ric.reshape(len(out), -1)
+    return out
+
+
+class _Fixed:
+    """A denoiser that predicts the same x0 whatever it is given."""
+
+    def __init__(self, x0: torch.Tensor):
+        self.x0 = x0
+
+    def __call__(self, x, t, cond, *, step=0, controller=None):
+        return self.x0.clone()
+
+
+@pytest.fixture(scope="module")
+def case():
+    feats = _sliding(_walk(), metres_per_frame=0.03)
+    mean = feats.mean(0)
+    std = feats.std(0) + 0.1
+    norm = Normalizer(mean=mean, std=std)
+    x0 = torch.from_numpy((feats - mean) / std)[None]  # (1, T, 263) normalised
+    return feats, norm, x0
+
+
+def _joints(x0: torch.Tensor, norm: Normalizer) -> np.ndarray:
+    return features_to_joints(x0[0].numpy() * norm.std + norm.mean)
+
+
+def _bones(joints: np.ndarray) -> np.ndarray:
+    a, b = zip(*BONES)
+    return np.linalg.norm(joints[:, list(b)] - joints[:, list(a)], axis=-1)
+
+
+def test_feet_on_the_floor_stop_sliding_and_the_legs_keep_their_bones(case):
+    feats, norm, x0 = case
+    before = _joints(x0, norm)
+    wrapped = PlantedFeet(_Fixed(x0), norm)
+    out = wrapped(x0, torch.tensor([100]), None)
+    after = _joints(out, norm)
+    assert foot_skate(before) > 0.3  # the dragged walk slides
+    assert foot_skate(after) < 0.5 * foot_skate(before)
+    assert np.abs(_bones(after) - _bones(before)).max() < 0.02  # metres
+    # the root and every joint the correction does not move are where they were; feet keep their height
+    kept = [j for j in range(22) if j not in MOVED]
+    np.testing.assert_allclose(after[:, kept], before[:, kept], atol=1e-4)
+    low = before[:, list(FEET), 1] < 0.05
+    assert np.abs(after[:, list(FEET), 1] - before[:, list(FEET), 1])[low].mean() < 0.01
+    # only the moved joints' ric features change
+    changed = np.flatnonzero(np.abs(out[0].numpy() - x0[0].numpy()).max(0) > 0)
+    moved = {SLICES["ric"].start + 3 * (j - 1) + c for j in MOVED for c in range(3)}
+    assert len(changed) > 0 and set(changed.tolist()) <= moved
+
+
+def test_off_or_at_the_noisy_steps_it_is_the_inner_denoiser(case):
+    _, norm, x0 = case
+    inner = _Fixed(x0)
+    assert torch.equal(PlantedFeet(inner, norm, strength=0.0)(x0, torch.tensor([100]), None), x0)
+    assert torch.equal(PlantedFeet(inner, norm, below=400)(x0, torch.tensor([400]), None), x0)
+
+
+def test_a_motion_in_the_air_is_left_alone():
+    feats = _walk()
+    ric = feats[:, SLICES["ric"]].reshape(len(feats), -1, 3)
+    ric[:, :, 1] += 1.0  # every joint a metre up (ric heights are above the floor): no foot on the floor
+    feats[:, SLICES["ric"]] = ric.reshape(len(feats), -1)
+    norm = Normalizer(mean=np.zeros(FEATURE_DIM), std=np.ones(FEATURE_DIM))
+    x0 = torch.from_numpy(feats)[None]
+    assert torch.equal(PlantedFeet(_Fixed(x0), norm)(x0, torch.tensor([0]), None), x0)
