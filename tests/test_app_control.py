@@ -369,3 +369,6 @@ def test_planted_feet_checkbox_reaches_the_engine(studio):
     assert k.planted_feet is False and prepare(studio.state, k).planted_feet is False
     assert tab.generate() and studio.state.wait(300), studio.state.notices[-1:]
     assert not [n for n in studio.state.notices if n[0] == "error"], studio.state.notices
+    r = k.result
+    assert r.planted_feet is False and 0.0 <= r.skate <= 1.0
+    assert "feet sliding on the floor" in tab.readout.object and "(planted feet off)" in tab.readout.object

@@ -227,6 +227,7 @@ def test_moattn_control_blends_the_root_and_both_wrists(tiny_model_dir, tiny_con
     assert main([*common, "--method", "inpainting"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["method"] == "inpainting" and "weights" not in report and report["planted_feet"] is True
+    assert 0.0 <= report["foot_skate"] <= 1.0
     # the paper's sampling, feet free to slide
     assert main([*common, "--no-planted-feet"]) == 0
     assert json.loads(capsys.readouterr().out)["planted_feet"] is False

@@ -181,6 +181,7 @@ def build_controls(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     from engine.checkpoint import load_model
+    from engine.evaluation.metrics import foot_skate
     from engine.generate import frames_for
     from engine.io import save_motion
     from engine.methods.control import control_base, controlled, load_controls
@@ -237,6 +238,7 @@ def run(args: argparse.Namespace) -> int:
     if frame is not None:
         joints = to_world(joints, frame)
         report["root_error"] = path_error(joints, frame["target"])
+    report["foot_skate"] = round(foot_skate(joints), 4)  # share of floor foot frame pairs that slide
     save_motion(joints, args.out)
     title = f"{args.prompt} · {options.method} ({', '.join(report['controls'])})"[:200]
     keep(args, joints, kind="control", stream=sys.stderr, title=title,

@@ -59,6 +59,8 @@ class ControlSummary:
     guides: list[tuple[str, np.ndarray]] = field(default_factory=list)  # colour, (N, 3) world points
     joints: np.ndarray | None = None  # (T, 22, 3) in the path's world
     base_note: str = ""  # one line when it ran on the control models' own base, not the session's
+    skate: float | None = None  # share of floor foot frame pairs that slide (engine.evaluation.metrics.foot_skate)
+    planted_feet: bool = False  # sampled with the planted-feet correction
 
 
 def prepare(state, settings: ControlSettings) -> ControlPlan:
@@ -174,8 +176,11 @@ def measure(job: ControlPlan, joints: np.ndarray, *, features: np.ndarray) -> Co
         if job.frame is not None:
             target = _world(target[:, None], job.frame)[:, 0]
         guides.append((COLORS[name], np.asarray(target, dtype=np.float64)))
+    from engine.evaluation.metrics import foot_skate
+
     return ControlSummary(name="", method=job.method, controls=names, weights=dict(job.shares or {}),
-                          root_error=root_error, wrist_errors=wrist_errors, seconds_taken=0.0, guides=guides)
+                          root_error=root_error, wrist_errors=wrist_errors, seconds_taken=0.0, guides=guides,
+                          skate=foot_skate(joints), planted_feet=job.planted_feet)
 
 
 @dataclass
@@ -222,4 +227,7 @@ def describe(summary: ControlSummary) -> list[tuple[str, str]]:
                  (f"{LABELS[name]} error, max", f"{e['max_m']:.3f} m")]
     if summary.weights:
         rows.append(("blend", " + ".join(f"{s:.2f} × {LABELS[n]}" for n, s in summary.weights.items())))
+    if summary.skate is not None:
+        rows.append(("feet sliding on the floor", f"{100 * summary.skate:.0f} % of floor frames"
+                     + (" (planted feet on)" if summary.planted_feet else " (planted feet off)")))
     return rows
