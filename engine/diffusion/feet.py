@@ -42,6 +42,9 @@ class PlantedFeet:
     below: int = 400
     iterations: int = 30
     lr: float = 0.004
+    # a frame whose lowest foot joint hovers under ON_FLOOR (or sinks under the floor) is brought onto the floor: its
+    # feet on the floor aim at their heights less that gap (the legs reach down; the pelvis stays)
+    ground: bool = True
 
     def __call__(self, x: torch.Tensor, t: torch.Tensor, cond, *, step: int = 0, controller=None) -> torch.Tensor:
         x0 = self.denoiser(x, t, cond, step=step, controller=controller)
@@ -61,6 +64,10 @@ class PlantedFeet:
             if not bool(low.any()):
                 return x0
             low = low.float()
+            feet_y = start[..., FEET, 1]  # (B, T, 4)
+            gap = feet_y.min(-1).values  # the lowest foot joint's height per frame (B, T)
+            gap = torch.where(gap < ON_FLOOR, gap, torch.zeros_like(gap)) if self.ground else torch.zeros_like(gap)
+            aim = feet_y - gap[..., None]
             a, b = zip(*BONES)
             length = (start[:, :, list(b)] - start[:, :, list(a)]).norm(dim=-1)  # (B, T, bones)
             delta = torch.zeros(feats.shape[:-1] + (int(moved.sum()),), requires_grad=True)
@@ -73,8 +80,9 @@ class PlantedFeet:
                 j = features_to_joints(f)
                 slide = (j[:, 1:, FEET][..., [0, 2]] - j[:, :-1, FEET][..., [0, 2]]).pow(2).sum(-1)  # m^2 per frame
                 loss_slide = (slide * low).sum() / low.sum()
-                # on the floor the foot keeps its height: a leg stretched to reach back would lift it
-                lift = (j[:, 1:, FEET, 1] - start[:, 1:, FEET, 1]).pow(2)
+                # on the floor the foot keeps its height (a leg stretched to reach back would lift it), less the gap
+                # that keeps the frame's lowest foot joint off the floor
+                lift = (j[:, 1:, FEET, 1] - aim[:, 1:]).pow(2)
                 loss_slide = loss_slide + (lift * low).sum() / low.sum()
                 bones = (j[:, :, list(b)] - j[:, :, list(a)]).norm(dim=-1)
                 loss_bones = (bones - length).pow(2).mean()
