@@ -96,3 +96,24 @@ def test_a_motion_in_the_air_is_left_alone():
     norm = Normalizer(mean=np.zeros(FEATURE_DIM), std=np.ones(FEATURE_DIM))
     x0 = torch.from_numpy(feats)[None]
     assert torch.equal(PlantedFeet(_Fixed(x0), norm)(x0, torch.tensor([0]), None), x0)
+
+
+def test_a_walk_hovering_above_the_floor_is_brought_onto_it():
+    """The walk 3 cm up (every joint): its feet on the floor come down to it; the pelvis stays where it was."""
+    feats = _walk()
+    ric = feats[:, SLICES["ric"]].reshape(len(feats), -1, 3)
+    ric[:, :, 1] += 0.03
+    feats[:, SLICES["ric"]] = ric.reshape(len(feats), -1)
+    feats[:, SLICES["root_height"]] += 0.03
+    norm = Normalizer(mean=np.zeros(FEATURE_DIM), std=np.ones(FEATURE_DIM))
+    x0 = torch.from_numpy(feats)[None]
+    before = _joints(x0, norm)
+    lowest = before[:, list(FEET), 1].min(1)
+    assert np.median(lowest) > 0.025
+    after = _joints(PlantedFeet(_Fixed(x0), norm)(x0, torch.tensor([0]), None), norm)
+    assert np.median(after[:, list(FEET), 1].min(1)) < 0.01
+    np.testing.assert_allclose(after[:, 0], before[:, 0], atol=1e-5)
+    assert np.abs(_bones(after) - _bones(before)).max() < 0.02
+    # turned off, the hover stays (and only the sliding is corrected)
+    kept = _joints(PlantedFeet(_Fixed(x0), norm, ground=False)(x0, torch.tensor([0]), None), norm)
+    assert np.median(kept[:, list(FEET), 1].min(1)) > 0.02
