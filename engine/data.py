@@ -32,11 +32,13 @@ class MotionSource(Protocol):
 @dataclass(frozen=True)
 class ActionFocus:
     """Oversampling of some corpus actions: a ``share`` of the items is redrawn (deterministically, from corpus
-    indices no plain item uses) until its program holds one of ``actions``, as a segment or an overlay."""
+    indices no plain item uses) until its program holds one of ``actions``, as a segment or an overlay (``counted``:
+    one repeated, count >= 2)."""
 
     actions: tuple[str, ...]
     share: float
     tries: int = 64
+    counted: bool = False  # the focus action repeated (count >= 2), not just present
 
     def __post_init__(self) -> None:
         from engine.synth.program import ACTIONS
@@ -50,8 +52,8 @@ class ActionFocus:
             raise ValueError(f"focus share must be in (0, 1], got {self.share}")
 
     def holds(self, program) -> bool:
-        return any(seg.action in self.actions or (seg.overlay is not None and seg.overlay.action in self.actions)
-                   for seg in program.segments)
+        parts = [p for seg in program.segments for p in (seg, seg.overlay) if p is not None]
+        return any(p.action in self.actions and (not self.counted or p.count >= 2) for p in parts)
 
 
 # redrawn items come from corpus indices at and above this one, which no plain training item reaches

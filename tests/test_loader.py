@@ -190,3 +190,22 @@ def test_action_focus_oversamples_its_actions_deterministically():
         ActionFocus(actions=("punches",), share=0.5)
     with pytest.raises(ValueError, match="share"):
         ActionFocus(actions=("punch",), share=1.5)
+
+
+def test_counted_focus_redraws_repeated_actions_only():
+    from engine.data import ActionFocus
+    from engine.train import TrainConfig, focus_from
+
+    focus = ActionFocus(actions=("clap", "wave"), share=1.0, counted=True)
+    source = CorpusSource(split="train", focus=focus)
+    repeated = 0
+    for i in range(60):
+        program = source.corpus.program(source.corpus_index(i))[0]
+        parts = [p for seg in program.segments for p in (seg, seg.overlay) if p is not None]
+        repeated += any(p.action in ("clap", "wave") and p.count >= 2 for p in parts)
+    assert repeated >= 55  # every item redrawn until it holds a repeated clap or wave (64 tries each)
+    plain = ActionFocus(actions=("clap", "wave"), share=1.0)
+    once = [p for p in (source.corpus.program(j)[0] for j in range(400))
+            if plain.holds(p) and not focus.holds(p)]
+    assert once  # the corpus has single claps and waves, which the counted focus does not take
+    assert focus_from(TrainConfig(focus_actions="clap,wave", focus_share=1.0, focus_counted=True)) == focus
