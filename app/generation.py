@@ -9,7 +9,7 @@ import contextlib
 import threading
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -17,7 +17,7 @@ from app.attention_record import AttentionRecord, plan_steps
 from app.model_cache import SAMPLING_SLOT
 from engine.analysis.followed import follow_generated
 from engine.checkpoint import LoadedModel
-from engine.methods.generate_options import DEFAULT_SEQUENCE
+from engine.methods.generate_options import DEFAULT_SEQUENCE, DEFAULT_TRIES, MAX_TRIES
 from engine.methods.sequence import generate_sequence, plan, sampling_steps, sequence_clauses, timeline_frames
 from engine.generate import Request, SampleConfig, finish, frames_for, sample_states
 from engine.duration import resolve_seconds
@@ -39,6 +39,9 @@ class GenerationSettings:
     # a prompt of several actions in order: "clauses" (each clause as its own prompt, joined with DoubleTake; no
     # attention maps) or "whole" (one take, attention recorded) - engine.methods.sequence
     sequence: str = DEFAULT_SEQUENCE
+    # tries from the seed on (seed, seed + 1, ...), keeping the first that follows every checked attribute
+    # (engine.analysis.followed.best_try); the kept motion's settings say its own seed and 1 try
+    tries: int = DEFAULT_TRIES
 
     def clauses(self) -> tuple[str, ...]:
         """The clauses this prompt is generated as, one each; () where it is one take of the whole prompt."""
@@ -100,6 +103,7 @@ class GenerationResult:
     # prompt's notes ("left out: stiffly"): what the Generate box shows under the result
     followed: object = None  # FollowReport | str | None
     notes: tuple[str, ...] = ()
+    tried: tuple[int, ...] = ()  # the seeds tried (several tries), the kept one among them; () for one take
 
 
 class Cancelled(Exception):
@@ -204,7 +208,46 @@ def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:
                           guidance_from=int(settings.guidance_from), eta=float(settings.eta), seed=int(settings.seed))
     if settings.record_steps < 0:
         raise ValueError("record_steps must be >= 0")
+    if not 1 <= int(settings.tries) <= MAX_TRIES:
+        raise ValueError(f"tries must be 1 to {MAX_TRIES}, got {settings.tries}")
     return Checked(settings=settings, tokens=tokens, frames=frames, config=config, intervals=intervals)
+
+
+def run_tries(
+    loaded: LoadedModel,
+    checked: Checked,
+    *,
+    on_step: Callable[[int, int], None] | None = None,
+    cancel: threading.Event | None = None,
+    on_wait: Callable[[], None] | None = None,
+    on_preview: Callable[[int, int, np.ndarray], None] | None = None,
+) -> GenerationResult:
+    """:func:`run_generation` from the seed on, up to ``settings.tries`` times (seed, seed + 1, ...), until a motion
+    follows every checked attribute of its prompt; the kept one (:func:`engine.analysis.followed.best_try`) carries
+    its own seed and ``tried``. ``on_step(done, total)`` counts every try's steps against all tries' (a run that
+    stops early jumps to its end)."""
+    from engine.analysis.followed import best_try, misses
+
+    tries = int(checked.settings.tries)
+    if tries <= 1:
+        return run_generation(loaded, checked, on_step=on_step, cancel=cancel, on_wait=on_wait, on_preview=on_preview)
+    total = checked.total_steps * tries
+    results = []
+    for k in range(tries):
+        seed = int(checked.settings.seed) + k
+        one = replace(checked, settings=replace(checked.settings, seed=seed, tries=1),
+                      config=replace(checked.config, seed=seed))
+        step = None if on_step is None else (lambda done, _n, k=k: on_step(k * checked.total_steps + done, total))
+        results.append(run_generation(loaded, one, on_step=step, cancel=cancel, on_wait=on_wait,
+                                      on_preview=on_preview))
+        if misses(results[-1].followed) == 0:
+            break
+    kept = results[best_try(r.followed for r in results)]
+    seeds = tuple(r.settings.seed for r in results)
+    seconds = sum(r.seconds_taken for r in results)
+    if on_step is not None:
+        on_step(total, total)
+    return replace(kept, tried=seeds, seconds_taken=seconds)
 
 
 def run_generation(

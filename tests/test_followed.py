@@ -197,3 +197,65 @@ def test_the_box_html_colours_the_marks_and_shows_the_notes(jumps3):
     assert "read &#x27;jumsp&#x27; as &#x27;jumps&#x27;; left out: head &lt;b&gt;" in text  # escaped
     assert followed_html(None) == "" and "could not be read" in followed_html("could not be read (too short)")
     assert "followed-yes" in followed_html(followed("a person jumps three times", jumps3, reliable=ALL))
+
+
+# ----------------------------------------------------------------------------- tries: keep the motion that followed
+def test_best_try_keeps_the_first_that_followed_else_the_fewest_misses(jumps3, hops3_left):
+    from engine.analysis.followed import UNREADABLE, best_try, misses
+
+    ok = followed("a person jumps three times", jumps3, reliable=ALL)
+    wrong = followed("a person jumps three times", hops3_left, reliable=ALL)
+    assert misses(ok) == 0 and misses(wrong) >= 1 and misses("could not be read (too short)") == UNREADABLE
+    assert best_try([wrong, ok, ok]) == 1
+    assert best_try([ok, wrong]) == 0
+    assert best_try(["could not be read", wrong]) == 1
+    assert best_try([wrong, wrong]) == 0  # equals: the earliest
+    with pytest.raises(ValueError, match="no tries"):
+        best_try([])
+
+
+def test_moattn_generate_tries_seeds_until_one_follows(tiny_model_dir, tmp_path, capsys, workspace):
+    """A tiny random model follows nothing: every try is made, the one that missed fewest is kept, and the report,
+    the library's recipe and the title say its seed."""
+    from engine.cli import main
+    from engine.library import MotionLibrary
+
+    out = tmp_path / "m.npy"
+    assert main(["generate", "a person jumps twice", "--out", str(out), "--steps", "2", "--seed", "5", "--tries", "3",
+                 "--model", str(tiny_model_dir)]) == 0
+    captured = capsys.readouterr()
+    report = json.loads(captured.out.strip().splitlines()[-1])
+    assert report["tries"] == 3 and report["seed"] in (5, 6, 7)
+    assert f"tried seeds 5, 6, 7: kept seed {report['seed']}" in captured.err
+    lib = MotionLibrary(workspace=workspace)
+    [entry] = lib.entries()
+    assert entry.title.endswith(f"seed {report['seed']}") and lib.recipe(entry.id)["seed"] == report["seed"]
+    # one try by default: the seed asked for
+    assert main(["generate", "a person jumps twice", "--out", str(out), "--steps", "2", "--seed", "5",
+                 "--model", str(tiny_model_dir)]) == 0
+    report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert report["tries"] == 1 and report["seed"] == 5
+    assert main(["generate", "a person jumps twice", "--out", str(out), "--tries", "0",
+                 "--model", str(tiny_model_dir)]) == 2
+
+
+def test_the_generate_box_tries_and_keeps_the_seed_it_shows(tiny_model_dir):
+    from app.main import Studio
+    from engine.methods.generate_options import DEFAULT_TRIES
+
+    st = Studio(model_dir=tiny_model_dir, initial=None)
+    try:
+        s = st.state
+        assert s.tries == DEFAULT_TRIES and st.controls.tries.value == DEFAULT_TRIES
+        s.param.update(prompt="a person jumps twice", seconds=2.0, steps=2, record_steps=0, seed=3, tries=2)
+        assert s.generate() and s.wait(120), s.notices[-1:]
+        item = s.item
+        info = item.info
+        assert info["tried"] == (3, 4) and item.settings.seed in (3, 4) and item.settings.tries == 1
+        assert item.name.endswith(f"seed {item.settings.seed}")
+        assert "tried seeds 3-4, kept seed" in s.status
+        # re-recording it makes that seed's motion again, in one try
+        assert s.rerecord() and s.wait(120), s.notices[-1:]
+        assert s.seed == item.settings.seed
+    finally:
+        st.close()

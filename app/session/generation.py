@@ -14,7 +14,7 @@ import param
 
 from app.components.option_params import param_for
 from app.generation import Checked, GenerationResult, GenerationSettings, PromptReading, check, prompt_analysis, \
-    run_generation
+    run_tries
 from app.session.items import MotionItem
 from app.session.jobs import Delivery, JobDescription, Worker
 from app.session.viewer_rule import Preview
@@ -40,15 +40,18 @@ class GenerateJob:
     def describe(self) -> JobDescription:
         c = self.checked
         how = f" clause by clause ({len(c.intervals)} clauses)" if c.intervals else ""
+        tries = int(c.settings.tries)
+        how += f", up to {tries} tries" if tries > 1 else ""
+        total = c.total_steps * tries
         return JobDescription(what="generation", status=f"generating {c.frames / FPS:.1f} s{how}: step 0 / "
-                                                        f"{c.total_steps}", verb="generating", total=c.total_steps)
+                                                        f"{total}", verb="generating", total=total)
 
     def run(self, loaded, worker: Worker) -> GenerationResult:
         title = f"{self.settings.prompt} · seed {self.settings.seed}"
         preview = None if self.on_preview is None else (
             lambda done, total, joints: self.on_preview(done, total, joints, title))
-        return run_generation(loaded, self.checked, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting,
-                              on_preview=preview)
+        return run_tries(loaded, self.checked, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting,
+                         on_preview=preview)
 
     def deliver(self, result: GenerationResult) -> Delivery:
         s = result.settings
@@ -58,7 +61,7 @@ class GenerateJob:
         auto = " (length from the prompt)" if s.seconds is None else ""
         return Delivery(items=[item], show=item.name,
                         status=f"{s.prompt!r}: {len(result.joints)} frames{auto} in {result.seconds_taken:.1f} s "
-                               f"({s.steps} steps)")
+                               f"({s.steps} steps{tried_text(result)})")
 
 
 @dataclass
@@ -99,8 +102,16 @@ class RerecordJob(GenerateJob):
                                f"({result.settings.steps} steps)")
 
 
+def tried_text(result: GenerationResult) -> str:
+    """", kept seed 3 of seeds 2-3" where several tries were made, else ""."""
+    if len(result.tried) <= 1:
+        return ""
+    return f"; tried seeds {result.tried[0]}-{result.tried[-1]}, kept seed {result.settings.seed}"
+
+
 def _info(result: GenerationResult) -> dict:
-    return {"seconds_taken": result.seconds_taken, "followed": result.followed, "notes": tuple(result.notes)}
+    return {"seconds_taken": result.seconds_taken, "followed": result.followed, "notes": tuple(result.notes),
+            "tried": tuple(result.tried)}
 
 
 class GenerateBox(param.Parameterized):
@@ -118,6 +129,8 @@ class GenerateBox(param.Parameterized):
                                  doc="sampling steps whose attention is recorded (0 = none)")
     # a prompt of several actions in order: clause by clause (DoubleTake) or in one take (engine.methods.sequence)
     sequence = param_for(GenerateOptions, "sequence", label="Actions in order")
+    # tries from the seed on, keeping the first motion that follows every checked attribute (engine.analysis.followed)
+    tries = param_for(GenerateOptions, "tries", label="Tries")
 
     # ---- derived from the prompt
     prompt_words = param.List(default=[], doc="words of the prompt")
@@ -139,7 +152,8 @@ class GenerateBox(param.Parameterized):
 
     def settings(self) -> GenerationSettings:
         return GenerationSettings(prompt=self.prompt, seconds=self.seconds, seed=self.seed, steps=self.steps,
-                                  guidance=self.guidance, record_steps=self.record_steps, sequence=self.sequence)
+                                  guidance=self.guidance, record_steps=self.record_steps, sequence=self.sequence,
+                                  tries=self.tries)
 
     def sample_config(self, **overrides):
         """How every tab samples: the box's seed, steps and guidance, the engine's defaults for the rest
@@ -173,7 +187,8 @@ class GenerateBox(param.Parameterized):
         self.param.update(prompt=s.prompt, seconds=s.seconds, seed=s.seed, steps=s.steps, guidance=s.guidance,
                           record_steps=max(1, s.record_steps), sequence=s.sequence)
         # its own settings, those the box does not show included (the guidance's interval, eta): the same motion
-        return self.launch(RerecordJob(session=self, settings=replace(s, record_steps=max(1, s.record_steps)),
+        # one try: the motion's own seed (a kept try's settings say its seed)
+        return self.launch(RerecordJob(session=self, settings=replace(s, record_steps=max(1, s.record_steps), tries=1),
                                        on_preview=self._preview, name=item.name))
 
     def _preview(self, done: int, total: int, joints: np.ndarray, title: str) -> None:

@@ -308,6 +308,28 @@ def prompt_notes(tokenized) -> tuple[str, ...]:
         return ()
 
 
+#: a report that could not be read counts as missing more than any motion that could
+UNREADABLE = 1_000
+
+
+def misses(report: FollowReport | str) -> int:
+    """How many checked attributes a motion did not follow (✗ rows); a report that could not be read (a string)
+    counts :data:`UNREADABLE`."""
+    if isinstance(report, str):
+        return UNREADABLE
+    return sum(r.verdict == MISSED for _, r in report.rows)
+
+
+def best_try(reports) -> int:
+    """Of several tries at one prompt, the one to keep: the first that followed every checked attribute, else the
+    one with the fewest misses (the earliest of those). ``reports``: their follow reports, in the order tried."""
+    reports = list(reports)
+    if not reports:
+        raise ValueError("no tries to choose from")
+    counts = [misses(r) for r in reports]
+    return counts.index(min(counts))
+
+
 def follow_generated(prompt: str, joints: np.ndarray, tokenized=None,
                      fps: float = FPS) -> tuple[FollowReport | str, tuple[str, ...]]:
     """(the report, or why the motion could not be read; the prompt's notes) of a generated motion: what

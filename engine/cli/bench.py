@@ -69,6 +69,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--drawn must be 0 or more")
     if args.lengths is not None and not args.adherence:
         raise ValueError("--lengths goes with --adherence")
+    if args.tries is not None and not (args.adherence or args.levers):
+        raise ValueError("--tries goes with --adherence or --levers")
     if args.sequence is not None and not args.adherence:
         raise ValueError("--sequence goes with --adherence")
     if args.prompts is not None and not (args.adherence or args.sampling or args.levers):
@@ -243,7 +245,7 @@ def run_adherence(args: argparse.Namespace) -> int:
     from engine.evaluation.bench_adherence import AdherenceBenchConfig, bench_adherence, format_table, read_prompts
 
     config = preset(AdherenceBenchConfig, args, seeds=args.seeds, lengths=args.lengths, sequence=args.sequence,
-                    guidance=args.guidance, guidance_from=args.guidance_from, eta=args.eta)  # fails before the model loads
+                    tries=args.tries, guidance=args.guidance, guidance_from=args.guidance_from, eta=args.eta)  # fails before the model loads
     prompts = read_prompts(args.prompts) if args.prompts is not None else None
     result = bench_adherence(_model(args), config, prompts=prompts, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))
@@ -255,7 +257,7 @@ def run_levers(args: argparse.Namespace) -> int:
 
     if not args.files:
         raise ValueError("--levers needs the model folders to score, e.g. moattn bench --levers runs/a runs/b")
-    config = preset(LeverBenchConfig, args, seeds=args.seeds, guidance=args.guidance,
+    config = preset(LeverBenchConfig, args, seeds=args.seeds, tries=args.tries, guidance=args.guidance,
                     guidance_from=args.guidance_from, eta=args.eta)
     result = bench_levers(args.files, config, prompts_file=args.prompts or DEV_PROMPTS, real_file=args.real, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))

@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from engine.cli.common import MOTION_SUFFIXES, RENDER_SUFFIXES, CLIError, check_outputs
@@ -54,19 +55,38 @@ def run(args: argparse.Namespace) -> int:
         seconds = frames / FPS
     loaded = load_model(args.model, runtime=runtime_from_args(args))
     config = sample_config(args, sampler=args.sampler)
-
-    def progress(state):
-        print(f"\rstep {state.step + 1}/{state.num_steps}", end="", file=sys.stderr, flush=True)
-
-    if intervals is None:
-        gen = generate(loaded, Request(prompts=[args.prompt], frames=[frames]), config, on_step=progress)
-        joints, features, tokens = gen.joints[0], gen.features[0, :frames], gen.tokens[0]
-    else:
+    if intervals is not None:
         print("clause by clause: " + " -> ".join(f"{iv.prompt!r} ({iv.seconds:.1f} s)" for iv in intervals),
               file=sys.stderr)
-        composed = generate_sequence(loaded, intervals, config, on_step=progress)
-        joints, features, tokens = composed.joints, composed.features, loaded.tokenizer.encode(args.prompt)
+    from engine.analysis.followed import best_try, follow_generated, misses
+
+    tries = []  # (seed, joints, features, tokens, follow, notes) per try, until one follows every checked attribute
+    for k in range(args.tries):
+        seed = args.seed + k
+        attempt = f"try {k + 1}/{args.tries}, seed {seed}: " if args.tries > 1 else ""
+
+        def progress(state, attempt=attempt):
+            print(f"\r{attempt}step {state.step + 1}/{state.num_steps}", end="", file=sys.stderr, flush=True)
+
+        take = replace(config, seed=seed)
+        if intervals is None:
+            gen = generate(loaded, Request(prompts=[args.prompt], frames=[frames]), take, on_step=progress)
+            joints, features, tokens = gen.joints[0], gen.features[0, :frames], gen.tokens[0]
+        else:
+            composed = generate_sequence(loaded, intervals, take, on_step=progress)
+            joints, features, tokens = composed.joints, composed.features, loaded.tokenizer.encode(args.prompt)
+        # what was and was not followed: the prompt's intent beside what the detectors see in the motion
+        follow, notes = follow_generated(args.prompt, joints, tokens)
+        tries.append((seed, joints, features, tokens, follow, notes))
+        if misses(follow) == 0:
+            break
     print(file=sys.stderr)
+    kept = best_try(t[4] for t in tries)
+    seed, joints, features, tokens, follow, notes = tries[kept]
+    if args.tries > 1:
+        print(f"tried seed{'s' * (len(tries) > 1)} {', '.join(str(t[0]) for t in tries)}: kept seed {seed} ("
+              + ("it followed every checked attribute)" if misses(follow) == 0 else
+                 f"none followed everything; it missed fewest: {misses(follow)})"), file=sys.stderr)
     for out in args.out:
         suffix = out.suffix.lower()
         if suffix in (".png", ".gif", ".mp4"):
@@ -76,21 +96,17 @@ def run(args: argparse.Namespace) -> int:
         else:
             save_motion(joints, out, to="vecs" if args.vecs else "joints")
         print(f"wrote {out}")
-    keep(args, joints, kind="generate", title=f"{args.prompt} · seed {args.seed}",
+    keep(args, joints, kind="generate", title=f"{args.prompt} · seed {seed}",
          features=features,
-         recipe=cli_recipe(args, made_by="moattn generate", prompt=args.prompt,
+         recipe=cli_recipe(args, made_by="moattn generate", prompt=args.prompt, seed=seed,
                            seconds=None if args.seconds == AUTO else seconds, sampler=args.sampler,
                            seconds_used=seconds, sequence=args.sequence,
                            clauses=None if intervals is None else [iv.prompt for iv in intervals]))
-    # what was and was not followed: the prompt's intent beside what the detectors see in the motion
-    from engine.analysis.followed import follow_generated
-
-    follow, notes = follow_generated(args.prompt, joints, tokens)
     for line in follow_lines(follow, notes):
         print(printable(line, sys.stdout))
     print(json.dumps({"prompt": args.prompt, "seconds": seconds, "seconds_from": "prompt" if args.seconds == AUTO
                       else "given", "frames": len(joints),
-                      "clauses": None if intervals is None else [iv.prompt for iv in intervals], "seed": args.seed, "steps": args.steps,
+                      "clauses": None if intervals is None else [iv.prompt for iv in intervals], "seed": seed, "tries": len(tries), "steps": args.steps,
                       "guidance": args.guidance, "guidance_from": args.guidance_from, "eta": args.eta,
                       "followed": follow.to_json() if not isinstance(follow, str) else {"error": follow},
                       "notes": list(notes)}))

@@ -68,11 +68,16 @@ class AdherenceBenchConfig:
     # prompts of several actions in order: "clauses" = what a user gets (clause by clause, joined with DoubleTake,
     # engine.methods.sequence); "whole" = one take of the whole prompt (the model alone)
     sequence: str = DEFAULT_SEQUENCE
+    # tries per seed (engine.analysis.followed.best_try): each seed keeps the first of its tries that follows every
+    # checked attribute, else the one that misses fewest; 1 = the model's single take
+    tries: int = 1
 
     def __post_init__(self) -> None:
         check_sequence(self.sequence)
         if self.seeds < 1:
             raise ValueError("--seeds must be at least 1")
+        if self.tries < 1:
+            raise ValueError("--tries must be at least 1")
         if self.lengths not in ("auto", "truth"):
             raise ValueError(f"lengths must be 'auto' or 'truth', got {self.lengths!r}")
         if self.validation_motions < 1:
@@ -90,10 +95,10 @@ def guidance_text(guidance: float, guidance_from: int = 0, eta: float = 0.0) -> 
 
 
 def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: AdherenceBenchConfig) -> list[np.ndarray]:
-    """One motion per seed (a batch slot each, noise drawn from ``config.seed``), each with the given number of
-    joint frames; a prompt of several actions in order as a user gets it (``config.sequence``): clause by clause,
-    one DoubleTake run per seed (seed ``config.seed + k``), its clauses as long as predicted under ``lengths``
-    "auto", else sharing the seed's length."""
+    """One motion per entry of ``lengths`` (a batch slot each, noise drawn from ``config.seed``), each with that
+    number of joint frames; a prompt of several actions in order as a user gets it (``config.sequence``): clause by
+    clause, one DoubleTake run per entry k (seed ``config.seed + k``), its clauses as long as predicted under
+    ``lengths`` "auto", else sharing the entry's length."""
     from engine.generate import Request, generate
     from engine.methods.sequence import generate_sequence, plan
 
@@ -160,7 +165,9 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
                     lengths = [frames_for(auto_seconds(prompt, loaded.tempo)) + 1] * config.seeds
                 else:
                     lengths = [len(j) for j in truths]
-                motions = _model_motions(loaded, prompt, lengths, config)
+                motions = _model_motions(loaded, prompt, list(lengths) * config.tries, config)
+                if config.tries > 1:  # seed k's tries are entries k, k + seeds, ...: each seed keeps its best
+                    motions, row["tries_kept"] = _best_tries(motions, intent, reliable, seeds=config.seeds)
                 model_checks = [check_motion(j, intent, reliable=reliable) for j in motions]
                 skates["model"] += [foot_skate(j) for j in motions]
                 if travels:
@@ -179,11 +186,25 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
             "model": score(model_rows) if loaded is not None else None, "ground_truth": score(truth_rows),
             "unparsed": unparsed, "refused": refused, "per_prompt": per_prompt,
             "foot_skate": _skate_summary(skates), "root_speed": _skate_summary(speeds),
-            "settings": {"seeds": config.seeds, "steps": config.steps, "guidance": config.guidance,
+            "settings": {"seeds": config.seeds, "tries": config.tries, "steps": config.steps, "guidance": config.guidance,
                          "guidance_from": config.guidance_from, "eta": config.eta, "lengths": config.lengths,
                          "sequence": config.sequence,
                          "prompts": len(prompts), "validation_motions": config.validation_motions},
             "seconds": time.perf_counter() - t0}
+
+
+def _best_tries(motions: list[np.ndarray], intent: Intent, reliable, *, seeds: int) -> tuple[list[np.ndarray], list[int]]:
+    """Per seed, the try kept (:func:`engine.analysis.followed.best_try` on what the detectors see, as the studio and
+    ``moattn generate --tries`` keep one), and which try it was."""
+    from engine.analysis.followed import best_try, followed
+
+    kept, which = [], []
+    for k in range(seeds):
+        tries = motions[k::seeds]
+        best = best_try(followed(intent, j, reliable=reliable) for j in tries)
+        kept.append(tries[best])
+        which.append(best)
+    return kept, which
 
 
 def _skate_summary(skates: dict[str, list[float]]) -> dict:
@@ -266,6 +287,7 @@ def format_table(result: dict) -> str:
                else "model lengths = the ground truth's")
     sequences = ("sequences clause by clause (DoubleTake)" if s.get("sequence", "whole") == "clauses"
                  else "sequences in one take")
-    lines.append(f"{s['prompts']} prompts x {s['seeds']} seeds, {s['steps']} steps, guidance {guidance_text(s['guidance'], s.get('guidance_from', 0), s.get('eta', 0.0))}, {lengths}, {sequences}; "
+    tries = f" (each the best of {s['tries']} tries)" if s.get("tries", 1) > 1 else ""
+    lines.append(f"{s['prompts']} prompts x {s['seeds']} seeds{tries}, {s['steps']} steps, guidance {guidance_text(s['guidance'], s.get('guidance_from', 0), s.get('eta', 0.0))}, {lengths}, {sequences}; "
                  f"validation on {s['validation_motions']} corpus test motions; {result['seconds']:.0f} s")
     return "\n".join(lines)

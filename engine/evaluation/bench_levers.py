@@ -31,6 +31,7 @@ class LeverBenchConfig:
     guidance_from: int | None = None  # None: the sampling default
     eta: float | None = None  # None: the sampling default
     steps: int | None = None  # sampling steps; None: the sampling default
+    tries: int = 1  # tries per seed, each keeping its best (engine.analysis.followed.best_try); 1: the single take
 
     @classmethod
     def quick(cls) -> "LeverBenchConfig":
@@ -76,7 +77,7 @@ def score_row(folder: Path, config: LeverBenchConfig, *, prompts: Sequence[str],
                                   "eta": config.eta, "steps": config.steps}.items() if v is not None}
     # the model alone: actions in order in one take of the whole prompt (a user gets them clause by clause, which
     # would score the clauses' single actions twice and hide what a lever does to sequences)
-    adherence = bench_adherence(loaded, AdherenceBenchConfig(seeds=config.seeds, sequence="whole",
+    adherence = bench_adherence(loaded, AdherenceBenchConfig(seeds=config.seeds, sequence="whole", tries=config.tries,
                                                              validation_motions=config.validation_motions, **settings),
                                 prompts=prompts, log=log)
     row = {"model": str(folder), **logged_rate(folder), "guidance": adherence["settings"]["guidance"],

@@ -54,6 +54,10 @@ class BenchOptions:
     sequence: str | None = option(None, choices=SEQUENCE_MODES,
         help="--adherence: prompts of several actions in order generated clause by clause and joined with DoubleTake "
              "(clauses: what a user gets; default) or in one take of the whole prompt (whole: the model alone)")
+    tries: int | None = option(None, type=int, bounds=(1, 8), whole=True,
+        help="--adherence / --levers: tries per seed, each seed keeping the first that follows every checked "
+             "attribute, else the one missing fewest (what `moattn generate --tries` and the studio keep; default 1: "
+             "the model's single take)")
     tempo: bool = option(False, exclusive="benchmark",
         help="the model's count tempo: per counted action, the scale of its predicted length at which the model makes "
              "the asked-for count most often (calibration prompts); --write stores it in config.json, where every "

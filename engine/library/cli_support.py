@@ -69,13 +69,15 @@ def keep(args: argparse.Namespace, joints, *, kind: str, title: str, recipe: dic
 
 
 def cli_recipe(args: argparse.Namespace, *, made_by: str, prompt: str | None = None, frames: int | None = None,
-               seconds: float | None = None, guidance: float | None = None, model=None, **operation) -> dict:
+               seconds: float | None = None, guidance: float | None = None, model=None, seed: int | None = None,
+               **operation) -> dict:
     """The recipe a command keeps with a motion it made: the sampling flags every such command has (``--seed``,
-    ``--steps``, ``--guidance``, ``--model``; ``guidance`` / ``model`` given where the command chose others), the
-    motion's length (``frames``, or ``seconds`` as asked) and what the operation was (``operation``, as given)."""
+    ``--steps``, ``--guidance``, ``--model``; ``guidance`` / ``model`` / ``seed`` given where the command chose
+    others, e.g. the seed of the try kept), the motion's length (``frames``, or ``seconds`` as asked) and what the
+    operation was (``operation``, as given)."""
     if frames is not None:
         seconds = frames / FPS
-    return {"prompt": prompt, "seed": args.seed, "steps": args.steps,
+    return {"prompt": prompt, "seed": args.seed if seed is None else seed, "steps": args.steps,
             "guidance": args.guidance if guidance is None else guidance,
             "guidance_from": getattr(args, "guidance_from", DEFAULT_GUIDANCE_FROM),
             "eta": getattr(args, "eta", DEFAULT_ETA), "seconds": seconds,

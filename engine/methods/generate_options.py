@@ -11,6 +11,8 @@ from engine.units import MAX_SECONDS, MIN_SECONDS
 SAMPLERS = ("ddim", "ddpm")
 SEQUENCE_MODES = ("clauses", "whole")  # engine.methods.sequence: a prompt of several actions in order
 DEFAULT_SEQUENCE = "clauses"  # what the CLI, the studio and the adherence bench do by default
+DEFAULT_TRIES = 1  # tries per generation (engine.analysis.followed.best_try); the studio and the CLI share it
+MAX_TRIES = 8
 
 
 def check_sequence(value: str) -> None:
@@ -32,6 +34,10 @@ class GenerateOptions:
                                 "clause and joined with DoubleTake (clauses, the default: each action as if asked "
                                 "alone), or in one take of the whole prompt (whole: the only way to record its "
                                 "attention)")
+    tries: int = option(DEFAULT_TRIES, bounds=(1, MAX_TRIES), whole=True,
+                        help="generate up to this many motions, from the seed on (seed, seed + 1, ...), and keep the "
+                             "first whose checked attributes all follow the prompt (what the detectors see: action, "
+                             "count, side, direction, order), else the one that misses fewest (1: the one take)")
     vecs: bool = option(False, help="write .npy outputs as 263-dim features instead of joints")
 
     def __post_init__(self) -> None:

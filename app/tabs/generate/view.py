@@ -47,6 +47,7 @@ class GenerateControls(pn.viewable.Viewer):
         self.seed = IntBox.from_param(s.param.seed, width=90, css_classes=["seed-input"])
         self.steps = IntBox.from_param(s.param.steps, width=90, css_classes=["steps-input"])
         self.guidance = FloatBox.from_param(s.param.guidance, width=90, css_classes=["guidance-input"])
+        self.tries = IntBox.from_param(s.param.tries, width=90, css_classes=["tries-input"])
         self.record = IntBox.from_param(s.param.record_steps, width=120, css_classes=["record-input"])
         self.memory = pn.pane.Markdown("", css_classes=["record-memory"], margin=(0, 10))
         # a prompt of several actions in order: how it is generated, shown only for such a prompt
@@ -186,7 +187,7 @@ class GenerateControls(pn.viewable.Viewer):
         self.vocab.object = ", ".join(loaded.tokenizer.words[1:])
 
     def __panel__(self):
-        settings = pn.GridBox(self.seconds, self.seed, self.steps, self.guidance, ncols=2)
+        settings = pn.GridBox(self.seconds, self.seed, self.steps, self.guidance, self.tries, ncols=2)
         advanced = pn.Card(self.record, self.memory, title="Attention recording", collapsed=True,
                            sizing_mode="stretch_width")
         vocab = pn.Card(self.vocab, title="Vocabulary", collapsed=True, sizing_mode="stretch_width")
