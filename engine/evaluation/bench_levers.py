@@ -111,6 +111,7 @@ def bench_levers(folders: Sequence[Path], config: LeverBenchConfig = LeverBenchC
     prompts = read_prompts(prompts_file)
     rows = [score_row(Path(f), config, prompts=prompts, real_file=real_file, log=log) for f in folders]
     return {"rows": rows, "prompts_file": str(prompts_file), "prompts": len(prompts), "seeds": config.seeds,
+            "tries": config.tries,
             "real_file": None if real_file is None else Path(real_file).name}
 
 
@@ -122,6 +123,7 @@ def format_table(result: dict) -> str:
     guidance = sorted({(r["guidance"], r.get("guidance_from", 0), r.get("eta", 0.0)) for r in result["rows"]})
     lines = [f"lever screen: {result['prompts']} dev prompts x {result['seeds']} seeds, guidance "
              f"{', '.join(guidance_text(g, t, e) for g, t, e in guidance)}"
+             + (f" (each the best of {result['tries']} tries)" if result.get("tries", 1) > 1 else "")
              + "; actions in order in one take (the model alone)"
              + (f"; inversion of {result['real_file']}" if result["real_file"] else ""),
              f"{'model':<28}{'step':>7}{'action':>8}{'±seed':>7}{'count':>7}{'side':>6}{'skate':>7}{'vs GT':>7}"
