@@ -79,14 +79,13 @@ class PlantedFeet:
                 f = torch.cat([feats[..., :ric.start], values, feats[..., ric.stop:]], dim=-1)
                 j = features_to_joints(f)
                 slide = (j[:, 1:, FEET][..., [0, 2]] - j[:, :-1, FEET][..., [0, 2]]).pow(2).sum(-1)  # m^2 per frame
-                loss_slide = (slide * low).sum() / low.sum()
                 # on the floor the foot keeps its height (a leg stretched to reach back would lift it), less the gap
                 # that keeps the frame's lowest foot joint off the floor
                 lift = (j[:, 1:, FEET, 1] - aim[:, 1:]).pow(2)
-                loss_slide = loss_slide + (lift * low).sum() / low.sum()
+                loss_feet = ((slide + lift) * low).sum() / low.sum()
                 bones = (j[:, :, list(b)] - j[:, :, list(a)]).norm(dim=-1)
                 loss_bones = (bones - length).pow(2).mean()
-                loss = self.strength * loss_slide + loss_bones + 1e-3 * delta.pow(2).mean()
+                loss = self.strength * loss_feet + loss_bones + 1e-3 * delta.pow(2).mean()
                 loss.backward()
                 opt.step()
         dims = torch.arange(ric.start, ric.stop)[moved]  # the moved joints' feature dims
