@@ -158,8 +158,8 @@ def test_generation_runs_on_a_worker_and_records_attention(studio, tiny_model_di
     item = s.item
     assert item.source == "generated" and item.prompt == "a person jumps twice"
     assert item.joints.shape == (60, 22, 3) and np.isfinite(item.joints).all()
-    assert s.progress == s.progress_total == 8
-    assert studio.controls.progress.max == 8 and studio.controls.progress.value == 0  # empty when idle
+    assert s.progress == s.progress_total == 8 * s.tries  # steps x tries (a tiny model follows nothing: every try)
+    assert studio.controls.progress.max == 8 * s.tries and studio.controls.progress.value == 0  # empty when idle
     assert studio.controls.cancel.disabled and not studio.controls.generate.disabled
     rec = item.attention
     assert rec.words == ("a", "person", "jumps", "twice")
@@ -312,7 +312,7 @@ def test_viewer_shows_the_running_generation_live(tiny_model_dir):
         sent = []
         st.viewer.player._send_msg = sent.append
         s = st.state
-        s.param.update(prompt="a person jumps twice", seconds=2.0, steps=12, record_steps=2, seed=3)
+        s.param.update(prompt="a person jumps twice", seconds=2.0, steps=12, record_steps=2, seed=3, tries=1)
         assert s.generate() and s.wait(120)
         previews = [m for m in sent if m["type"] == "preview"]
         assert previews and previews[0]["step"] == 1 and all(m["num_steps"] == 12 for m in previews)

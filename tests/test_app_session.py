@@ -67,7 +67,7 @@ def test_imported_motions_say_why_they_have_no_attention(studio, real_joints):
 def test_idle_bars_are_empty_and_a_kind_switch_clears_the_last_edit(studio):
     s, edit = studio.state, studio.edit
     _generate(studio, "a person jumps twice", 5)
-    assert studio.controls.progress.value == 0 and studio.controls.progress.max == 6
+    assert studio.controls.progress.value == 0 and studio.controls.progress.max == 6 * s.tries  # steps x tries
     edit.kind.value = "emphasise"
     edit.words.value = 2
     assert run_edit(s, edit.settings) and s.wait(120)

@@ -219,6 +219,7 @@ def test_moattn_generate_tries_seeds_until_one_follows(tiny_model_dir, tmp_path,
     the library's recipe and the title say its seed."""
     from engine.cli import main
     from engine.library import MotionLibrary
+    from engine.methods.generate_options import DEFAULT_TRIES
 
     out = tmp_path / "m.npy"
     assert main(["generate", "a person jumps twice", "--out", str(out), "--steps", "2", "--seed", "5", "--tries", "3",
@@ -230,11 +231,14 @@ def test_moattn_generate_tries_seeds_until_one_follows(tiny_model_dir, tmp_path,
     lib = MotionLibrary(workspace=workspace)
     [entry] = lib.entries()
     assert entry.title.endswith(f"seed {report['seed']}") and lib.recipe(entry.id)["seed"] == report["seed"]
-    # one try by default: the seed asked for
-    assert main(["generate", "a person jumps twice", "--out", str(out), "--steps", "2", "--seed", "5",
+    # --tries 1: the seed asked for; the default: DEFAULT_TRIES tries
+    assert main(["generate", "a person jumps twice", "--out", str(out), "--steps", "2", "--seed", "5", "--tries", "1",
                  "--model", str(tiny_model_dir)]) == 0
     report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert report["tries"] == 1 and report["seed"] == 5
+    assert main(["generate", "a person jumps twice", "--out", str(out), "--steps", "2", "--seed", "5",
+                 "--model", str(tiny_model_dir)]) == 0
+    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["tries"] == DEFAULT_TRIES
     assert main(["generate", "a person jumps twice", "--out", str(out), "--tries", "0",
                  "--model", str(tiny_model_dir)]) == 2
 

@@ -11,7 +11,7 @@ from engine.units import MAX_SECONDS, MIN_SECONDS
 SAMPLERS = ("ddim", "ddpm")
 SEQUENCE_MODES = ("clauses", "whole")  # engine.methods.sequence: a prompt of several actions in order
 DEFAULT_SEQUENCE = "clauses"  # what the CLI, the studio and the adherence bench do by default
-DEFAULT_TRIES = 1  # tries per generation (engine.analysis.followed.best_try); the studio and the CLI share it
+DEFAULT_TRIES = 3  # tries per generation (engine.analysis.followed.best_try); the studio and the CLI share it
 MAX_TRIES = 8
 
 
