@@ -213,24 +213,17 @@ def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:
     return Checked(settings=settings, tokens=tokens, frames=frames, config=config, intervals=intervals)
 
 
-def run_tries(
-    loaded: LoadedModel,
-    checked: Checked,
-    *,
-    on_step: Callable[[int, int], None] | None = None,
-    cancel: threading.Event | None = None,
-    on_wait: Callable[[], None] | None = None,
-    on_preview: Callable[[int, int, np.ndarray], None] | None = None,
-) -> GenerationResult:
+def run_tries(loaded: LoadedModel, checked: Checked, *, on_step: Callable[[int, int], None] | None = None,
+              **hooks) -> GenerationResult:
     """:func:`run_generation` from the seed on, up to ``settings.tries`` times (seed, seed + 1, ...), until a motion
     follows every checked attribute of its prompt; the kept one (:func:`engine.analysis.followed.best_try`) carries
     its own seed and ``tried``. ``on_step(done, total)`` counts every try's steps against all tries' (a run that
-    stops early jumps to its end)."""
+    stops early jumps to its end); ``hooks``: run_generation's ``cancel``, ``on_wait`` and ``on_preview``."""
     from engine.analysis.followed import best_try, misses
 
     tries = int(checked.settings.tries)
     if tries <= 1:
-        return run_generation(loaded, checked, on_step=on_step, cancel=cancel, on_wait=on_wait, on_preview=on_preview)
+        return run_generation(loaded, checked, on_step=on_step, **hooks)
     total = checked.total_steps * tries
     results = []
     for k in range(tries):
@@ -238,8 +231,7 @@ def run_tries(
         one = replace(checked, settings=replace(checked.settings, seed=seed, tries=1),
                       config=replace(checked.config, seed=seed))
         step = None if on_step is None else (lambda done, _n, k=k: on_step(k * checked.total_steps + done, total))
-        results.append(run_generation(loaded, one, on_step=step, cancel=cancel, on_wait=on_wait,
-                                      on_preview=on_preview))
+        results.append(run_generation(loaded, one, on_step=step, **hooks))
         if misses(results[-1].followed) == 0:
             break
     kept = results[best_try(r.followed for r in results)]
