@@ -287,7 +287,11 @@ def format_table(result: dict) -> str:
                else "model lengths = the ground truth's")
     sequences = ("sequences clause by clause (DoubleTake)" if s.get("sequence", "whole") == "clauses"
                  else "sequences in one take")
-    tries = f" (each the best of {s['tries']} tries)" if s.get("tries", 1) > 1 else ""
+    from engine.methods.generate_options import DEFAULT_TRIES
+
+    tries = (f" (each the best of {s['tries']} tries)" if s.get("tries", 1) > 1 else
+             f" (each the model's single take; the studio and `moattn generate` keep the best of {DEFAULT_TRIES} "
+             f"tries: --tries {DEFAULT_TRIES})" if DEFAULT_TRIES > 1 else "")
     lines.append(f"{s['prompts']} prompts x {s['seeds']} seeds{tries}, {s['steps']} steps, guidance {guidance_text(s['guidance'], s.get('guidance_from', 0), s.get('eta', 0.0))}, {lengths}, {sequences}; "
                  f"validation on {s['validation_motions']} corpus test motions; {result['seconds']:.0f} s")
     return "\n".join(lines)
