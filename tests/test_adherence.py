@@ -182,6 +182,39 @@ def test_the_model_row_uses_the_lengths_a_user_gets(monkeypatch, tiny_model_dir)
         AdherenceBenchConfig(lengths="long")
 
 
+def test_tries_keep_each_seeds_best_motion(monkeypatch):
+    """`--tries 2`: each seed's two tries are made, and the one that follows its prompt is kept, whichever came
+    first; the table says so."""
+    import engine.evaluation.bench_adherence as ba
+
+    made = []
+
+    def one_right(loaded, prompt, lengths, config):
+        # seed 0's first try and seed 1's second try are two jumps; the others stand still
+        jumps = ba.ground_truth_motion(ba.parse_intent("a person jumps twice"), 3)
+        still = ba.ground_truth_motion(ba.parse_intent("someone stands still"), 3)
+        made.append(len(lengths))
+        return [jumps, still, still, jumps]  # entries: seed 0 try 1, seed 1 try 1, seed 0 try 2, seed 1 try 2
+
+    monkeypatch.setattr(ba, "_model_motions", one_right)
+
+    class Loaded:
+        tempo = ()
+
+        class tokenizer:
+            @staticmethod
+            def encode(prompt):
+                return prompt
+
+    result = ba.bench_adherence(Loaded(), ba.AdherenceBenchConfig(seeds=2, tries=2, validation_motions=30),
+                                prompts=["a person jumps twice"])
+    row = result["per_prompt"][0]
+    assert made == [4] and row["tries_kept"] == [0, 1] and row["model"]["action"] == 1.0
+    assert "(each the best of 2 tries)" in ba.format_table(result)
+    with pytest.raises(ValueError, match="--tries must be at least 1"):
+        ba.AdherenceBenchConfig(tries=0)
+
+
 def test_lever_screen_rows_score_each_model_on_the_dev_prompts(tiny_model_dir, tmp_path, capsys):
     """`moattn bench --levers`: one row per model folder with dev adherence, the seeds' spread, foot skate against
     the truth and one real file's inversion; flags that belong elsewhere are refused."""
