@@ -92,3 +92,13 @@ def test_generate_reads_the_models_count_tempo(tiny_model_dir, tmp_path, capsys)
     report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert report["seconds"] == auto_seconds("a person claps three times", (("clap", 1.4),))
     assert report["seconds"] > auto_seconds("a person claps three times")
+
+
+def test_a_counted_action_gets_its_length_whatever_the_speed_word():
+    """The model repeats at its own pace: "jumps quickly three times" gets the room of three jumps (the corpus's
+    shorter length gave two, session 33), and so does "slowly"."""
+    from engine.duration import auto_seconds
+
+    plain = auto_seconds("a person jumps three times")
+    assert auto_seconds("a person jumps quickly three times") == plain == auto_seconds("a person jumps slowly three times")
+    assert auto_seconds("someone claps quickly twice") == auto_seconds("someone claps twice")
