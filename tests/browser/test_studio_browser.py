@@ -85,7 +85,10 @@ def test_generate_shows_skeleton_heatmap_and_word_curves(page, generated, screen
     assert stats["n_frames"] == JUMPS_FRAMES and stats["loaded"] == JUMPS_FRAMES
     # the progress bar shows running work only: empty once the job is done
     bar = page.locator(".generation-progress progress")
-    assert bar.get_attribute("max") == "50" and bar.get_attribute("value") == "0"
+    from engine.methods.generate_options import DEFAULT_TRIES
+
+    # the job's steps: 50 per try, up to DEFAULT_TRIES tries (a try that follows ends the job early)
+    assert bar.get_attribute("max") == str(50 * DEFAULT_TRIES) and bar.get_attribute("value") == "0"
 
     viewer = page.locator(".skeleton-view canvas").screenshot()
     _save(screens, "viewer.png", viewer)
