@@ -214,11 +214,12 @@ def check(loaded: LoadedModel, settings: GenerationSettings) -> Checked:
 
 
 def run_tries(loaded: LoadedModel, checked: Checked, *, on_step: Callable[[int, int], None] | None = None,
-              **hooks) -> GenerationResult:
+              on_try: Callable[[int, int, int], None] | None = None, **hooks) -> GenerationResult:
     """:func:`run_generation` from the seed on, up to ``settings.tries`` times (seed, seed + 1, ...), until a motion
     follows every checked attribute of its prompt; the kept one (:func:`engine.analysis.followed.best_try`) carries
     its own seed and ``tried``. ``on_step(done, total)`` counts every try's steps against all tries' (a run that
-    stops early jumps to its end); ``hooks``: run_generation's ``cancel``, ``on_wait`` and ``on_preview``."""
+    stops early jumps to its end); ``on_try(k, tries, seed)`` before each of several tries; ``hooks``:
+    run_generation's ``cancel``, ``on_wait`` and ``on_preview``."""
     from engine.analysis.followed import best_try, misses
 
     tries = int(checked.settings.tries)
@@ -231,6 +232,8 @@ def run_tries(loaded: LoadedModel, checked: Checked, *, on_step: Callable[[int, 
         one = replace(checked, settings=replace(checked.settings, seed=seed, tries=1),
                       config=replace(checked.config, seed=seed))
         step = None if on_step is None else (lambda done, _n, k=k: on_step(k * checked.total_steps + done, total))
+        if on_try is not None:
+            on_try(k, tries, seed)
         results.append(run_generation(loaded, one, on_step=step, **hooks))
         if misses(results[-1].followed) == 0:
             break

@@ -252,7 +252,11 @@ def test_the_generate_box_tries_and_keeps_the_seed_it_shows(tiny_model_dir):
         s = st.state
         assert s.tries == DEFAULT_TRIES and st.controls.tries.value == DEFAULT_TRIES
         s.param.update(prompt="a person jumps twice", seconds=2.0, steps=2, record_steps=0, seed=3, tries=2)
+        titles = []
+        s._preview = lambda done, total, joints, title: titles.append(title)  # the live preview's title per step
         assert s.generate() and s.wait(120), s.notices[-1:]
+        assert titles[0] == "a person jumps twice · seed 3 (try 1 of up to 2)"
+        assert titles[-1] == "a person jumps twice · seed 4 (try 2 of up to 2)"
         item = s.item
         info = item.info
         assert info["tried"] == (3, 4) and item.settings.seed in (3, 4) and item.settings.tries == 1

@@ -47,11 +47,15 @@ class GenerateJob:
                                                         f"{total}", verb="generating", total=total)
 
     def run(self, loaded, worker: Worker) -> GenerationResult:
-        title = f"{self.settings.prompt} · seed {self.settings.seed}"
+        title = [f"{self.settings.prompt} · seed {self.settings.seed}"]  # the try's seed, while it runs
+
+        def on_try(k: int, tries: int, seed: int) -> None:
+            title[0] = f"{self.settings.prompt} · seed {seed} (try {k + 1} of up to {tries})"
+
         preview = None if self.on_preview is None else (
-            lambda done, total, joints: self.on_preview(done, total, joints, title))
-        return run_tries(loaded, self.checked, on_step=worker.step, cancel=worker.cancel, on_wait=worker.waiting,
-                         on_preview=preview)
+            lambda done, total, joints: self.on_preview(done, total, joints, title[0]))
+        return run_tries(loaded, self.checked, on_step=worker.step, on_try=on_try, cancel=worker.cancel,
+                         on_wait=worker.waiting, on_preview=preview)
 
     def deliver(self, result: GenerationResult) -> Delivery:
         s = result.settings
