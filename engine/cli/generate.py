@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
     if args.tries > 1:
         print(f"tried seed{'s' * (len(tries) > 1)} {', '.join(str(t[0]) for t in tries)}: kept seed {seed} ("
               + ("it followed every checked attribute)" if misses(follow) == 0 else
-                 f"none followed everything; it missed fewest: {misses(follow)})"), file=sys.stderr)
+                 "none followed everything: it missed fewest)"), file=sys.stderr)
     for out in args.out:
         suffix = out.suffix.lower()
         if suffix in (".png", ".gif", ".mp4"):

@@ -47,10 +47,12 @@ def browser(playwright_instance):
 
 @pytest.fixture(scope="module")
 def quick_page(browser, server_url):
-    """One studio page per test module, sampling with 10 steps (quick on the tiny model)."""
+    """One studio page per test module, sampling with 10 steps in one try (quick on the tiny model, which follows no
+    prompt: with the default tries every generation would be made three times over)."""
     page = br.open_studio(browser, server_url)
-    steps = page.locator(".steps-input input")
-    steps.fill("10")
-    steps.press("Enter")
+    for box, value in ((".steps-input input", "10"), (".tries-input input", "1")):
+        field = page.locator(box)
+        field.fill(value)
+        field.press("Enter")
     yield page
     page.close()
