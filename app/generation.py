@@ -220,29 +220,27 @@ def run_tries(loaded: LoadedModel, checked: Checked, *, on_step: Callable[[int, 
     its own seed and ``tried``. ``on_step(done, total)`` counts every try's steps against all tries' (a run that
     stops early jumps to its end); ``on_try(k, tries, seed)`` before each of several tries; ``hooks``:
     run_generation's ``cancel``, ``on_wait`` and ``on_preview``."""
-    from engine.analysis.followed import best_try, misses
+    from engine.analysis.followed import take_tries
 
     tries = int(checked.settings.tries)
     if tries <= 1:
         return run_generation(loaded, checked, on_step=on_step, **hooks)
-    total = checked.total_steps * tries
-    results = []
-    for k in range(tries):
-        seed = int(checked.settings.seed) + k
+    first, total = int(checked.settings.seed), checked.total_steps * tries
+
+    def one_take(seed: int) -> GenerationResult:
+        k = seed - first
         one = replace(checked, settings=replace(checked.settings, seed=seed, tries=1),
                       config=replace(checked.config, seed=seed))
-        step = None if on_step is None else (lambda done, _n, k=k: on_step(k * checked.total_steps + done, total))
+        step = None if on_step is None else (lambda done, _n: on_step(k * checked.total_steps + done, total))
         if on_try is not None:
             on_try(k, tries, seed)
-        results.append(run_generation(loaded, one, on_step=step, **hooks))
-        if misses(results[-1].followed) == 0:
-            break
-    kept = results[best_try(r.followed for r in results)]
-    seeds = tuple(r.settings.seed for r in results)
-    seconds = sum(r.seconds_taken for r in results)
+        return run_generation(loaded, one, on_step=step, **hooks)
+
+    index, results = take_tries(one_take, seed=first, tries=tries, report=lambda r: r.followed)
     if on_step is not None:
         on_step(total, total)
-    return replace(kept, tried=seeds, seconds_taken=seconds)
+    return replace(results[index], tried=tuple(r.settings.seed for r in results),
+                   seconds_taken=sum(r.seconds_taken for r in results))
 
 
 def run_generation(

@@ -214,6 +214,24 @@ def test_best_try_keeps_the_first_that_followed_else_the_fewest_misses(jumps3, h
         best_try([])
 
 
+
+def test_take_tries_stops_at_the_first_take_that_followed(jumps3, hops3_left):
+    from engine.analysis.followed import take_tries
+
+    ok = followed("a person jumps three times", jumps3, reliable=ALL)
+    wrong = followed("a person jumps three times", hops3_left, reliable=ALL)
+    made = []
+
+    def make(seed):
+        made.append(seed)
+        return ok if seed == 6 else wrong
+
+    assert take_tries(make, seed=5, tries=4, report=lambda r: r) == (1, [wrong, ok]) and made == [5, 6]
+    made.clear()
+    kept, takes = take_tries(lambda seed: made.append(seed) or wrong, seed=0, tries=3, report=lambda r: r)
+    assert made == [0, 1, 2] and kept == 0 and len(takes) == 3  # none followed: all made, the earliest of equals
+
+
 def test_moattn_generate_tries_seeds_until_one_follows(tiny_model_dir, tmp_path, capsys, workspace):
     """A tiny random model follows nothing: every try is made, the one that missed fewest is kept, and the report,
     the library's recipe and the title say its seed."""

@@ -330,6 +330,18 @@ def best_try(reports) -> int:
     return counts.index(min(counts))
 
 
+def take_tries(make, *, seed: int, tries: int, report) -> tuple[int, list]:
+    """Up to ``tries`` takes from ``seed`` on (``make(seed)`` -> a take; ``report(take)`` -> its follow report),
+    stopping at the first that followed every checked attribute. Returns (the index of the take to keep, by
+    :func:`best_try`; the takes made). What ``moattn generate --tries`` and the studio's Generate box run."""
+    takes = []
+    for k in range(tries):
+        takes.append(make(seed + k))
+        if misses(report(takes[-1])) == 0:
+            break
+    return best_try(report(t) for t in takes), takes
+
+
 def follow_generated(prompt: str, joints: np.ndarray, tokenized=None,
                      fps: float = FPS) -> tuple[FollowReport | str, tuple[str, ...]]:
     """(the report, or why the motion could not be read; the prompt's notes) of a generated motion: what

@@ -58,14 +58,13 @@ def run(args: argparse.Namespace) -> int:
     if intervals is not None:
         print("clause by clause: " + " -> ".join(f"{iv.prompt!r} ({iv.seconds:.1f} s)" for iv in intervals),
               file=sys.stderr)
-    from engine.analysis.followed import best_try, follow_generated, misses
+    from engine.analysis.followed import follow_generated, misses, take_tries
 
-    tries = []  # (seed, joints, features, tokens, follow, notes) per try, until one follows every checked attribute
-    for k in range(args.tries):
-        seed = args.seed + k
-        attempt = f"try {k + 1}/{args.tries}, seed {seed}: " if args.tries > 1 else ""
+    def one_take(seed: int) -> tuple:
+        """(seed, joints, features, tokens, follow, notes) of the take from ``seed``."""
+        attempt = f"try {seed - args.seed + 1}/{args.tries}, seed {seed}: " if args.tries > 1 else ""
 
-        def progress(state, attempt=attempt):
+        def progress(state):
             print(f"\r{attempt}step {state.step + 1}/{state.num_steps}", end="", file=sys.stderr, flush=True)
 
         take = replace(config, seed=seed)
@@ -77,11 +76,10 @@ def run(args: argparse.Namespace) -> int:
             joints, features, tokens = composed.joints, composed.features, loaded.tokenizer.encode(args.prompt)
         # what was and was not followed: the prompt's intent beside what the detectors see in the motion
         follow, notes = follow_generated(args.prompt, joints, tokens)
-        tries.append((seed, joints, features, tokens, follow, notes))
-        if misses(follow) == 0:
-            break
+        return seed, joints, features, tokens, follow, notes
+
+    kept, tries = take_tries(one_take, seed=args.seed, tries=args.tries, report=lambda t: t[4])
     print(file=sys.stderr)
-    kept = best_try(t[4] for t in tries)
     seed, joints, features, tokens, follow, notes = tries[kept]
     if args.tries > 1:
         print(f"tried seed{'s' * (len(tries) > 1)} {', '.join(str(t[0]) for t in tries)}: kept seed {seed} ("

@@ -28,6 +28,11 @@ ON_FLOOR = 0.05
 MOVED = (4, 5, 7, 8, 10, 11)
 BONES = ((1, 4), (4, 7), (7, 10), (2, 5), (5, 8), (8, 11))
 FEET = (*FOOT_JOINTS["left"], *FOOT_JOINTS["right"])
+#: the moved joints' cells among the ric features (NUM_JOINTS - 1 joints x 3), and their feature dims
+_MOVED_RIC = torch.zeros(NUM_JOINTS - 1, 3, dtype=torch.bool)
+_MOVED_RIC[[j - 1 for j in MOVED]] = True
+_MOVED_RIC = _MOVED_RIC.reshape(-1)
+_MOVED_DIMS = torch.arange(SLICES["ric"].start, SLICES["ric"].stop)[_MOVED_RIC]
 
 
 @dataclass
@@ -55,10 +60,8 @@ class PlantedFeet:
         std = torch.as_tensor(np.asarray(self.normalizer.std), dtype=torch.float32)
         feats = fixed * std + mean
         ric = SLICES["ric"]
+        moved = _MOVED_RIC
         with torch.enable_grad():
-            moved = torch.zeros(NUM_JOINTS - 1, 3, dtype=torch.bool)
-            moved[[j - 1 for j in MOVED]] = True
-            moved = moved.reshape(-1)
             start = features_to_joints(feats)  # (B, T, 22, 3)
             low = (start[:, 1:, FEET, 1] < ON_FLOOR) & (start[:, :-1, FEET, 1] < ON_FLOOR)  # (B, T-1, 4)
             if not bool(low.any()):
@@ -88,7 +91,7 @@ class PlantedFeet:
                 loss = self.strength * loss_feet + loss_bones + 1e-3 * delta.pow(2).mean()
                 loss.backward()
                 opt.step()
-        dims = torch.arange(ric.start, ric.stop)[moved]  # the moved joints' feature dims
+        dims = _MOVED_DIMS
         result = fixed.clone()
         result[..., dims] = (feats[..., dims] + delta.detach() - mean[dims]) / std[dims]
         return result.to(x0.dtype)
