@@ -77,3 +77,36 @@ def test_draw_a_root_path_and_follow_it(browser, server_url, screens):
         assert not errors, errors
     finally:
         page.close()
+
+
+def test_clear_right_after_typing_keeps_the_server_sound(browser, server_url, tmp_path_factory):
+    """A click that reaches the server while a typed value is still pending is run by Panel outside the document
+    lock. Clearing the path then redraws the canvas's Bokeh sources: written without Panel's ``unlocked`` that raised
+    Bokeh's "_pending_writes should be non-None" in the server and the tab stopped updating (seen in full suite
+    runs under load). Here the typed value and the click leave the page in one tick, so the click always comes second."""
+    log = tmp_path_factory.getbasetemp() / "serve.log"
+    before = log.read_text().count("Traceback")
+    page = br.open_studio(browser, server_url)
+    try:
+        page.locator(".bk-tab", has_text="Control").click()
+        page.locator(".control-method-note .note").wait_for(timeout=10000)
+        page.locator(".control-example-root button").click()
+        page.locator(".control-root-info span", has_text=re.compile(r"\d+ points")).wait_for(timeout=10000)
+        for prompt in ("a person walks forward", "someone strolls"):
+            field = page.locator(".control-prompt input").element_handle()
+            clear = page.locator(".control-clear-root button").element_handle()
+            page.evaluate(
+                """([input, clear, prompt]) => {
+                    input.value = prompt;
+                    input.dispatchEvent(new Event("change", {bubbles: true}));
+                    clear.click();
+                }""", [field, clear, prompt])
+            page.locator(".control-root-info .bad", has_text="no root path").wait_for(timeout=10000)
+            page.locator(".control-example-root button").click()
+            page.locator(".control-root-info span", has_text=re.compile(r"\d+ points")).wait_for(timeout=10000)
+        shown = page.locator(".control-prompt input").input_value()
+        assert shown == "someone strolls", shown
+        text = log.read_text()
+        assert text.count("Traceback") == before, text[-3000:]
+    finally:
+        page.close()

@@ -19,6 +19,7 @@ from bokeh.models import (BoxAnnotation, ColorBar, ColumnDataSource, HoverTool, 
 from bokeh.palettes import Category10_10, Viridis256
 from bokeh.plotting import figure
 
+from app.components.bokeh_writes import sends_bokeh
 from app.components.how_to_read import reading_caption
 from app.components.jobbar import WRAP_BUTTONS_CSS
 from app.session.items import MAX_ITEMS_WITH_ATTENTION
@@ -187,6 +188,7 @@ class AttentionExplorer(pn.viewable.Viewer):
         if "word" in pending:
             self._on_word()
 
+    @sends_bokeh
     def _on_current(self, *_):
         record = self.state.attention
         item = self.state.item
@@ -252,6 +254,7 @@ class AttentionExplorer(pn.viewable.Viewer):
         if self.plots.visible != visible:
             self.plots.visible = visible
 
+    @sends_bokeh
     def _clear_plots(self, n_frames: int) -> None:
         """No attention for the shown motion: no data, the axes and cursors on its own frames, the plots hidden (the
         info line says why); nothing of the motion shown before stays."""
@@ -272,6 +275,7 @@ class AttentionExplorer(pn.viewable.Viewer):
             self.row_fig.title.text = "Row of the picked frame"
             self._show_plots(False)
 
+    @sends_bokeh
     def _on_peaks(self, *_):
         readout = self.state.count_result
         if readout is None or readout.item != self.state.current or self.state.attention is None:
@@ -297,6 +301,7 @@ class AttentionExplorer(pn.viewable.Viewer):
             self._update_maps()
             self._on_frame()
 
+    @sends_bokeh
     def _update_maps(self) -> None:
         record = self.state.attention
         if record is None:
@@ -314,6 +319,7 @@ class AttentionExplorer(pn.viewable.Viewer):
         self.timings.append(time.perf_counter() - t0)
         del self.timings[:-50]
 
+    @sends_bokeh
     def _write_curves(self) -> None:
         record = self.state.attention
         cross = getattr(self, "_cross", None)
@@ -339,6 +345,7 @@ class AttentionExplorer(pn.viewable.Viewer):
         self._sync_widgets()
         self._write_curves()
 
+    @sends_bokeh
     def _on_frame(self, *_):
         record = self.state.attention
         frame = self.state.frame

@@ -17,6 +17,7 @@ from bokeh.events import Tap
 from bokeh.models import ColumnDataSource, LabelSet, Range1d, Span
 from bokeh.plotting import figure
 
+from app.components.bokeh_writes import sends_bokeh
 from app.components.jobbar import JobBar, on_text
 from app.components.number_box import FloatBox, IntBox
 from app.components.words import WORD_CSS, prompt_notes
@@ -203,6 +204,7 @@ class ComposeTab(pn.viewable.Viewer):
         self.length.object = (f"Long motion: **{n} frames ({n / FPS:.1f} s)** = {total:g} s of intervals − {k} "
                               f"handshake{'s' * (k != 1)} of {said}")
 
+    @sends_bokeh
     def _on_result(self, *_):
         r = self.settings.result
         if r is None:
@@ -241,6 +243,7 @@ class ComposeTab(pn.viewable.Viewer):
         self.jumps.objects = buttons
         self._on_frame()
 
+    @sends_bokeh
     def _on_frame(self, *_):
         r = self.settings.result
         mine = r is not None and self.state.current == r.name

@@ -19,6 +19,7 @@ import panel as pn
 from bokeh.models import ColumnDataSource, CustomJS, FreehandDrawTool, PointDrawTool, Range1d, SingleIntervalTicker
 from bokeh.plotting import figure
 
+from app.components.bokeh_writes import sends_bokeh
 from app.components.guard import SyncGuard
 from app.tabs.control.paths import COLORS, DEFAULT_ROOT, LABELS, WRISTS, example_wrist
 from app.tabs.control.settings import ControlSettings
@@ -86,6 +87,7 @@ class PathLayer:
         setattr(self.settings, f"{self.kind}_points", pts)
 
     # ------------------------------------------------------------------ settings -> browser
+    @sends_bokeh
     def _sync(self, fn) -> None:
         self._syncing.run(fn)
 

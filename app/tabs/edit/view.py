@@ -17,6 +17,7 @@ from bokeh.models import BoxSelectTool, ColumnDataSource, HoverTool, LinearColor
 from bokeh.palettes import Viridis256
 from bokeh.plotting import figure
 
+from app.components.bokeh_writes import sends_bokeh
 from app.components.guard import SyncGuard
 from app.components.how_to_read import reading_caption
 from app.components.jobbar import WRAP_BUTTONS_CSS, JobBar, text_from_param
@@ -196,6 +197,7 @@ class EditTab(pn.viewable.Viewer):
             return
         self.set_spans(spans)
 
+    @sends_bokeh
     def _on_spans(self, *_):
         spans = [tuple(sp) for sp in self.settings.spans]
         self.span_src.data = dict(x0=[a for a, _ in spans], x1=[b for _, b in spans])
@@ -229,6 +231,7 @@ class EditTab(pn.viewable.Viewer):
         page's (a write outside the document lock was a Traceback in the server log)."""
         self.state.post(self._write_span_curve)
 
+    @sends_bokeh
     def _write_span_curve(self) -> None:
         n = self._frames_total()
         curve, title = self._span_curve()
@@ -447,6 +450,7 @@ class EditTab(pn.viewable.Viewer):
         fig.title.text_font_size = "11px"
         self.count_map = fig
 
+    @sends_bokeh
     def _on_count(self, *_):
         s = self.state
         readout = s.count_result
