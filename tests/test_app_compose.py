@@ -220,6 +220,14 @@ def test_second_take_with_text(studio):
     assert not c.result.second_take_text and "first take only" in tab.result.object
     tab.second_take.value = True
     assert not tab.second_take_text.disabled
+    # planted feet in the second take: off by default (the paper's), the box reaches the engine and the summary
+    assert not tab.planted_feet.disabled and prepare(s, c).config.second_take.planted_feet is False
+    tab.planted_feet.value = True
+    assert prepare(s, c).config.second_take.planted_feet is True
+    assert tab.generate() and s.wait(300), s.notices[-1:]
+    assert c.result.planted_feet and "planted feet" in tab.result.object
+    tab.second_take.value = False
+    assert tab.planted_feet.disabled and prepare(s, c).config.second_take is None
 
 
 def test_cancel(studio):

@@ -117,3 +117,29 @@ def test_a_walk_hovering_above_the_floor_is_brought_onto_it():
     # turned off, the hover stays (and only the sliding is corrected)
     kept = _joints(PlantedFeet(_Fixed(x0), norm, ground=False)(x0, torch.tensor([0]), None), norm)
     assert np.median(kept[:, list(FEET), 1].min(1)) > 0.02
+
+
+def test_the_second_take_keeps_planted_feet_still_in_its_sandwich():
+    """DoubleTake's second take (engine.methods.doubletake) wraps its prediction in PlantedFeet unless told not to:
+    on a first take whose walk slides, the re-made sandwich slides less than the paper's second take makes it, and
+    the frames outside the sandwich are the first take's in both."""
+    from conftest import random_corpus_model
+    from engine.generate import SampleConfig
+    from engine.methods.doubletake import SecondTake, second_take
+
+    loaded = random_corpus_model(layers=2)
+    feats = _sliding(_walk(), metres_per_frame=0.03)
+    first = torch.from_numpy(loaded.normalizer.normalize(feats)).float()  # (T, 263)
+    n = len(first)
+    a, b = n // 2 - 10, n // 2 + 10
+    sample = SampleConfig(steps=10, seed=3)
+    made = {on: second_take(loaded, first, [(a, b)], SecondTake(context=30, planted_feet=on), sample=sample)
+            for on in (True, False)}
+    joints = {on: features_to_joints(loaded.normalizer.denormalize(x.numpy())) for on, x in made.items()}
+    inside = slice(a - 30, b + 30)
+    assert foot_skate(joints[True][inside]) < 0.7 * foot_skate(joints[False][inside]), \
+        (foot_skate(joints[True][inside]), foot_skate(joints[False][inside]))
+    for on in (True, False):
+        torch.testing.assert_close(made[on][: a - 31], first[: a - 31])
+        torch.testing.assert_close(made[on][b + 31 :], first[b + 31 :])
+

@@ -63,14 +63,16 @@ def config_from_args(args: argparse.Namespace, intervals: int | None = None):
     """The DoubleTakeConfig of the command line; ``intervals``: how many were given (checks the handshake count)."""
     given = {info.name: getattr(args, _dest(info)) for info in options(SecondTake)
              if getattr(args, _dest(info)) is not None}
-    if args.first_take_only and (given or args.second_take_text):
+    if args.first_take_only and (given or args.second_take_text or args.second_take_planted_feet):
         flags = [f"--{option_info(SecondTake, n).flag}" for n in given]
         flags += ["--second-take-text"] if args.second_take_text else []
+        flags += ["--second-take-planted-feet"] if args.second_take_planted_feet else []
         raise ValueError(f"{', '.join(flags)} set the second take: leave out --first-take-only")
     for name, value in given.items():  # each against its declared bounds, named by its flag
         check_option(SecondTake, name, value, what=f"--{option_info(SecondTake, name).flag}")
     try:
-        take = None if args.first_take_only else SecondTake(**given, text=args.second_take_text)
+        take = None if args.first_take_only else SecondTake(**given, text=args.second_take_text,
+                                                                 planted_feet=args.second_take_planted_feet)
     except ValueError as exc:
         raise ValueError(f"second take: {exc}") from None
     if args.handshake is None:
@@ -110,7 +112,9 @@ def run(args: argparse.Namespace) -> int:
     report = {"out": str(args.out), "frames": int(len(result.joints)), "seconds_of_motion": len(result.joints) / 20,
               "intervals": [{"prompt": iv.prompt, "start_frame": s} for iv, s in zip(intervals, result.starts)],
               "transitions": result.transitions, "handshakes": [b - a for a, b in result.transitions],
-              "second_take": config.second_take is not None, "wall_seconds": round(result.seconds, 2)}
+              "second_take": config.second_take is not None,
+              "planted_feet": config.second_take is not None and config.second_take.planted_feet,
+              "wall_seconds": round(result.seconds, 2)}
     if notes:
         report["notes"] = notes
     if args.render is not None:  # the studio's exporter, titled as kept

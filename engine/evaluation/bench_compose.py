@@ -6,6 +6,7 @@ caption (the corpus grammar can outgrow a shipped model's vocabulary). Each meth
 same intervals (prompts = each part's caption, the same lengths):
 - ``doubletake``: the engine's defaults (handshake 1 s, first and second take: the sandwich of the
   neighbouring intervals, see ``engine.methods.doubletake``);
+- ``dt_feet``: the same with planted feet in the second take (``SecondTake.planted_feet``, not the paper's);
 - ``first_take``: the handshake blending only;
 - ``naive``: each interval sampled alone, concatenated.
 Figures (JSON ``compose.<method>``): ``transition_fid`` (evaluator FID of 2-s windows centred on
@@ -51,11 +52,11 @@ from engine.checkpoint import LoadedModel
 from engine.evaluation.evaluator import LoadedEvaluator
 from engine.evaluation.metrics import fid, foot_skate, jerk
 from engine.generate import FPS, SampleConfig
-from engine.methods.doubletake import DoubleTakeConfig, Interval, compose
+from engine.methods.doubletake import DoubleTakeConfig, Interval, SecondTake, compose
 from engine.representation import joints_to_features
 from engine.units import DEFAULT_GUIDANCE
 
-METHODS = ("doubletake", "first_take", "naive")
+METHODS = ("doubletake", "dt_feet", "first_take", "naive")
 
 
 @dataclass(frozen=True)
@@ -182,7 +183,9 @@ def _run(loaded, seq: ComposeCase, method: str, sample: SampleConfig) -> tuple[n
     if method == "naive":
         result = compose(loaded, seq.intervals, DoubleTakeConfig(handshake=0, second_take=None), sample=sample)
         return result.joints, result.starts[1:]
-    config = DoubleTakeConfig() if method == "doubletake" else DoubleTakeConfig(second_take=None)
+    config = {"doubletake": DoubleTakeConfig(),
+              "dt_feet": DoubleTakeConfig(second_take=SecondTake(planted_feet=True))}.get(
+        method, DoubleTakeConfig(second_take=None))
     # the true parts last n_i frames; with handshakes the intervals are lengthened so that each
     # transition sits where the true one does: interval i spans its part plus half a handshake each side
     hs = (0, *config.handshakes(len(seq.intervals)), 0)
@@ -256,6 +259,8 @@ def bench_compose(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Compo
     result["ratio_vs_first_take"] = result["doubletake"]["transition_fid"] / max(result["first_take"]["transition_fid"], 1e-9)
     result["vs_first_take"] = {key: _ratio(result["doubletake"][key], result["first_take"][key])
                                for key in ("jerk", "foot_skate")}
+    result["feet_vs_first_take"] = {key: _ratio(result["dt_feet"][key], result["first_take"][key])
+                                     for key in ("jerk", "foot_skate")}
     result["seconds"] = time.time() - t0
     return result
 
@@ -288,6 +293,10 @@ def format_table(result: dict) -> str:
                      f"foot skate {ratio(v['foot_skate'], 0).strip()} (target <= 0.8 on both); interior: the same "
                      "figures on the 2-s windows inside the intervals (the model's own, which a transition cannot "
                      "be expected to beat)")
+    if result.get("feet_vs_first_take"):
+        v = result["feet_vs_first_take"]
+        lines.append(f"with planted feet in the second take (dt_feet) / first take: jerk "
+                     f"{ratio(v['jerk'], 0).strip()}, foot skate {ratio(v['foot_skate'], 0).strip()}")
     lines.append("")
     lines.append("adherence per interval (cut at the transition centres; detectors on the interval's own prompt):")
     lines.append(f"{'method':<12}{'action':>8}{'count':>8}{'action+count':>14}   intervals checked (action / count)")

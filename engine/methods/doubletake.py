@@ -25,6 +25,7 @@ import torch
 
 from engine.checkpoint import LoadedModel
 from engine.diffusion import CosineSchedule, StepState, run_loop
+from engine.diffusion.feet import PlantedFeet
 from engine.generate import FPS, MAX_SECONDS, Request, SampleConfig, build_condition, denoiser_for, sample_states
 from engine.methods.doubletake_config import DoubleTakeConfig, SecondTake  # noqa: F401 (re-exported)
 from engine.representation import features_to_joints
@@ -326,6 +327,8 @@ def second_take(loaded: LoadedModel, first: torch.Tensor, transitions: Sequence[
     x = ab**0.5 * known + (1 - ab) ** 0.5 * torch.randn(known.shape, generator=g)
     base = denoiser_for(loaded, sample) if take.text else loaded.model
     denoiser = SoftInpaint(base, known=known, keep=keep)
+    if take.planted_feet:  # after the soft mask: the blended prediction is what the next step and the user see
+        denoiser = PlantedFeet(denoiser, loaded.normalizer)
     last = None
     for last in run_loop(denoiser, x, cond, schedule=schedule, timesteps=timesteps, eta=take.eta):
         if on_step is not None:

@@ -40,6 +40,7 @@ class ComposeSummary:
     second_take: bool
     seconds_taken: float  # wall time
     second_take_text: bool = False  # the second take denoised each transition with "A, then B"
+    planted_feet: bool = False  # the second take kept the feet on the floor still (engine.diffusion.feet)
 
 
 @dataclass
@@ -134,7 +135,8 @@ class ComposeJob:
                                  ends=[min(e, n) for e in ends], transitions=[tuple(t) for t in result.transitions],
                                  n_frames=n, handshakes=[b - a for a, b in result.transitions],
                                  second_take=job.config.second_take is not None, seconds_taken=result.seconds,
-                                 second_take_text=job.config.second_take is not None and job.config.second_take.text)
+                                 second_take_text=job.config.second_take is not None and job.config.second_take.text,
+                                 planted_feet=job.config.second_take is not None and job.config.second_take.planted_feet)
         item = MotionItem(name=self.session.unique_name(title), joints=np.asarray(result.joints, dtype=np.float32),
                           source="generated", prompt=" then ".join(iv.prompt for iv in job.intervals),
                           info={"compose": summary})

@@ -39,6 +39,7 @@ class ComposeSettings(param.Parameterized):
                                 label="second take (re-denoise the transitions)",
                                 doc="re-denoise each transition with soft masks (the second take)")
     second_take_text = param_for(SecondTake, "text")
+    second_take_planted_feet = param_for(SecondTake, "planted_feet")
     result = param.Parameter(default=None, doc="ComposeSummary of the last composition")
 
     @classmethod
@@ -132,7 +133,8 @@ class ComposeSettings(param.Parameterized):
 
     def config(self) -> DoubleTakeConfig:
         """The engine config these settings run (what ``moattn compose --handshake h1,h2,...`` runs)."""
-        take = SecondTake(text=self.second_take_text) if self.second_take else None
+        take = SecondTake(text=self.second_take_text, planted_feet=self.second_take_planted_feet) \
+            if self.second_take else None
         hs = self.handshake_frames()
         return DoubleTakeConfig(handshake=hs if hs else HANDSHAKE.default, second_take=take)
 

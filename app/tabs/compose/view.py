@@ -104,7 +104,10 @@ class ComposeTab(pn.viewable.Viewer):
         self.second_take = pn.widgets.Checkbox.from_param(c.param.second_take, css_classes=["compose-second-take"])
         self.second_take_text = pn.widgets.Checkbox.from_param(c.param.second_take_text, disabled=not c.second_take,
                                                                css_classes=["compose-second-take-text"])
+        self.planted_feet = pn.widgets.Checkbox.from_param(c.param.second_take_planted_feet, disabled=not c.second_take,
+                                                           css_classes=["compose-planted-feet"])
         c.param.watch(lambda e: setattr(self.second_take_text, "disabled", not e.new), "second_take")
+        c.param.watch(lambda e: setattr(self.planted_feet, "disabled", not e.new), "second_take")
         self.length = pn.pane.Markdown("", css_classes=["compose-length"], margin=(0, 10))
         self.bar = JobBar(state=self.state, jobs=["composition"], label="Generate long motion", prefix="compose",
                           on_run=self.generate, blocked=c.refused)
@@ -213,7 +216,8 @@ class ComposeTab(pn.viewable.Viewer):
             self.strip_src.data, self.hand_src.data = _empty_intervals(), _empty_transitions()
             self.jumps.objects = []
             return
-        take = ("first + second take" + (" (with text)" if r.second_take_text else "")) if r.second_take \
+        said = [w for w, on in (("with text", r.second_take_text), ("planted feet", r.planted_feet)) if on]
+        take = ("first + second take" + (f" ({', '.join(said)})" if said else "")) if r.second_take \
             else "first take only"
         spans = ", ".join(f"{a}–{b - 1}" if b > a else f"a cut at {a}" for a, b in r.transitions) or "none"
         lengths = sorted(set(r.handshakes), key=r.handshakes.index)
@@ -293,7 +297,7 @@ class ComposeTab(pn.viewable.Viewer):
             pn.pane.Markdown(HELP, styles={"font-size": "12px", "color": "#444"}, margin=(0, 10)),
             "#### Timeline", pn.Row(self.sentence, self.fill, sizing_mode="stretch_width"), self.rows_box, self.add,
             self.length,
-            pn.Row(self.second_take, self.second_take_text, sizing_mode="stretch_width"),
+            pn.Row(self.second_take, self.second_take_text, self.planted_feet, sizing_mode="stretch_width"),
             self.bar, self.result, self.strip_pane, self.jumps,
             css_classes=["compose-tab"], sizing_mode="stretch_width")
 
