@@ -120,10 +120,10 @@ def test_a_walk_hovering_above_the_floor_is_brought_onto_it():
 
 
 def test_the_second_take_keeps_planted_feet_still_in_its_sandwich():
-    """DoubleTake's second take (engine.methods.doubletake) wraps its prediction in PlantedFeet unless told not to:
+    """DoubleTake's second take (engine.methods.doubletake) wraps its prediction in PlantedFeet when asked:
     on a first take whose walk slides, the re-made sandwich slides less than the paper's second take makes it, and
     the frames outside the sandwich are the first take's in both."""
-    from conftest import random_corpus_model
+    from tests.conftest import random_corpus_model
     from engine.generate import SampleConfig
     from engine.methods.doubletake import SecondTake, second_take
 

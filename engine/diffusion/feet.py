@@ -50,10 +50,13 @@ class PlantedFeet:
     # a frame whose lowest foot joint hovers under ON_FLOOR (or sinks under the floor) is brought onto the floor: its
     # feet on the floor aim at their heights less that gap (the legs reach down; the pelvis stays)
     ground: bool = True
+    # the lowest timestep it acts at: above 0, the last denoising step(s) see the corrected prediction but their own
+    # output is the model's (which smooths the frame-by-frame correction)
+    above: int = 0
 
     def __call__(self, x: torch.Tensor, t: torch.Tensor, cond, *, step: int = 0, controller=None) -> torch.Tensor:
         x0 = self.denoiser(x, t, cond, step=step, controller=controller)
-        if self.strength <= 0 or not bool((t < self.below).any()):
+        if self.strength <= 0 or not bool(((t < self.below) & (t >= self.above)).any()):
             return x0
         fixed = x0.detach().float()  # (B, T, D) normalised
         mean = torch.as_tensor(np.asarray(self.normalizer.mean), dtype=torch.float32)
