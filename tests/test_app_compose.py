@@ -213,19 +213,20 @@ def test_second_take_with_text(studio):
     tab.second_take_text.value = True
     assert c.second_take_text and prepare(s, c).config.second_take.text is True
     assert tab.generate() and s.wait(300), s.notices[-1:]
-    assert c.result.second_take and c.result.second_take_text and "second take (with text)" in tab.result.object
+    assert c.result.second_take and c.result.second_take_text and c.result.planted_feet
+    assert "second take (with text, planted feet)" in tab.result.object
     tab.second_take.value = False  # no second take: its text switch greys out, and no text is claimed
     assert tab.second_take_text.disabled and prepare(s, c).config.second_take is None
     assert tab.generate() and s.wait(300), s.notices[-1:]
     assert not c.result.second_take_text and "first take only" in tab.result.object
     tab.second_take.value = True
     assert not tab.second_take_text.disabled
-    # planted feet in the second take: off by default (the paper's), the box reaches the engine and the summary
-    assert not tab.planted_feet.disabled and prepare(s, c).config.second_take.planted_feet is False
-    tab.planted_feet.value = True
-    assert prepare(s, c).config.second_take.planted_feet is True
+    # planted feet in the second take: on by default, the box reaches the engine and the summary
+    assert not tab.planted_feet.disabled and prepare(s, c).config.second_take.planted_feet is True
+    tab.planted_feet.value = False
+    assert prepare(s, c).config.second_take.planted_feet is False
     assert tab.generate() and s.wait(300), s.notices[-1:]
-    assert c.result.planted_feet and "planted feet" in tab.result.object
+    assert not c.result.planted_feet and "planted feet" not in tab.result.object
     tab.second_take.value = False
     assert tab.planted_feet.disabled and prepare(s, c).config.second_take is None
 

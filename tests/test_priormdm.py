@@ -198,14 +198,14 @@ def test_cli_compose_and_control(tiny_model_dir, tmp_path, capsys):
     # the text reaches the handshake; the interval's own frames are in the sandwich too (M_soft), changed far less
     assert not np.allclose(texted[40:60], plain[40:60])
     assert np.abs(texted[:20] - plain[:20]).max() < np.abs(texted[40:60] - plain[40:60]).max()
-    assert report["planted_feet"] is False  # the paper's second take unless asked
+    assert report["planted_feet"] is True  # the default; off: the paper's second take
     assert main(["compose", "a person walks forward:3", "a person jumps:2", "--steps", "3", "--model",
-                 str(tiny_model_dir), "--out", str(out), "--second-take-planted-feet"]) == 0
-    assert json.loads(capsys.readouterr().out)["planted_feet"] is True
+                 str(tiny_model_dir), "--out", str(out), "--no-second-take-planted-feet"]) == 0
+    assert json.loads(capsys.readouterr().out)["planted_feet"] is False
     assert not np.allclose(np.load(out), plain)
     assert main(["compose", "a person walks forward:3", "a person jumps:2", "--model", str(tiny_model_dir), "--out",
-                 str(out), "--first-take-only", "--second-take-planted-feet"]) == 2
-    assert "--second-take-planted-feet set the second take" in capsys.readouterr().err
+                 str(out), "--first-take-only", "--no-second-take-planted-feet"]) == 2
+    assert "--no-second-take-planted-feet set the second take" in capsys.readouterr().err
     path = tmp_path / "root.json"
     path.write_text(json.dumps({"points": [[0, 0], [0, 2], [1, 3]]}))
     assert main(["control", "--prompt", "a person walks", "--root", str(path), "--inpaint", "--seconds", "4",

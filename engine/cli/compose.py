@@ -63,16 +63,16 @@ def config_from_args(args: argparse.Namespace, intervals: int | None = None):
     """The DoubleTakeConfig of the command line; ``intervals``: how many were given (checks the handshake count)."""
     given = {info.name: getattr(args, _dest(info)) for info in options(SecondTake)
              if getattr(args, _dest(info)) is not None}
-    if args.first_take_only and (given or args.second_take_text or args.second_take_planted_feet):
+    if args.first_take_only and (given or args.second_take_text or not args.planted_feet):
         flags = [f"--{option_info(SecondTake, n).flag}" for n in given]
         flags += ["--second-take-text"] if args.second_take_text else []
-        flags += ["--second-take-planted-feet"] if args.second_take_planted_feet else []
+        flags += [] if args.planted_feet else ["--no-second-take-planted-feet"]
         raise ValueError(f"{', '.join(flags)} set the second take: leave out --first-take-only")
     for name, value in given.items():  # each against its declared bounds, named by its flag
         check_option(SecondTake, name, value, what=f"--{option_info(SecondTake, name).flag}")
     try:
         take = None if args.first_take_only else SecondTake(**given, text=args.second_take_text,
-                                                                 planted_feet=args.second_take_planted_feet)
+                                                                 planted_feet=args.planted_feet)
     except ValueError as exc:
         raise ValueError(f"second take: {exc}") from None
     if args.handshake is None:
