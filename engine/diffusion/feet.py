@@ -53,7 +53,7 @@ class PlantedFeet:
     normalizer: Normalizer
     strength: float = 1.0
     below: int = 400
-    iterations: int = 30
+    iterations: int = 60  # 30 left drawn root paths sliding (skate 0.09 against 0.03) once small steps were small (ADAM_EPS)
     lr: float = 0.004
     # a frame whose lowest foot joint hovers under ON_FLOOR (or sinks under the floor) is brought onto the floor: its
     # feet on the floor aim at their heights less that gap (the legs reach down; the pelvis stays)

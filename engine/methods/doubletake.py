@@ -9,8 +9,10 @@ previous handshake), the handshake, the interval after (up to its next handshake
 to the frames the model takes - is re-noised to T' and denoised again with a soft mask on x̂0 that lets the
 handshake change a lot (M_hard), the intervals little (M_soft), with a b-frame linear ramp between. The sandwiches
 are then unfolded back onto the timeline: each frame takes its sandwich's refined value, and where two sandwiches
-share an interval's frames they cross-fade linearly between their handshakes (no seam anywhere). Everything is a
-step-end hook or a denoiser wrapper around the one sampling loop.
+share an interval's frames they cross-fade linearly between their handshakes (no seam anywhere). Not the paper's:
+by default the second take's prediction also goes through :class:`~engine.diffusion.feet.PlantedFeet` (a foot on
+the floor stops sliding), as controlled generation does; ``SecondTake(planted_feet=False)`` is the paper's second
+take. Everything is a step-end hook or a denoiser wrapper around the one sampling loop.
 
 The options (bounds, defaults, help) are declared once in :mod:`engine.methods.doubletake_config`.
 """
