@@ -169,3 +169,21 @@ def test_flat_drawing_keeps_the_pyvista_scenes_camera():
     assert np.abs(centre(pv_mask) - centre(flat_mask)).max() < 4
     rows = lambda m: np.flatnonzero(m.any(axis=1))  # noqa: E731
     assert abs(rows(pv_mask)[0] - rows(flat_mask)[0]) <= 4 and abs(rows(pv_mask)[-1] - rows(flat_mask)[-1]) <= 4
+
+
+def test_titles_draw_no_empty_boxes():
+    """The bundled font has no arrow, no ×, no dash and no accented letters: a compose title (A → B), a transfer
+    title (LEADER ← FOLLOWER) or a typed "café" drew empty boxes. Such characters get a stand-in, or lose their
+    accent, and every character of the fitted title has a glyph."""
+    from viz.flat import STAND_INS, drawable
+
+    missing = "\ue000"  # no glyph in any font: its mask is the box
+    box = bytes(font(20).getmask(missing))
+    for title in ("a man walks forward → he jumps", "walk ← run", "café, jumps ×2 — ok ✓"):
+        assert any(bytes(font(20).getmask(ch)) == box for ch in title if not ch.isspace())  # the problem is real
+        _, lines = fit_title(title, width=460)
+        drawn = " ".join(lines)
+        assert all(bytes(font(20).getmask(ch)) != box for ch in drawn if not ch.isspace()), drawn
+    assert fit_title("a man walks forward → he jumps", width=460)[1] == ["a man walks forward -> he jumps"]
+    assert drawable("café") == "cafe" and drawable("漢") == "?" and STAND_INS["←"] == "<-"
+    assert drawable("a person walks · seed 0") == "a person walks · seed 0"  # what the font has is kept

@@ -17,6 +17,8 @@ A 640x480 frame costs a few milliseconds, so the encoder, not the drawing, sets 
 """
 from __future__ import annotations
 
+import functools
+import unicodedata
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -73,6 +75,33 @@ def font(size: int) -> ImageFont.FreeTypeFont:
     return ImageFont.load_default(size=max(6, int(size)))
 
 
+#: what a character the bundled font has no glyph for is drawn as (others lose their accents, else become "?")
+STAND_INS = {"→": "->", "←": "<-", "↔": "<->", "×": "x", "—": "-", "–": "-", "✓": "ok", "✗": "x", "’": "'", "‘": "'",
+             "“": '"', "”": '"', "²": "2", "³": "3"}
+
+
+@functools.lru_cache(maxsize=4096)
+def _has_glyph(ch: str) -> bool:
+    fnt = font(20)
+    return ch.isspace() or bytes(fnt.getmask(ch)) != bytes(fnt.getmask("\ue000"))  # U+E000: no glyph in any font
+
+
+def drawable(text: str) -> str:
+    """``text`` as the bundled font can draw it: a character it has no glyph for (it drew an empty box: the arrow
+    of a compose title, the ← of a transfer title, an accent) becomes its stand-in (:data:`STAND_INS`), else the
+    letter without its accent, else "?"."""
+    out = []
+    for ch in text:
+        if _has_glyph(ch):
+            out.append(ch)
+        elif ch in STAND_INS:
+            out.append(STAND_INS[ch])
+        else:
+            plain = "".join(c for c in unicodedata.normalize("NFKD", ch) if _has_glyph(c) and not unicodedata.combining(c))
+            out.append(plain or "?")
+    return "".join(out)
+
+
 def wrap_text(text: str, fnt: ImageFont.ImageFont, width: float) -> list[str]:
     """Greedy word wrap of ``text`` into lines no wider than ``width`` pixels; a word wider than a line is split
     between characters. Every character of ``text`` (but the spaces at the breaks) is kept."""
@@ -103,6 +132,7 @@ def fit_title(text: str, *, width: float, scale: float = 1.0, max_lines: int = 2
     """The largest font (of ``sizes`` times ``scale``) at which ``text`` wraps into at most ``max_lines`` lines
     of ``width`` pixels, and those lines. A text too long even at the smallest size takes more lines at that size:
     the title is never truncated."""
+    text = drawable(text)
     fnt, lines = font(1), [text]
     for size in sizes:
         fnt = font(round(size * scale))
