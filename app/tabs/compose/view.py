@@ -33,7 +33,8 @@ HELP = ("Each interval is generated as its own clip; consecutive clips share a *
         "start of the next; its length is set per transition, between the rows), so the long motion lasts the sum of "
         "the intervals minus the handshakes. The **second take** re-denoises every transition with the neighbouring "
         "intervals around it, through soft masks (the handshake may change a lot, the intervals little), without "
-        "text as in the authors' code, or *with text* (\"A, then B\"). Seed, steps and guidance come from the "
+        "text as in the authors' code, or *with text* (\"A, then B\"), and keeps a foot on the floor still there "
+        "(*keep planted feet still*; off: the paper's second take). Seed, steps and guidance come from the "
         "sidebar. **Timeline from a sentence**: actions in order (\"walks forward, then jumps\"), one row per clause, "
         "each as long as the Generate box makes it.")
 
