@@ -80,10 +80,17 @@ STAND_INS = {"→": "->", "←": "<-", "↔": "<->", "×": "x", "—": "-", "–
              "“": '"', "”": '"', "²": "2", "³": "3"}
 
 
+@functools.lru_cache(maxsize=1)
+def _glyphs() -> tuple[ImageFont.FreeTypeFont, bytes]:
+    """The bundled font, and the empty box it draws for a character it has no glyph for (U+E000 has none)."""
+    fnt = font(20)
+    return fnt, bytes(fnt.getmask("\ue000"))
+
+
 @functools.lru_cache(maxsize=4096)
 def _has_glyph(ch: str) -> bool:
-    fnt = font(20)
-    return ch.isspace() or bytes(fnt.getmask(ch)) != bytes(fnt.getmask("\ue000"))  # U+E000: no glyph in any font
+    fnt, box = _glyphs()
+    return ch.isspace() or bytes(fnt.getmask(ch)) != box
 
 
 def drawable(text: str) -> str:

@@ -32,8 +32,9 @@ FEET = (*FOOT_JOINTS["left"], *FOOT_JOINTS["right"])
 #: gradients of joints that need no change (a foot in the air, a bone already at length) moved them by that much a
 #: step, a different way each frame: jitter that added 20 % to a walk's jerk (and 7 % to a jump with no foot to fix).
 #: At 1e-4 such gradients take small steps, the feet on the floor still stop sliding, and the jerk rises 2-4 %
-#: (runs/s34/jerkdiag.py, the shipped model). Small gradients also converge slower, so the bone term weighs 10: the leg
-#: bones then stay within 0.3 cm on generated walks and jumps (2.2 cm at weight 1; runs/s34/bonediag2.py).
+#: (the shipped model's walks and jumps, corrected at t = 0). Small gradients also converge slower, so the bone term
+#: weighs 10: the leg bones then stay within 0.3 cm on those walks and jumps (2.2 cm at weight 1). Measurements:
+#: assets/control/root/TRAINING.md, session 34.
 ADAM_EPS = 1e-4
 BONE_WEIGHT = 10.0
 #: the moved joints' cells among the ric features (NUM_JOINTS - 1 joints x 3), and their feature dims

@@ -101,9 +101,9 @@ class SecondTake:
     text: bool = declared(False, flag="--second-take-text", label="with text ('A, then B')",
                           help="denoise each transition with 'A, then B' (default: without text, as the authors' code)")
     # not the paper's: the second take's prediction goes through engine.diffusion.feet.PlantedFeet (the legs moved so
-    # a foot on the floor stops sliding, at the last denoising steps), as controlled generation does
-    # on by default, as `moattn bench --compose` chose: in the transitions the feet slide about half as often as in
-    # the paper's second take, with the same jerk (its dt_paper row)
+    # a foot on the floor stops sliding, at the last denoising steps), as controlled generation does. On by default,
+    # as `moattn bench --compose` chose: the transitions slide half as often as with the paper's second take (its
+    # dt_paper row), with about the same jerk
     planted_feet: bool = declared(True, flag="--no-second-take-planted-feet", label="keep planted feet still",
                                   help="keep a foot on the floor still in the transitions (not the paper's; off: the "
                                   "paper's second take)")

@@ -128,15 +128,16 @@ class ComposeJob:
     def deliver(self, result) -> Delivery:
         """The long motion becomes a session motion, coloured per interval with its transitions highlighted."""
         job = self.plan
+        take = job.config.second_take
         n = len(result.joints)
         ends = [s + int(round(iv.seconds * FPS)) for s, iv in zip(result.starts, job.intervals)]
         title = f"compose · {' > '.join(_short(iv.prompt) for iv in job.intervals)} · seed {job.sample.seed}"
         summary = ComposeSummary(name="", prompts=[iv.prompt for iv in job.intervals], starts=list(result.starts),
                                  ends=[min(e, n) for e in ends], transitions=[tuple(t) for t in result.transitions],
                                  n_frames=n, handshakes=[b - a for a, b in result.transitions],
-                                 second_take=job.config.second_take is not None, seconds_taken=result.seconds,
-                                 second_take_text=job.config.second_take is not None and job.config.second_take.text,
-                                 planted_feet=job.config.second_take is not None and job.config.second_take.planted_feet)
+                                 second_take=take is not None, seconds_taken=result.seconds,
+                                 second_take_text=take is not None and take.text,
+                                 planted_feet=take is not None and take.planted_feet)
         item = MotionItem(name=self.session.unique_name(title), joints=np.asarray(result.joints, dtype=np.float32),
                           source="generated", prompt=" then ".join(iv.prompt for iv in job.intervals),
                           info={"compose": summary})

@@ -107,8 +107,8 @@ class ComposeTab(pn.viewable.Viewer):
                                                                css_classes=["compose-second-take-text"])
         self.planted_feet = pn.widgets.Checkbox.from_param(c.param.second_take_planted_feet, disabled=not c.second_take,
                                                            css_classes=["compose-planted-feet"])
-        c.param.watch(lambda e: setattr(self.second_take_text, "disabled", not e.new), "second_take")
-        c.param.watch(lambda e: setattr(self.planted_feet, "disabled", not e.new), "second_take")
+        for box in (self.second_take_text, self.planted_feet):  # the second take's own options, greyed out without it
+            c.param.watch(lambda e, box=box: setattr(box, "disabled", not e.new), "second_take")
         self.length = pn.pane.Markdown("", css_classes=["compose-length"], margin=(0, 10))
         self.bar = JobBar(state=self.state, jobs=["composition"], label="Generate long motion", prefix="compose",
                           on_run=self.generate, blocked=c.refused)
