@@ -2,6 +2,9 @@
 said and re-recordable, a finished tab's lines cleared, an idle progress bar empty (no server, a tiny model)."""
 from __future__ import annotations
 
+import threading
+import time
+
 import numpy as np
 import pytest
 
@@ -75,3 +78,53 @@ def test_idle_bars_are_empty_and_a_kind_switch_clears_the_last_edit(studio):
     edit.kind.value = "replace"
     assert edit.result.object == "" and edit.status.object == ""
     assert edit.progress.value == 0
+
+
+class _Doc:
+    """A served document's stand-in: it records the thread each callback is added from, and runs it."""
+
+    class session_context:  # noqa: N801 - the attribute Bokeh's Document has
+        session = None
+
+    def __init__(self):
+        self.added_from: list[int] = []
+
+    def add_next_tick_callback(self, callback):
+        self.added_from.append(threading.get_ident())
+        callback()
+
+
+def test_work_posted_from_a_worker_thread_reaches_the_document_on_its_loop():
+    """Bokeh's document is not thread-safe while held (its held events are read and cleared without a lock), so a
+    result posted from a worker thread must be added to it on the server's loop thread, never from the worker."""
+    import asyncio
+
+    from app.session.state import StudioState
+
+    state, doc, ready, ran = StudioState(), _Doc(), threading.Event(), threading.Event()
+    server: dict = {}
+
+    async def serve():  # the server's loop: the page (and its state) is built on it
+        server["loop"], server["stop"] = asyncio.get_running_loop(), asyncio.Event()
+        server["thread"] = threading.get_ident()
+        state.attach_document(doc)
+        ready.set()
+        await server["stop"].wait()
+
+    loop_thread = threading.Thread(target=lambda: asyncio.run(serve()), daemon=True)
+    loop_thread.start()
+    assert ready.wait(10)
+    try:
+        worker = threading.Thread(target=lambda: state.post(ran.set))
+        worker.start()
+        worker.join(10)
+        assert ran.wait(10), "the posted work never ran"
+        assert doc.added_from == [server["thread"]]
+        state.post(lambda: None)  # from yet another thread (the test's): also through the loop
+        deadline = time.monotonic() + 10
+        while len(doc.added_from) < 2 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert doc.added_from == [server["thread"]] * 2
+    finally:
+        server["loop"].call_soon_threadsafe(server["stop"].set)
+        loop_thread.join(10)

@@ -17,6 +17,7 @@ from one thread at a time.
 """
 from __future__ import annotations
 
+import threading
 import traceback
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -56,6 +57,8 @@ class StudioState(GenerateBox, MotionList, ViewerRule, JobRunner):
         self.model_dir = Path(model_dir) if model_dir is not None else None
         self.library = library
         self._doc = None
+        self._loop = None  # the server's event loop, the one thread that touches the document (attach_document)
+        self._loop_thread: int | None = None
         self._counter = 0
         self.notices: list[tuple[str, str]] = []  # history (level, text), newest last
         self._closed = False
@@ -76,8 +79,16 @@ class StudioState(GenerateBox, MotionList, ViewerRule, JobRunner):
 
     # ------------------------------------------------------------------ threading
     def attach_document(self, doc) -> None:
-        """Bind the session's Bokeh document: posted callbacks then run on its event loop."""
+        """Bind the session's Bokeh document: posted callbacks then run on its event loop (the loop running here,
+        on the server's thread, where Panel builds a session's page)."""
+        import asyncio
+
         self._doc = doc
+        try:
+            self._loop = asyncio.get_running_loop()  # the server's (tornado runs on asyncio)
+            self._loop_thread = threading.get_ident()
+        except RuntimeError:  # no loop running here: callbacks are added from whichever thread posts them
+            self._loop, self._loop_thread = None, None
 
     @property
     def served(self) -> bool:
@@ -105,10 +116,21 @@ class StudioState(GenerateBox, MotionList, ViewerRule, JobRunner):
                     traceback.print_exc()
                     self._notify("error", f"internal error: {exc}")
 
-        try:
-            doc.add_next_tick_callback(run)
-        except Exception:  # the session is gone
-            pass
+        def schedule():
+            try:
+                doc.add_next_tick_callback(run)
+            except Exception:  # the session is gone
+                pass
+
+        if self._loop is None or threading.get_ident() == self._loop_thread:
+            schedule()
+        else:
+            # From a worker thread the callback is added on the loop's own thread (call_soon_threadsafe is safe
+            # from any thread). Bokeh's document is not: while the loop holds it (Panel holds it around every change
+            # from the page), an added callback is one of its held events, and unhold() reads and clears that list
+            # without a lock, so a callback added from another thread at that moment could be lost: the likely cause
+            # of the refused import whose message, now and then, never came (a browser test's rare timeout).
+            self._loop.call_soon_threadsafe(schedule)
 
     def _page_gone(self, doc) -> bool:
         """Whether the session's page has been connected and is no more (its session lingers until discarded).

@@ -91,8 +91,12 @@ class ImportPanel(pn.viewable.Viewer):
         if not self.state.served:
             return self._apply_import(name, start, *parse())
         self.again.disabled = True
-        threading.Thread(target=lambda: self.state.post(lambda: self._apply_import(name, start, *parse())),
-                         name="moattn-import", daemon=True).start()
+
+        def work():
+            parsed, error = parse()  # here, on the worker thread: only the result goes to the session's thread
+            self.state.post(lambda: self._apply_import(name, start, parsed, error))
+
+        threading.Thread(target=work, name="moattn-import", daemon=True).start()
         return True
 
     def _apply_import(self, name: str, start, parsed, error: Exception | None) -> bool:
