@@ -58,19 +58,20 @@ def test_timeline_add_remove_move_and_edit(studio):
 
 def test_a_sentence_of_actions_in_order_becomes_the_timeline(studio):
     """What the Generate box joins clause by clause, laid out to edit: one interval per clause, as long as it is
-    planned there (engine.methods.sequence), default handshakes; anything else says why in one line."""
-    from engine.methods.sequence import plan, timeline_frames
+    planned there (engine.methods.sequence), with its handshakes; anything else says why in one line."""
+    from engine.methods.sequence import HANDSHAKE, plan, timeline_frames
 
     tab = studio.compose
     c = tab.settings
-    tab.transitions[0].frames.value = 10
+    tab.transitions[0].frames.value = 30
     sentence = "a man waves, then jogs forward, then squats"
     tab.sentence.value = sentence
     tab.fill.clicks += 1
     planned = plan(sentence)
     assert _rows(tab) == [(iv.prompt, iv.seconds) for iv in planned]
     assert [r.prompt for r in c.intervals] == ["a man waves", "a man jogs forward", "a man squats"]
-    assert c.handshake_frames() == (20, 20) and c.expected_frames() == timeline_frames(planned)
+    assert HANDSHAKE == 10 and c.handshake_frames() == (10, 10)  # the Generate box's, not a long motion's 20
+    assert c.expected_frames() == timeline_frames(planned)
     tab.from_sentence("a person jumps twice")
     assert studio.state.notices[-1][0] == "error" and "is not actions in order" in studio.state.notices[-1][1]
     assert len(c.intervals) == 3  # the timeline is kept

@@ -88,15 +88,17 @@ class ComposeSettings(param.Parameterized):
 
     def from_sentence(self, text: str, *, tempo=()) -> None:
         """The timeline of a prompt of several actions in order ("a person walks forward, then jumps"): one interval
-        per clause, as long as the Generate box would make it (``engine.methods.sequence.plan``), default
-        handshakes; ``tempo``: the model's count tempo. A one-line ValueError for a prompt that is not actions in order."""
+        per clause, as long as the Generate box would make it (``engine.methods.sequence.plan``), with the Generate
+        box's handshakes (shorter than a long motion's default: a counted clause keeps its count); ``tempo``: the
+        model's count tempo. A one-line ValueError for a prompt that is not actions in order."""
+        from engine.methods.sequence import HANDSHAKE as CLAUSE_HANDSHAKE
         from engine.methods.sequence import plan
 
         intervals = plan(" ".join(str(text).split()), tempo=tempo)
         if intervals is None:
             raise ValueError(f"{text.strip()!r} is not actions in order: write them with 'then' or commas, e.g. "
                              f"'a person walks forward, then jumps'")
-        self.param.update(handshakes=[int(HANDSHAKE.default)] * (len(intervals) - 1),
+        self.param.update(handshakes=[CLAUSE_HANDSHAKE] * (len(intervals) - 1),
                           intervals=[IntervalRow(iv.prompt, iv.seconds) for iv in intervals])
 
     def set_handshake(self, transition: int, frames: int) -> None:
