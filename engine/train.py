@@ -293,7 +293,10 @@ class TrainingRun:
             if config.control and saved["train"].get("control"):
                 raise ValueError(f"{init_from} is already a control model ({saved['train']['control']}): "
                                  "fine-tune from the base model")
-            config = TrainConfig.from_json({**config.to_json(), "model": saved["train"]["model"], "out": str(out)})
+            model = dict(saved["train"]["model"])
+            if config.model.skip_sigma > 0:  # the prediction's skip has no weights: a fine-tune may switch it on
+                model["skip_sigma"] = config.model.skip_sigma
+            config = TrainConfig.from_json({**config.to_json(), "model": model, "out": str(out)})
             state.update(step=0, next_index=0)
         else:
             # the run's hyper-parameters come from the checkpoint; how to run it now comes from the call

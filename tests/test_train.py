@@ -350,3 +350,21 @@ def test_the_foot_term_moves_the_legs_not_the_root():
     loss.backward()
     assert float(pred.grad[..., :ROOT_DIMS].abs().max()) == 0.0
     assert float(pred.grad[..., ROOT_DIMS:].abs().max()) > 0.0
+
+
+def test_a_fine_tune_may_switch_the_prediction_skip_on(tmp_path):
+    """``--skip-sigma`` has no weights: a fresh-schedule fine-tune of a model without it switches it on (the model
+    folder's architecture otherwise), and a later fine-tune that does not name it keeps it."""
+    base = tmp_path / "base"
+    train(config(tmp_path, out=str(base), steps=6), source=ToySource(), progress=False)
+    skip = ModelConfig(**{**TINY.to_json(), "skip_sigma": 0.1})
+    out = tmp_path / "tuned"
+    train(config(tmp_path, out=str(out), steps=4, model=skip), source=ToySource(), progress=False,
+          init_from=base, fresh_schedule=True)
+    assert json.loads((out / "config.json").read_text())["model"]["skip_sigma"] == 0.1
+    assert load_model(out).model.config.skip_sigma == 0.1
+    assert load_model(base).model.config.skip_sigma == 0.0
+    plain = tmp_path / "plain"  # a fine-tune that does not name it keeps the base's
+    train(config(tmp_path, out=str(plain), steps=4), source=ToySource(), progress=False, init_from=out,
+          fresh_schedule=True)
+    assert json.loads((plain / "config.json").read_text())["model"]["skip_sigma"] == 0.1

@@ -28,6 +28,15 @@ class ModelConfig:
     vocab_size: int = 512
     feature_dim: int = FEATURE_DIM
     max_frames: int = MAX_FRAMES
+    #: the prediction's skip (EDM's c_skip, as a convex blend): x0_hat = c x_t / sqrt(alpha_bar) + (1 - c) network,
+    #: c = s^2 / (sigma_t^2 + s^2), sigma_t^2 = (1 - alpha_bar) / alpha_bar. At the last sampling steps c is near 1, so
+    #: the network removes the noise there instead of drawing the whole motion again (which a motion unlike the corpus
+    #: never survives: the DDIM inversion round trip); at the noisy steps c is near 0 (an x0 prediction). 0: the
+    #: network's output is x0_hat (every model before session 35). No weights: a fine-tune may switch it on.
+    #: Screened in session 35 (``--skip-sigma 0.1``, 3,000 steps from v9, assets/model/TRAINING.md): the real files'
+    #: round trip fell from 61-98 cm to 9-11 cm, but generated motions kept noise the 128-wide network cannot remove
+    #: (jerk 431 m/s^3 against 116): not used by the shipped model.
+    skip_sigma: float = 0.0
 
     def to_json(self) -> dict:
         return asdict(self)
@@ -115,6 +124,15 @@ class Denoiser(nn.Module):
         self.register_buffer("frame_pos", sinusoidal(torch.arange(config.max_frames), w), persistent=False)
         # autocast dtype of a call (None = fp32); set by the runtime that loads the model (engine.runtime)
         self.autocast_dtype: torch.dtype | None = None
+        if config.skip_sigma < 0:
+            raise ValueError(f"skip_sigma must be >= 0, got {config.skip_sigma:g}")
+        if config.skip_sigma > 0:
+            # the training schedule's alpha_bar, indexed t + 1 (t = -1: clean), for the prediction's skip; imported
+            # here, not at the top: engine.diffusion's package imports this module
+            from engine.diffusion.schedule import CosineSchedule
+
+            table = torch.cat([torch.ones(1, dtype=torch.float64), CosineSchedule().alphas_cumprod]).float()
+            self.register_buffer("skip_alpha_bar", table, persistent=False)
 
     @property
     def device(self) -> torch.device:
@@ -150,7 +168,7 @@ class Denoiser(nn.Module):
         with cast:
             run = self.begin(t, cond, step=step, controller=controller)
             h = self.layers(self.embed_frames(x), run, range(self.num_layers))
-            out = self.head(h)
+            out = self.prediction(x, t, self.head(h))
         return out.to(home.device, home.dtype)
 
     # The forward pass in three parts, for methods that act between layers (ComMDM).
@@ -177,8 +195,20 @@ class Denoiser(nn.Module):
         return h
 
     def head(self, h: torch.Tensor) -> torch.Tensor:
-        """(B, T, width) -> x0_hat (B, T, 263)."""
+        """(B, T, width) -> the network's output (B, T, 263): x0_hat itself, or its part beside the skip
+        (:meth:`prediction`)."""
         return self.out_proj(self.out_norm(h))
+
+    def prediction(self, x: torch.Tensor, t: torch.Tensor, out: torch.Tensor) -> torch.Tensor:
+        """x0_hat (B, T, 263) from x_t (B, T, 263), t (B,) and the network's output: ``out`` itself, or blended with
+        the skip (``ModelConfig.skip_sigma``)."""
+        s = self.config.skip_sigma
+        if s <= 0:
+            return out
+        ab = self.skip_alpha_bar[t.long() + 1].reshape(-1, *([1] * (x.dim() - 1)))  # (B, 1, 1)
+        sigma2 = (1 - ab) / ab
+        c = s * s / (sigma2 + s * s)
+        return (c * x / ab.sqrt() + (1 - c) * out).to(out.dtype)
 
     # -- persistence -------------------------------------------------------------
     def config_json(self) -> str:
