@@ -25,10 +25,10 @@ from engine.units import MAX_FRAMES
 
 #: frames two consecutive clauses share: half of DoubleTake's default (``option_info(DoubleTakeConfig, "handshake")``,
 #: 20, chosen for long motions by ``moattn bench --compose``). A clause said with a count is short ("jumps twice",
-#: 2.3 s), and a 20-frame handshake averaged one of its repetitions away with the clause beside it: on 10 sequence
-#: prompts with a counted clause (not a bench set's; v9, 6 seeds, ``runs/s35/seqjoin.py``) the count was exact in
-#: 0.38 of the draws with 20 frames, 0.82 with 10 (the clauses generated alone: 0.80), every other action 0.92 -> 0.98,
-#: the whole motion's jerk +4 %, foot skate the same.
+#: 2.3 s), and a 20-frame handshake (averaged in the first take, redrawn with its ramps in the second) took one of its
+#: repetitions away: on 10 sequence prompts with a counted clause (not a bench set's; v9, 6 seeds; assets/model/
+#: TRAINING.md, session 35) the count was exact in 0.38 of the draws with 20 frames, 0.82 with 10 (the clauses
+#: generated alone: 0.80), their actions 0.92 -> 0.98, the whole motion's jerk +4 %, foot skate the same.
 HANDSHAKE = 10
 JOIN = DoubleTakeConfig(handshake=HANDSHAKE)  # how the clauses are joined: DoubleTake's second take, these handshakes
 SHORT_CLAUSE_FRAMES = 30  # a clause predicted shorter than this (1.5 s) keeps all of it outside its handshakes
