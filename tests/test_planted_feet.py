@@ -120,7 +120,7 @@ def test_a_walk_hovering_above_the_floor_is_brought_onto_it():
 
 
 def test_the_second_take_keeps_planted_feet_still_in_its_sandwich():
-    """DoubleTake's second take (engine.methods.doubletake) wraps its prediction in PlantedFeet when asked:
+    """DoubleTake's second take (engine.methods.doubletake) wraps its prediction in PlantedFeet by default:
     on a first take whose walk slides, the re-made sandwich slides less than the paper's second take makes it, and
     the frames outside the sandwich are the first take's in both."""
     from tests.conftest import random_corpus_model
@@ -142,7 +142,6 @@ def test_the_second_take_keeps_planted_feet_still_in_its_sandwich():
     for on in (True, False):
         torch.testing.assert_close(made[on][: a - 31], first[: a - 31])
         torch.testing.assert_close(made[on][b + 31 :], first[b + 31 :])
-
 
 
 def test_the_correction_does_not_jitter_from_frame_to_frame():

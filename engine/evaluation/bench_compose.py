@@ -260,7 +260,7 @@ def bench_compose(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Compo
     result["vs_first_take"] = {key: _ratio(result["doubletake"][key], result["first_take"][key])
                                for key in ("jerk", "foot_skate")}
     result["paper_vs_first_take"] = {key: _ratio(result["dt_paper"][key], result["first_take"][key])
-                                     for key in ("jerk", "foot_skate")}
+                                      for key in ("jerk", "foot_skate")}
     result["seconds"] = time.time() - t0
     return result
 
