@@ -117,9 +117,10 @@ def model_config_of(config: dict, path: Path | str = CONFIG_NAME) -> ModelConfig
         if isinstance(default, bool) or not isinstance(default, (int, float)):
             continue
         if isinstance(default, int):
-            if not isinstance(value, int) or isinstance(value, bool) or not 1 <= value <= 10**7:
-                raise ModelFolderError(f"{path}: model setting {name!r} must be a whole number from 1 to 10,000,000, "
-                                       f"got {_short(value)}")
+            least = 0 if default == 0 else 1  # a setting that is off by default (skip_path) may be 0
+            if not isinstance(value, int) or isinstance(value, bool) or not least <= value <= 10**7:
+                raise ModelFolderError(f"{path}: model setting {name!r} must be a whole number from {least} to "
+                                       f"10,000,000, got {_short(value)}")
         elif not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
             raise ModelFolderError(f"{path}: model setting {name!r} must be a number, got {_short(value)}")
     try:

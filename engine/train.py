@@ -90,6 +90,9 @@ class TrainConfig:
     # be kept to low noise, where the gait is already chosen
     foot_below: int = field(default=1000, metadata={"help": "the foot contact loss acts on timesteps t below this "
                                                            "(1000: all)"})
+    skip_path_only: bool = field(default=False, metadata={"help": "train only the skip path (--skip-path), the rest "
+                                                                  "of the model frozen, on the timesteps where the "
+                                                                  "skip weighs at least 1 %%"})
     grad_clip: float = 1.0
     seed: int = 0
     log_every: int = 20
@@ -296,6 +299,8 @@ class TrainingRun:
             model = dict(saved["train"]["model"])
             if config.model.skip_sigma > 0:  # the prediction's skip has no weights: a fine-tune may switch it on
                 model["skip_sigma"] = config.model.skip_sigma
+            if config.model.skip_path > 0:  # ... and add the skip's own path (new weights, its output starting at 0)
+                model["skip_path"] = config.model.skip_path
             config = TrainConfig.from_json({**config.to_json(), "model": model, "out": str(out)})
             state.update(step=0, next_index=0)
         else:
@@ -334,7 +339,7 @@ class TrainingRun:
             vocab_rows = params["text_encoder.embed.weight"].shape[0]
             # build at the saved size, load, then grow the word table if the vocabulary grew
             model = Denoiser(ModelConfig.from_json({**model_config.to_json(), "vocab_size": vocab_rows}))
-            model.load_state_dict(params)
+            _load_allowing_new_skip_path(model, params)
             if vocab_rows < model_config.vocab_size:
                 model.text_encoder.resize_vocabulary(model_config.vocab_size)
                 seeded = seed_new_words(model, old=self.point.tokenizer, grown=self.grown)
@@ -348,7 +353,7 @@ class TrainingRun:
         self.tokenizer, self.normalizer = self.grown, self.point.normalizer
         ema = copy.deepcopy(model).eval()
         if state is not None and state["ema"]["text_encoder.embed.weight"].shape == ema.text_encoder.embed.weight.shape:
-            ema.load_state_dict({k: (v.float() if v.is_floating_point() else v) for k, v in state["ema"].items()})
+            _load_allowing_new_skip_path(ema, {k: (v.float() if v.is_floating_point() else v) for k, v in state["ema"].items()})
         for p in ema.parameters():
             p.requires_grad_(False)
         model.to(runtime.device)
@@ -359,7 +364,15 @@ class TrainingRun:
             net = torch.nn.parallel.DistributedDataParallel(model, device_ids=ids)
         else:
             net = model
-        optimizer = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+        timesteps_below = None
+        if config.skip_path_only:
+            if model.skip_path is None:
+                raise ValueError("--skip-path-only needs a skip path (--skip-path N with --skip-sigma S)")
+            for name, p in model.named_parameters():
+                p.requires_grad_(name.startswith("skip_path."))
+            timesteps_below = skip_timesteps(model)
+        trained = [p for p in model.parameters() if p.requires_grad]
+        optimizer = torch.optim.AdamW(trained, lr=config.lr, weight_decay=config.weight_decay)
         if opt_state is not None:
             optimizer.load_state_dict(opt_state)
         self.model, self.ema, self.optimizer = model, ema, optimizer
@@ -382,7 +395,7 @@ class TrainingRun:
                                     grad_clip=config.grad_clip, ema_decay=config.ema_decay,
                                     control_dims=control_dims,
                                     timestep_weights=timestep_weights(config), foot_weight=config.foot_weight,
-                                    foot_below=config.foot_below,
+                                    foot_below=config.foot_below, timesteps_below=timesteps_below,
                                     stats=(torch.as_tensor(self.normalizer.mean), torch.as_tensor(self.normalizer.std)))
 
     # -- what the loop writes ----------------------------------------------------------------------------------------
@@ -498,6 +511,23 @@ def high_noise_weights(schedule: CosineSchedule, weight: float) -> torch.Tensor:
     return w / w.mean()
 
 
+def skip_timesteps(model: Denoiser, *, least: float = 0.01) -> int:
+    """The timesteps t below this one are those where the prediction's skip weighs at least ``least``."""
+    s = model.config.skip_sigma
+    ab = model.skip_alpha_bar[1:].double()
+    c = s * s / ((1 - ab) / ab + s * s)
+    return max(1, int((c >= least).sum()))
+
+
+def _load_allowing_new_skip_path(model: torch.nn.Module, params: dict) -> None:
+    """Load a state into ``model``; the skip path's weights may be missing (a fine-tune switching it on keeps their
+    initial values: the path's output starts at zero). Any other mismatch raises as ``load_state_dict`` does."""
+    missing, unexpected = model.load_state_dict(params, strict=False)
+    wrong = [k for k in missing if not k.startswith("skip_path.")] + list(unexpected)
+    if wrong:
+        model.load_state_dict(params)  # raises, naming them
+
+
 def seed_new_words(model, *, old, grown) -> int:
     """Start each word new to ``grown`` at the embedding of the word ``old`` reads it as (its form, meaning or
     spelling: "skips" -> "hops"), so a fine-tune begins by reading new words exactly as the old model did rather
@@ -556,6 +586,7 @@ class TrainStep:
     foot_weight: float = 0.0  # MDM's foot contact term (needs ``stats``)
     foot_below: int = 1000  # ... on timesteps t below this
     stats: tuple[torch.Tensor, torch.Tensor] | None = None  # (mean, std) of the features: x0 back to metres
+    timesteps_below: int | None = None  # draw t below this (None: every timestep of the schedule)
 
     def __post_init__(self) -> None:
         self.scaler = torch.amp.GradScaler(self.runtime.device.type, enabled=self.runtime.dtype == torch.float16)
@@ -567,13 +598,13 @@ class TrainStep:
         is 0)."""
         device = self.runtime.device
         b = batch.x0.shape[0]
-        t = torch.randint(0, self.schedule.steps, (b,), generator=self.generator)
+        t = torch.randint(0, self.timesteps_below or self.schedule.steps, (b,), generator=self.generator)
         noise = torch.randn(batch.x0.shape, generator=self.generator)
         if self.control_dims is not None:
             noise[..., self.control_dims] = 0.0
         x_t = self.schedule.q_sample(batch.x0, t, noise)
         x0 = batch.x0.to(device, non_blocking=True)
-        cond = batch.cond.to_device(device)
+        cond = batch.cond.to_device(device).keeping_input()  # the prediction's skip acts on every training item
         x0_hat = self.net(x_t.to(device, non_blocking=True), t.to(device), cond)
         weights = None if self.timestep_weights is None else self.timestep_weights[t]
         mse, vel = masked_losses(x0_hat.float(), x0, cond.frame_mask, weights)

@@ -368,3 +368,31 @@ def test_a_fine_tune_may_switch_the_prediction_skip_on(tmp_path):
     train(config(tmp_path, out=str(plain), steps=4), source=ToySource(), progress=False, init_from=out,
           fresh_schedule=True)
     assert json.loads((plain / "config.json").read_text())["model"]["skip_sigma"] == 0.1
+
+
+def test_a_skip_path_fine_tune_may_train_the_path_alone(tmp_path):
+    """``--skip-path N --skip-path-only``: a fresh-schedule fine-tune adds the skip's own path and trains only it; every
+    other weight stays the base's, bit for bit, and the path's output is no longer zero."""
+    base = tmp_path / "base"
+    train(config(tmp_path, out=str(base), steps=6), source=ToySource(), progress=False)
+    path = ModelConfig(**{**TINY.to_json(), "skip_sigma": 0.1, "skip_path": 16})
+    out = tmp_path / "path"
+    train(config(tmp_path, out=str(out), steps=5, model=path, skip_path_only=True, lr=1e-3, warmup=1),
+          source=ToySource(), progress=False, init_from=base, fresh_schedule=True)
+    before, after = load_model(base).model.state_dict(), load_model(out).model.state_dict()
+    assert json.loads((out / "config.json").read_text())["model"]["skip_path"] == 16
+    assert set(after) - set(before) == {k for k in after if k.startswith("skip_path.")}
+    assert all(torch.equal(before[k], after[k]) for k in before)
+    assert float(after["skip_path.conv_out.weight"].abs().max()) > 0
+
+
+def test_training_the_skip_path_alone_needs_one(tmp_path):
+    base = tmp_path / "base"
+    train(config(tmp_path, out=str(base), steps=3), source=ToySource(), progress=False)
+    try:
+        train(config(tmp_path, out=str(tmp_path / "x"), steps=2, skip_path_only=True), source=ToySource(),
+              progress=False, init_from=base, fresh_schedule=True)
+    except ValueError as exc:
+        assert "--skip-path" in str(exc)
+    else:
+        raise AssertionError("--skip-path-only without a skip path was accepted")

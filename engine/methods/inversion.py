@@ -37,8 +37,10 @@ def motion_condition(loaded: LoadedModel, prompt: str, frames: int, *, role: str
         ids, mask = torch.zeros(1, 1, dtype=torch.long), torch.zeros(1, 1, dtype=torch.bool)
         words = WordIndex(words=((),))
         use_text = torch.zeros(1, dtype=torch.bool)
+    # the inversion and the rebuild from its noise keep their input through the prediction's skip, where the model
+    # has one (ModelConfig.skip_sigma): the round trip of a motion unlike the corpus survives the last steps
     return Condition(text_ids=ids, text_mask=mask, frame_mask=torch.ones(1, frames, dtype=torch.bool),
-                     use_text=use_text, roles=BatchRoles.of(role), words=words)
+                     use_text=use_text, roles=BatchRoles.of(role), words=words).keeping_input()
 
 
 def invert(loaded: LoadedModel, joints: np.ndarray, config: InversionConfig = InversionConfig()) -> Inverted:

@@ -33,10 +33,16 @@ class ModelConfig:
     #: the network removes the noise there instead of drawing the whole motion again (which a motion unlike the corpus
     #: never survives: the DDIM inversion round trip); at the noisy steps c is near 0 (an x0 prediction). 0: the
     #: network's output is x0_hat (every model before session 35). No weights: a fine-tune may switch it on.
-    #: Screened in session 35 (``--skip-sigma 0.1``, 3,000 steps from v9, assets/model/TRAINING.md): the real files'
-    #: round trip fell from 61-98 cm to 9-11 cm, but generated motions kept noise the 128-wide network cannot remove
-    #: (jerk 431 m/s^3 against 116): not used by the shipped model.
+    #: It acts only on the slots whose condition keeps its input (:data:`KEEP_INPUT`: training, DDIM inversion and the
+    #: rebuild from inverted noise), never in generation: screened in session 35 on every slot (``--skip-sigma 0.1``,
+    #: 3,000 steps from v9, assets/model/TRAINING.md), the real files' round trip fell from 61-98 cm to 9-11 cm, but
+    #: generated motions kept noise the 128-wide network cannot remove (jerk 431 m/s^3 against 116).
     skip_sigma: float = 0.0
+    #: hidden channels of a full-width path that denoises the skip's input (0: none; needs ``skip_sigma`` > 0).
+    #: x0_hat = c (y + path(y, t)) + (1 - c) network, y = x_t / sqrt(alpha_bar): a 263 -> hidden -> 263 convolution
+    #: over 3 frames, modulated by t, its last layer starting at zero (so a fine-tune that switches it on starts from
+    #: the plain skip). It sees every feature dimension, which the 128-wide network cannot cancel noise in.
+    skip_path: int = 0
 
     def to_json(self) -> dict:
         return asdict(self)
@@ -48,6 +54,13 @@ class ModelConfig:
         if unknown:
             raise ValueError(f"unknown model config fields: {sorted(unknown)}")
         return cls(**data)
+
+
+#: Condition.extras key: (B,) bool, the slots whose prediction keeps its input through the skip
+#: (``ModelConfig.skip_sigma``): training sets it on every item, DDIM inversion and the rebuild from inverted noise on
+#: theirs. Generation leaves it out, so a model whose network was frozen while its skip path trained
+#: (``--skip-path-only``) generates exactly as its network did.
+KEEP_INPUT = "keep_input"
 
 
 @dataclass
@@ -68,6 +81,10 @@ class Condition:
 
     def __len__(self) -> int:
         return self.text_ids.shape[0]
+
+    def keeping_input(self) -> "Condition":
+        """The same condition with every slot asking the prediction's skip to act (:data:`KEEP_INPUT`)."""
+        return replace(self, extras={**self.extras, KEEP_INPUT: torch.ones(len(self), dtype=torch.bool)})
 
     def map_tensors(self, fn) -> "Condition":
         """The same condition with ``fn`` applied to each of its tensors (tensor extras included)."""
@@ -105,6 +122,24 @@ class LayerPass:
     controller: AttentionController | None
 
 
+class SkipPath(nn.Module):
+    """The skip's own denoiser (``ModelConfig.skip_path``): y (B, T, D), t (B,) -> a correction (B, T, D), zero at start."""
+
+    def __init__(self, *, features: int, hidden: int):
+        super().__init__()
+        self.conv_in = nn.Conv1d(features, hidden, kernel_size=3, padding=1)
+        self.time = nn.Linear(64, 2 * hidden)
+        self.conv_out = nn.Conv1d(hidden, features, kernel_size=3, padding=1)
+        for p in (self.time.weight, self.time.bias, self.conv_out.weight, self.conv_out.bias):
+            nn.init.zeros_(p)
+
+    def forward(self, y: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+        scale, shift = self.time(sinusoidal(t, 64).to(y.dtype))[:, :, None].chunk(2, dim=1)  # (B, hidden, 1) each
+        h = self.conv_in(y.transpose(1, 2))  # (B, hidden, T)
+        h = nn.functional.silu(h * (1 + scale) + shift)
+        return self.conv_out(h).transpose(1, 2)  # (B, T, D)
+
+
 class Denoiser(nn.Module):
     """x_t (B, T, 263), t (B,), Condition -> x0_hat (B, T, 263)."""
 
@@ -133,6 +168,9 @@ class Denoiser(nn.Module):
 
             table = torch.cat([torch.ones(1, dtype=torch.float64), CosineSchedule().alphas_cumprod]).float()
             self.register_buffer("skip_alpha_bar", table, persistent=False)
+        if config.skip_path < 0 or config.skip_path > 0 and config.skip_sigma <= 0:
+            raise ValueError(f"skip_path must be 0, or > 0 with skip_sigma > 0; got {config.skip_path}")
+        self.skip_path = SkipPath(features=config.feature_dim, hidden=config.skip_path) if config.skip_path else None
 
     @property
     def device(self) -> torch.device:
@@ -168,7 +206,7 @@ class Denoiser(nn.Module):
         with cast:
             run = self.begin(t, cond, step=step, controller=controller)
             h = self.layers(self.embed_frames(x), run, range(self.num_layers))
-            out = self.prediction(x, t, self.head(h))
+            out = self.prediction(x, t, self.head(h), keep=cond.extras.get(KEEP_INPUT))
         return out.to(home.device, home.dtype)
 
     # The forward pass in three parts, for methods that act between layers (ComMDM).
@@ -199,16 +237,21 @@ class Denoiser(nn.Module):
         (:meth:`prediction`)."""
         return self.out_proj(self.out_norm(h))
 
-    def prediction(self, x: torch.Tensor, t: torch.Tensor, out: torch.Tensor) -> torch.Tensor:
-        """x0_hat (B, T, 263) from x_t (B, T, 263), t (B,) and the network's output: ``out`` itself, or blended with
-        the skip (``ModelConfig.skip_sigma``)."""
+    def prediction(self, x: torch.Tensor, t: torch.Tensor, out: torch.Tensor, *,
+                   keep: torch.Tensor | None = None) -> torch.Tensor:
+        """x0_hat (B, T, 263) from x_t (B, T, 263), t (B,) and the network's output: ``out`` itself, or on the slots
+        that ``keep`` (B,) bool names (:data:`KEEP_INPUT`; None: none) blended with the skip
+        (``ModelConfig.skip_sigma``)."""
         s = self.config.skip_sigma
-        if s <= 0:
+        if s <= 0 or keep is None or not bool(keep.any()):
             return out
         ab = self.skip_alpha_bar[t.long() + 1].reshape(-1, *([1] * (x.dim() - 1)))  # (B, 1, 1)
         sigma2 = (1 - ab) / ab
-        c = s * s / (sigma2 + s * s)
-        return (c * x / ab.sqrt() + (1 - c) * out).to(out.dtype)
+        c = s * s / (sigma2 + s * s) * keep.to(ab.dtype).reshape(ab.shape)
+        y = x / ab.sqrt()
+        if self.skip_path is not None:
+            y = y + self.skip_path(y, t)
+        return (c * y + (1 - c) * out).to(out.dtype)
 
     # -- persistence -------------------------------------------------------------
     def config_json(self) -> str:
