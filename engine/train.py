@@ -396,6 +396,7 @@ class TrainingRun:
                                     control_dims=control_dims,
                                     timestep_weights=timestep_weights(config), foot_weight=config.foot_weight,
                                     foot_below=config.foot_below, timesteps_below=timesteps_below,
+                                    keep_input=config.skip_path_only,
                                     stats=(torch.as_tensor(self.normalizer.mean), torch.as_tensor(self.normalizer.std)))
 
     # -- what the loop writes ----------------------------------------------------------------------------------------
@@ -587,6 +588,9 @@ class TrainStep:
     foot_below: int = 1000  # ... on timesteps t below this
     stats: tuple[torch.Tensor, torch.Tensor] | None = None  # (mean, std) of the features: x0 back to metres
     timesteps_below: int | None = None  # draw t below this (None: every timestep of the schedule)
+    #: the prediction's skip acts on every item (``--skip-path-only``); otherwise the network trains as the x0
+    #: prediction that generation uses (the skip never acts there: engine.model.denoiser.KEEP_INPUT)
+    keep_input: bool = False
 
     def __post_init__(self) -> None:
         self.scaler = torch.amp.GradScaler(self.runtime.device.type, enabled=self.runtime.dtype == torch.float16)
@@ -604,7 +608,9 @@ class TrainStep:
             noise[..., self.control_dims] = 0.0
         x_t = self.schedule.q_sample(batch.x0, t, noise)
         x0 = batch.x0.to(device, non_blocking=True)
-        cond = batch.cond.to_device(device).keeping_input()  # the prediction's skip acts on every training item
+        cond = batch.cond.to_device(device)
+        if self.keep_input:  # training the skip path alone: the prediction's skip acts on every item
+            cond = cond.keeping_input()
         x0_hat = self.net(x_t.to(device, non_blocking=True), t.to(device), cond)
         weights = None if self.timestep_weights is None else self.timestep_weights[t]
         mse, vel = masked_losses(x0_hat.float(), x0, cond.frame_mask, weights)

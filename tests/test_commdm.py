@@ -583,3 +583,23 @@ def test_contact_distances_map_onto_themselves_when_mirrored():
     plain = _together(stack_pairs([pair_item(x, identity) for x in samples])[0], identity)
     mirrored = _together(stack_pairs([pair_item(x, identity, mirror=True) for x in samples])[0], identity)
     torch.testing.assert_close(mirrored[..., list(MIRRORED_COLUMNS)], plain, atol=2e-3, rtol=0)
+
+
+def test_a_prior_that_gained_a_skip_path_is_still_the_blocks_prior():
+    """The skip path acts only in inversion, never in a duet: the prior's fingerprint leaves it out (base v10 = v9 + a
+    skip path runs v9's duet block), but any change to the network's own weights still tells the priors apart."""
+    from dataclasses import replace as replaced
+
+    from engine.methods.commdm import fingerprint
+    from engine.model import Denoiser, ModelConfig
+
+    plain = random_corpus_model(layers=1)
+    config = ModelConfig(**{**plain.model.config.to_json(), "skip_sigma": 0.1, "skip_path": 8})
+    with_path = Denoiser(config).eval()
+    missing, _ = with_path.load_state_dict(plain.model.state_dict(), strict=False)
+    assert missing and all(k.startswith("skip_path.") for k in missing)
+    torch.nn.init.normal_(with_path.skip_path.conv_out.weight)
+    assert fingerprint(replaced(plain, model=with_path)) == fingerprint(plain)
+    with torch.no_grad():
+        with_path.out_proj.bias[0] += 1e-2
+    assert fingerprint(replaced(plain, model=with_path)) != fingerprint(plain)

@@ -26,3 +26,8 @@ def test_evaluator_trains_saves_and_separates_captions(tmp_path):
     closer = (motion @ rises > motion @ falls) == up
     assert closer.mean() > 0.9
     assert r_precision(text, motion, pool=32)[2] > 0.05
+    # a caption whose only verb the evaluator never saw is scored by the words it knows, not refused (the transfer
+    # bench failed at its end over "the character first heads ahead like the undead")
+    assert ev.text_for("a person flurbs") == "a person" and ev.text_for("a person rises") == "a person rises"
+    odd, plain = ev.text_embeddings(["a person flurbs", "a person"])
+    assert np.allclose(odd, plain)

@@ -396,3 +396,20 @@ def test_training_the_skip_path_alone_needs_one(tmp_path):
         assert "--skip-path" in str(exc)
     else:
         raise AssertionError("--skip-path-only without a skip path was accepted")
+
+
+def test_a_network_fine_tune_of_a_model_with_a_skip_path_leaves_the_path_alone(tmp_path):
+    """Without ``--skip-path-only`` the network trains as the plain x0 prediction that generation uses: the skip never
+    acts in its loss, so the skip path gets no gradient and keeps its weights, while the network's move."""
+    base = tmp_path / "base"
+    train(config(tmp_path, out=str(base), steps=4), source=ToySource(), progress=False)
+    path = ModelConfig(**{**TINY.to_json(), "skip_sigma": 0.1, "skip_path": 16})
+    tuned = tmp_path / "tuned"
+    train(config(tmp_path, out=str(tuned), steps=4, model=path, skip_path_only=True, lr=1e-3, warmup=1),
+          source=ToySource(), progress=False, init_from=base, fresh_schedule=True)
+    again = tmp_path / "again"
+    train(config(tmp_path, out=str(again), steps=4, lr=1e-3, warmup=1), source=ToySource(), progress=False,
+          init_from=tuned, fresh_schedule=True)
+    before, after = load_model(tuned).model.state_dict(), load_model(again).model.state_dict()
+    assert all(torch.equal(before[k], after[k]) for k in before if k.startswith("skip_path."))
+    assert not torch.equal(before["out_proj.weight"], after["out_proj.weight"])

@@ -278,9 +278,13 @@ class PriorTwice:
 
 
 def fingerprint(loaded: LoadedModel) -> str:
-    """A short hash of a prior's weights, vocabulary and statistics: a duet model only runs on its own prior."""
+    """A short hash of a prior's weights, vocabulary and statistics: a duet model only runs on its own prior. The
+    skip path's weights (``ModelConfig.skip_path``) are left out: it acts only in inversion, never in a duet, so a
+    base that gained one (v10 = v9 + skip path) is still the prior its blocks were trained on."""
     h = hashlib.sha256()
     for k, v in sorted(loaded.model.state_dict().items()):
+        if k.startswith("skip_path."):
+            continue
         h.update(k.encode())
         h.update(v.detach().to(torch.float16).cpu().numpy().tobytes())
     h.update("\n".join(loaded.tokenizer.words).encode())

@@ -33,15 +33,17 @@ class ModelConfig:
     #: the network removes the noise there instead of drawing the whole motion again (which a motion unlike the corpus
     #: never survives: the DDIM inversion round trip); at the noisy steps c is near 0 (an x0 prediction). 0: the
     #: network's output is x0_hat (every model before session 35). No weights: a fine-tune may switch it on.
-    #: It acts only on the slots whose condition keeps its input (:data:`KEEP_INPUT`: training, DDIM inversion and the
-    #: rebuild from inverted noise), never in generation: screened in session 35 on every slot (``--skip-sigma 0.1``,
-    #: 3,000 steps from v9, assets/model/TRAINING.md), the real files' round trip fell from 61-98 cm to 9-11 cm, but
-    #: generated motions kept noise the 128-wide network cannot remove (jerk 431 m/s^3 against 116).
+    #: It acts only on the slots whose condition keeps its input (:data:`KEEP_INPUT`: training the skip path, DDIM
+    #: inversion and the rebuild from inverted noise), never in generation. Screened in session 35 on every slot and
+    #: in training the whole network (``--skip-sigma 0.1``, 3,000 steps from v9, assets/model/TRAINING.md): the real
+    #: files' round trip fell from 61-98 cm to 9-11 cm, but generated motions kept noise the 128-wide network cannot
+    #: remove (jerk 431 m/s^3 against 116). Base model v10 (session 36) keeps it to inversion.
     skip_sigma: float = 0.0
     #: hidden channels of a full-width path that denoises the skip's input (0: none; needs ``skip_sigma`` > 0).
     #: x0_hat = c (y + path(y, t)) + (1 - c) network, y = x_t / sqrt(alpha_bar): a 263 -> hidden -> 263 convolution
     #: over 3 frames, modulated by t, its last layer starting at zero (so a fine-tune that switches it on starts from
-    #: the plain skip). It sees every feature dimension, which the 128-wide network cannot cancel noise in.
+    #: the plain skip). It sees every feature dimension, which the 128-wide network cannot cancel noise in. Trained
+    #: alone, the network frozen (``--skip-path-only``): base model v10.
     skip_path: int = 0
 
     def to_json(self) -> dict:
@@ -57,9 +59,10 @@ class ModelConfig:
 
 
 #: Condition.extras key: (B,) bool, the slots whose prediction keeps its input through the skip
-#: (``ModelConfig.skip_sigma``): training sets it on every item, DDIM inversion and the rebuild from inverted noise on
-#: theirs. Generation leaves it out, so a model whose network was frozen while its skip path trained
-#: (``--skip-path-only``) generates exactly as its network did.
+#: (``ModelConfig.skip_sigma``): training the skip path (``--skip-path-only``, the network frozen) sets it on every
+#: item, DDIM inversion and the rebuild from inverted noise on theirs. Generation leaves it out, and so does training
+#: the network: the network stays the x0 prediction that generation uses, and a model whose skip path trained on it
+#: generates exactly as its network did.
 KEEP_INPUT = "keep_input"
 
 
