@@ -22,15 +22,19 @@ def _model(skip: float) -> Denoiser:
     return Denoiser(ModelConfig(**TINY, skip_sigma=skip)).eval()
 
 
+def _network_output(model: Denoiser, x: torch.Tensor, t: torch.Tensor, cond) -> torch.Tensor:
+    """The network's own output (B, T, 263), before the prediction's skip."""
+    run = model.begin(t, cond)
+    return model.head(model.layers(model.embed_frames(x), run, range(model.num_layers)))
+
+
 def test_without_the_skip_the_prediction_is_the_networks_output():
     model = _model(0.0)
     x = torch.randn(2, 12, model.config.feature_dim)
     t = torch.tensor([999, 19])
     cond = condition(batch=2, frames=12, roles=("ref", "edit"))
     with torch.no_grad():
-        run = model.begin(t, cond)
-        out = model.head(model.layers(model.embed_frames(x), run, range(model.num_layers)))
-        assert torch.equal(model(x, t, cond), out)
+        assert torch.equal(model(x, t, cond), _network_output(model, x, t, cond))
     assert "skip_sigma" in json.loads(model.config_json())
 
 
@@ -96,8 +100,7 @@ def test_the_skip_acts_only_on_the_slots_that_keep_their_input():
     t = torch.tensor([19, 19])
     cond = condition(batch=2, frames=12, roles=("ref", "edit"))
     with torch.no_grad():
-        run = model.begin(t, cond)
-        network = model.head(model.layers(model.embed_frames(x), run, range(model.num_layers)))
+        network = _network_output(model, x, t, cond)
         assert torch.equal(model(x, t, cond), network)
         one = replace(cond, extras={KEEP_INPUT: torch.tensor([False, True])})
         mixed, both = model(x, t, one), model(x, t, cond.keeping_input())

@@ -370,15 +370,21 @@ def test_a_fine_tune_may_switch_the_prediction_skip_on(tmp_path):
     assert json.loads((plain / "config.json").read_text())["model"]["skip_sigma"] == 0.1
 
 
-def test_a_skip_path_fine_tune_may_train_the_path_alone(tmp_path):
-    """``--skip-path N --skip-path-only``: a fresh-schedule fine-tune adds the skip's own path and trains only it; every
-    other weight stays the base's, bit for bit, and the path's output is no longer zero."""
+def _skip_path_fine_tune(tmp_path: Path) -> tuple[Path, Path]:
+    """(a base trained a few steps, its fine-tune with a 16-channel skip path trained alone)."""
     base = tmp_path / "base"
     train(config(tmp_path, out=str(base), steps=6), source=ToySource(), progress=False)
     path = ModelConfig(**{**TINY.to_json(), "skip_sigma": 0.1, "skip_path": 16})
     out = tmp_path / "path"
     train(config(tmp_path, out=str(out), steps=5, model=path, skip_path_only=True, lr=1e-3, warmup=1),
           source=ToySource(), progress=False, init_from=base, fresh_schedule=True)
+    return base, out
+
+
+def test_a_skip_path_fine_tune_may_train_the_path_alone(tmp_path):
+    """``--skip-path N --skip-path-only``: a fresh-schedule fine-tune adds the skip's own path and trains only it; every
+    other weight stays the base's, bit for bit, and the path's output is no longer zero."""
+    base, out = _skip_path_fine_tune(tmp_path)
     before, after = load_model(base).model.state_dict(), load_model(out).model.state_dict()
     assert json.loads((out / "config.json").read_text())["model"]["skip_path"] == 16
     assert set(after) - set(before) == {k for k in after if k.startswith("skip_path.")}
@@ -401,12 +407,7 @@ def test_training_the_skip_path_alone_needs_one(tmp_path):
 def test_a_network_fine_tune_of_a_model_with_a_skip_path_leaves_the_path_alone(tmp_path):
     """Without ``--skip-path-only`` the network trains as the plain x0 prediction that generation uses: the skip never
     acts in its loss, so the skip path gets no gradient and keeps its weights, while the network's move."""
-    base = tmp_path / "base"
-    train(config(tmp_path, out=str(base), steps=4), source=ToySource(), progress=False)
-    path = ModelConfig(**{**TINY.to_json(), "skip_sigma": 0.1, "skip_path": 16})
-    tuned = tmp_path / "tuned"
-    train(config(tmp_path, out=str(tuned), steps=4, model=path, skip_path_only=True, lr=1e-3, warmup=1),
-          source=ToySource(), progress=False, init_from=base, fresh_schedule=True)
+    _, tuned = _skip_path_fine_tune(tmp_path)
     again = tmp_path / "again"
     train(config(tmp_path, out=str(again), steps=4, lr=1e-3, warmup=1), source=ToySource(), progress=False,
           init_from=tuned, fresh_schedule=True)
