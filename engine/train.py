@@ -353,7 +353,8 @@ class TrainingRun:
         self.tokenizer, self.normalizer = self.grown, self.point.normalizer
         ema = copy.deepcopy(model).eval()
         if state is not None and state["ema"]["text_encoder.embed.weight"].shape == ema.text_encoder.embed.weight.shape:
-            _load_allowing_new_skip_path(ema, {k: (v.float() if v.is_floating_point() else v) for k, v in state["ema"].items()})
+            ema_state = {k: (v.float() if v.is_floating_point() else v) for k, v in state["ema"].items()}
+            _load_allowing_new_skip_path(ema, ema_state)
         for p in ema.parameters():
             p.requires_grad_(False)
         model.to(runtime.device)

@@ -126,7 +126,8 @@ class LayerPass:
 
 
 class SkipPath(nn.Module):
-    """The skip's own denoiser (``ModelConfig.skip_path``): y (B, T, D), t (B,) -> a correction (B, T, D), zero at start."""
+    """The skip's own denoiser (``ModelConfig.skip_path``): y (B, T, D), t (B,) -> a correction (B, T, D), zero at
+    start."""
 
     def __init__(self, *, features: int, hidden: int):
         super().__init__()
