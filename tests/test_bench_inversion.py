@@ -57,7 +57,7 @@ def test_bench_shape_with_one_corpus_motion_one_real_file_and_a_long_given_file(
     assert set(by) == set(SETTINGS) and by["plain_ddim"]["refine"] == 0 and by["fixed_point"]["refine"] == 2
     corpus = result["corpus"]
     assert corpus == by[DEFAULT_SETTING] and corpus["motions"] == 1
-    for key in ("mean_m", "max_m", "noise_std"):
+    for key in ("mean_m", "max_m", "pose_mean_m", "noise_std"):
         assert np.isfinite(corpus[key]) and corpus[key] > 0
     assert corpus["max_m"] >= corpus["mean_m"]
     only = result["corpus_motions"][0]["by_setting"]
@@ -71,7 +71,7 @@ def test_bench_shape_with_one_corpus_motion_one_real_file_and_a_long_given_file(
     assert long["frames"] == 195 and long["seconds"] == pytest.approx(9.8) and long["trimmed_from_s"] == pytest.approx(10.4)
     for f in result["files"]:
         assert set(f["by_setting"]) == set(SETTINGS)
-        for key in ("mean_m", "max_m", "noise_std"):
+        for key in ("mean_m", "max_m", "pose_mean_m", "noise_std"):
             assert f[key] == f["by_setting"][DEFAULT_SETTING][key] and np.isfinite(f[key])
     assert result["real_data"]["present"] and [s["source"] for s in result["real_data"]["skipped"]] == ["stats_Mean.npy"]
     assert result["steps"] == 3 and result["max_seconds"] == pytest.approx(9.8)
@@ -102,3 +102,17 @@ def test_every_motion_file_of_the_shared_folder_is_found():
                                            "humanml3d_012314_vecs.npy", "pymo_walk.bvh"]
     assert sorted(s["source"] for s in info["skipped"]) == ["humanml3d_Mean.npy", "humanml3d_Std.npy"]
     assert [len(m.joints) for m in motions] == [166, 170, 170, 178] and all(m.real for m in motions)
+
+
+def test_the_pose_error_leaves_the_roots_path_out(tiny, monkeypatch):
+    """``pose_mean_m``: the rebuilt motion's joints relative to its root against the input's. A rebuild that only
+    walks off sideways (its root's path drifting, the pose exact) has a pose error of 0 and a mean error of the drift."""
+    import engine.methods.inversion as inversion
+
+    joints = _walk(30)
+    target = inversion.features_to_joints(inversion.joints_to_features(joints))
+    drift = np.linspace(0.0, 0.3, len(target))[:, None] * np.array([1.0, 0.0, 0.0])  # (T, 3): 0 -> 30 cm sideways
+    monkeypatch.setattr(inversion, "reconstruct", lambda *a, **k: target + drift[:, None, :])
+    report = roundtrip_error(tiny, joints, InversionConfig(steps=2, refine=0))
+    assert report["pose_mean_m"] == pytest.approx(0.0, abs=1e-6)
+    assert report["mean_m"] == pytest.approx(float(drift[:, 0].mean()), rel=1e-4)

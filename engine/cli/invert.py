@@ -58,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
         window = "" if args.start is None and args.seconds is None else \
             f" from {report['start_s']:g} s"
         print(f"{args.input}: {report['seconds']:.1f} s{window}, {report['frames']} frames, round-trip error mean "
-              f"{report['mean_m'] * 100:.2f} cm, max {report['max_m'] * 100:.2f} cm, noise std "
+              f"{report['mean_m'] * 100:.2f} cm, max {report['max_m'] * 100:.2f} cm (the pose, relative to the root: "
+              f"{report['pose_mean_m'] * 100:.2f} cm), noise std "
               f"{report['noise_std']:.3f} (pure noise: 1; steps {args.steps}, refine {args.refine})")
     return 0

@@ -12,9 +12,10 @@ fixed-point refinement ``moattn invert`` uses by default, ``InversionConfig().re
 Real and given motions are cut to the model's longest duration (its config's ``max_frames``, 9.8 s for the
 shipped model; ``engine.io.window``). Figures per motion and setting (``roundtrip_error``): ``mean_m`` / ``max_m``,
 the joint position error in metres of the motion sampled back from the inverted noise against the input's own
-feature decoding, and ``noise_std``, the standard deviation of the inverted noise (the Gaussian noise the
-model samples from has 1). JSON: ``corpus`` holds the default setting's figures (the mean of ``mean_m`` and
-``noise_std`` over the motions, the max of ``max_m``), ``corpus_by_setting`` both settings; each entry of
+feature decoding, ``pose_mean_m``, the same for the joints relative to the root (the pose without the root's path,
+which integrates the root's velocities and drifts), and ``noise_std``, the standard deviation of the inverted noise
+(the Gaussian noise the model samples from has 1). JSON: ``corpus`` holds the default setting's figures (the mean of
+``mean_m``, ``pose_mean_m`` and ``noise_std`` over the motions, the max of ``max_m``), ``corpus_by_setting`` both settings; each entry of
 ``files`` holds the default setting's figures and ``by_setting`` both.
 """
 from __future__ import annotations
@@ -34,7 +35,7 @@ from engine.paths import REAL_DATA_DIR
 DEFAULT_REFINE = InversionConfig().refine  # what `moattn invert` uses unless told otherwise
 SETTINGS = {"plain_ddim": 0, "fixed_point": DEFAULT_REFINE}  # name -> fixed-point iterations per step
 DEFAULT_SETTING = "fixed_point"
-FIGURES = ("mean_m", "max_m", "noise_std")
+FIGURES = ("mean_m", "max_m", "pose_mean_m", "noise_std")
 
 
 @dataclass(frozen=True)
@@ -106,7 +107,7 @@ def measure(loaded: LoadedModel, motion: Motion, steps: int, *, log=print) -> di
         r = roundtrip_error(loaded, motion.joints, InversionConfig(prompt=motion.prompt, steps=steps, refine=refine))
         by_setting[name] = {"refine": refine, **r}
         log(f"{motion.source} {name}: mean {r['mean_m'] * 100:.2f} cm, max {r['max_m'] * 100:.2f} cm, "
-            f"noise std {r['noise_std']:.3f}")
+            f"pose {r['pose_mean_m'] * 100:.2f} cm, noise std {r['noise_std']:.3f}")
     default = by_setting[DEFAULT_SETTING]
     return {"source": motion.source, "real": motion.real, "seconds": seconds_of(len(motion.joints)),
             "trimmed_from_s": motion.trimmed_from_s, **default, "by_setting": by_setting}
@@ -115,8 +116,9 @@ def measure(loaded: LoadedModel, motion: Motion, steps: int, *, log=print) -> di
 def summary(rows: list[dict]) -> dict:
     """Mean error, max error and mean noise std over ``rows`` (one setting's figures per motion)."""
     if not rows:
-        return {"mean_m": None, "max_m": None, "noise_std": None, "motions": 0}
+        return {"mean_m": None, "max_m": None, "pose_mean_m": None, "noise_std": None, "motions": 0}
     return {"mean_m": float(np.mean([r["mean_m"] for r in rows])), "max_m": float(np.max([r["max_m"] for r in rows])),
+            "pose_mean_m": float(np.mean([r["pose_mean_m"] for r in rows])),
             "noise_std": float(np.mean([r["noise_std"] for r in rows])), "motions": len(rows)}
 
 
@@ -156,14 +158,14 @@ def bench_inversion(loaded: LoadedModel, config: InversionBenchConfig = Inversio
 
 def format_table(result: dict) -> str:
     label = {"plain_ddim": "plain DDIM", "fixed_point": "fixed point"}
-    head = f"{'motion':<34}{'s':>6}  {'setting':<20}{'mean cm':>9}{'max cm':>9}{'noise std':>11}"
+    head = f"{'motion':<34}{'s':>6}  {'setting':<20}{'mean cm':>9}{'max cm':>9}{'pose cm':>9}{'noise std':>11}"
     lines = [head, "-" * len(head)]
 
     def row(name: str, seconds: str, setting: str, r: dict) -> str:
         if r["mean_m"] is None:
-            return f"{name:<34}{seconds:>6}  {setting:<20}{'n/a':>9}{'n/a':>9}{'n/a':>11}"
+            return f"{name:<34}{seconds:>6}  {setting:<20}{'n/a':>9}{'n/a':>9}{'n/a':>9}{'n/a':>11}"
         return (f"{name:<34}{seconds:>6}  {setting:<20}{r['mean_m'] * 100:>9.2f}{r['max_m'] * 100:>9.2f}"
-                f"{r['noise_std']:>11.3f}")
+                f"{r['pose_mean_m'] * 100:>9.2f}{r['noise_std']:>11.3f}")
 
     def setting_name(name: str) -> str:
         return f"{label.get(name, name)} (r{result['settings'][name]})" + (
@@ -181,6 +183,7 @@ def format_table(result: dict) -> str:
         for i, (name, r) in enumerate(f["by_setting"].items()):
             lines.append(row(source if i == 0 else "", seconds if i == 0 else "", setting_name(name), r))
     lines.append("")
+    lines.append("pose cm: the joints relative to the root (the root's path, integrated from its velocities, taken out)")
     lines.append(f"* the default (moattn invert); r = fixed-point iterations per step; corpus: mean of the means, max of "
                  f"the maxima, mean noise std (pure noise: 1); {result['steps']} steps, {result['elapsed_s']:.0f} s")
     real = result["real_data"]
