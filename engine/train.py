@@ -515,9 +515,7 @@ def high_noise_weights(schedule: CosineSchedule, weight: float) -> torch.Tensor:
 
 def skip_timesteps(model: Denoiser, *, least: float = 0.01) -> int:
     """The timesteps t below this one are those where the prediction's skip weighs at least ``least``."""
-    s = model.config.skip_sigma
-    ab = model.skip_alpha_bar[1:].double()
-    c = s * s / ((1 - ab) / ab + s * s)
+    c = model.skip_weight(torch.arange(len(model.skip_alpha_bar) - 1))
     return max(1, int((c >= least).sum()))
 
 

@@ -15,8 +15,8 @@ the joint position error in metres of the motion sampled back from the inverted 
 feature decoding, ``pose_mean_m``, the same for the joints relative to the root (the pose without the root's path,
 which integrates the root's velocities and drifts), and ``noise_std``, the standard deviation of the inverted noise
 (the Gaussian noise the model samples from has 1). JSON: ``corpus`` holds the default setting's figures (the mean of
-``mean_m``, ``pose_mean_m`` and ``noise_std`` over the motions, the max of ``max_m``), ``corpus_by_setting`` both settings; each entry of
-``files`` holds the default setting's figures and ``by_setting`` both.
+``mean_m``, ``pose_mean_m`` and ``noise_std`` over the motions, the max of ``max_m``), ``corpus_by_setting`` both
+settings; each entry of ``files`` holds the default setting's figures and ``by_setting`` both.
 """
 from __future__ import annotations
 

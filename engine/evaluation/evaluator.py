@@ -23,7 +23,7 @@ from tqdm import tqdm
 from engine.data import MotionSource, collate
 from engine.representation import FEATURE_DIM, Normalizer
 from engine.runtime import CPU, Runtime
-from engine.text import PromptError, Tokenizer, sinusoidal, split_words
+from engine.text import PromptError, TokenizedPrompt, Tokenizer, sinusoidal, split_words
 
 WEIGHTS = "evaluator.pt"
 CONFIG = "evaluator.json"
@@ -102,13 +102,21 @@ class LoadedEvaluator:
         return True
 
     def text_for(self, caption: str) -> str:
-        """``caption`` as the evaluator can embed it: itself when :meth:`readable`, else the words it knows (a corpus
-        caption whose only verbs the evaluator never saw, "the character first heads ahead", would be refused as a
-        prompt; a bench then scores it by the rest instead of failing at its end), or "a person"."""
-        if self.readable(caption):
-            return caption
-        known = " ".join(w for w in split_words(caption) if self.tokenizer.read_as(w) is not None)
-        return known if known and self.readable(known) else "a person"
+        """``caption`` as the evaluator embeds it (:meth:`tokens_for`)."""
+        return self.tokens_for(caption).prompt
+
+    def tokens_for(self, caption: str) -> TokenizedPrompt:
+        """``caption`` read as the evaluator can embed it: as a prompt is when :meth:`readable`, else the words it
+        knows (a corpus caption whose only verbs the evaluator never saw, "the character first heads ahead", would be
+        refused as a prompt; a bench then scores it by the rest instead of failing at its end), or "a person"."""
+        try:
+            return self.tokenizer.encode(caption)
+        except PromptError:
+            known = " ".join(w for w in split_words(caption) if self.tokenizer.read_as(w) is not None)
+        try:
+            return self.tokenizer.encode(known)
+        except PromptError:  # nothing known, or nothing known says a motion
+            return self.tokenizer.encode("a person")
 
     @torch.no_grad()
     def motion_embeddings(self, features: list[np.ndarray], *, batch: int = 64) -> np.ndarray:
@@ -131,7 +139,7 @@ class LoadedEvaluator:
         """Captions -> (N, D) on the CPU; words the evaluator does not know are read by meaning or left out, as a
         prompt is (it predates the 624-word grammar: retrain it with `moattn evaluator` for exact captions)."""
         device = self.device
-        read = [self.text_for(c) for c in captions]
+        read = [self.tokens_for(c) for c in captions]
         out = []
         for i in range(0, len(read), batch):
             ids, mask = self.tokenizer.batch(read[i : i + batch], strict=False)

@@ -254,7 +254,7 @@ class DuetDenoiser(nn.Module):
             other = partners(cond.roles)
             delta, place0 = self.com(h, h[other], place, place[other], run.temb, run.cond.frame_mask)
             h = prior.layers(h + delta, run, range(self.after, prior.num_layers))
-            out = pack(prior.prediction(unpack(x)[0], t, prior.head(h)), place0)
+            out = pack(prior.head(h), place0)
         return out.to(home.device, home.dtype)
 
 
@@ -273,7 +273,7 @@ class PriorTwice:
         with cast:
             h, _, run = self.duet.start(x, t, cond, step=step, controller=controller)
             h = prior.layers(h, run, range(prior.num_layers))
-            motion = prior.prediction(unpack(x)[0], t, prior.head(h)).to(home.device, home.dtype)
+            motion = prior.head(h).to(home.device, home.dtype)
         return pack(motion, self.place.to(home.dtype).expand(home.shape[0], -1))
 
 

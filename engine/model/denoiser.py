@@ -246,16 +246,20 @@ class Denoiser(nn.Module):
         """x0_hat (B, T, 263) from x_t (B, T, 263), t (B,) and the network's output: ``out`` itself, or on the slots
         that ``keep`` (B,) bool names (:data:`KEEP_INPUT`; None: none) blended with the skip
         (``ModelConfig.skip_sigma``)."""
-        s = self.config.skip_sigma
-        if s <= 0 or keep is None or not bool(keep.any()):
+        if self.config.skip_sigma <= 0 or keep is None or not bool(keep.any()):
             return out
         ab = self.skip_alpha_bar[t.long() + 1].reshape(-1, *([1] * (x.dim() - 1)))  # (B, 1, 1)
-        sigma2 = (1 - ab) / ab
-        c = s * s / (sigma2 + s * s) * keep.to(ab.dtype).reshape(ab.shape)
+        c = self.skip_weight(t).reshape(ab.shape) * keep.to(ab.dtype).reshape(ab.shape)
         y = x / ab.sqrt()
         if self.skip_path is not None:
             y = y + self.skip_path(y, t)
         return (c * y + (1 - c) * out).to(out.dtype)
+
+    def skip_weight(self, t: torch.Tensor) -> torch.Tensor:
+        """The skip's share c = s^2 / (sigma_t^2 + s^2) at timesteps ``t`` (any shape; needs ``skip_sigma`` > 0)."""
+        s = self.config.skip_sigma
+        ab = self.skip_alpha_bar[t.long() + 1]
+        return s * s / ((1 - ab) / ab + s * s)
 
     # -- persistence -------------------------------------------------------------
     def config_json(self) -> str:
