@@ -6,6 +6,7 @@ import torch
 
 from engine.attention import BatchRoles
 from engine.diffusion import CLEAN, CosineSchedule, ddim, ddim_invert, ddpm, final, run_loop
+from engine.diffusion.sampler import land
 from engine.model import Condition
 
 SCHED = CosineSchedule()
@@ -84,14 +85,31 @@ def test_samples_have_the_data_distribution(sampler):
 def test_ddim_inversion_round_trip():
     x0 = DATA_STD * torch.randn(4, 8, 3, generator=torch.Generator().manual_seed(5))
     errors = {}
-    for refine in (0, 4):
-        noise = final(ddim_invert(gaussian_denoiser, x0, cond(), schedule=SCHED, num_steps=50, refine=refine)).x_prev
+    for refine, landing in ((0, 0), (4, 0), (4, 4)):
+        noise = final(ddim_invert(gaussian_denoiser, x0, cond(), schedule=SCHED, num_steps=50, refine=refine,
+                                  landing=landing)).x_prev
         assert 0.7 < noise.std().item() < 1.3  # it really is noise-like
         back = final(ddim(gaussian_denoiser, noise, cond(), schedule=SCHED, num_steps=50)).x_prev
-        errors[refine] = (back - x0).abs().max().item()
+        errors[refine, landing] = (back - x0).abs().max().item()
     # fixed-point refinement removes the first-order error; what is left (< 1 %) is the first
-    # inversion step taking the clean motion as x at the cleanest sampling timestep (t = 19)
-    assert errors[4] < 0.01 and errors[0] > 5 * errors[4]
+    # inversion step taking the clean motion as x at the cleanest sampling timestep (t = 19) ...
+    assert errors[4, 0] < 0.01 and errors[0, 0] > 5 * errors[4, 0]
+    # ... which the landing solves: the rebuild's last step lands on the motion
+    assert errors[4, 4] < errors[4, 0] / 10
+
+
+def test_landing_solves_the_last_sampling_step_and_keeps_x0_where_the_prediction_ignores_its_input():
+    x0 = DATA_STD * torch.randn(2, 8, 3, generator=torch.Generator().manual_seed(6))
+    t = SCHED.timesteps(50)[-1]
+    t_batch = torch.full((2,), t, dtype=torch.long)
+    landed = land(gaussian_denoiser, x0, cond(2), schedule=SCHED, t=t, iterations=4)
+    assert (gaussian_denoiser(landed, t_batch, cond(2)) - x0).abs().max() < 1e-5 * x0.abs().max()
+    assert (gaussian_denoiser(x0, t_batch, cond(2)) - x0).abs().max() > 1e-3  # classic inversion's x_t misses it
+
+    def constant(x, t, cond, *, step=0, controller=None):  # a prediction that ignores its input: no better iterate
+        return torch.zeros_like(x)
+
+    assert torch.equal(land(constant, x0, cond(2), schedule=SCHED, t=t, iterations=4), x0)
 
 
 def test_inversion_rejects_eta():

@@ -119,7 +119,7 @@ def test_the_inversion_round_trip_keeps_a_motion_the_network_cannot_draw(real_jo
 
     assert bool(motion_condition(random_corpus_model(layers=1), "", 8).extras[KEEP_INPUT].all())
     errors = {}
-    for skip in (0.0, 0.1):
+    for skip, landing in ((0.0, 0), (0.1, 0), (0.1, 4)):
         base = random_corpus_model(layers=1)
         torch.manual_seed(0)
         model = Denoiser(ModelConfig(**{**base.model.config.to_json(), "skip_sigma": skip})).eval()
@@ -128,6 +128,9 @@ def test_the_inversion_round_trip_keeps_a_motion_the_network_cannot_draw(real_jo
             model.out_proj.bias.zero_()
         loaded = LoadedModel(model=model, tokenizer=base.tokenizer, normalizer=base.normalizer, config={},
                              folder=base.folder)
-        errors[skip] = roundtrip_error(loaded, real_joints[:40], InversionConfig(steps=50))["mean_m"]
+        errors[skip, landing] = roundtrip_error(loaded, real_joints[:40], InversionConfig(steps=50, landing=landing))[
+            "mean_m"]
     # at the last step (t = 19) the skip keeps 85 % of the input and the network draws the rest: here nothing
-    assert errors[0.1] < 0.3 * errors[0.0], errors
+    assert errors[0.1, 0] < 0.3 * errors[0.0, 0], errors
+    # the landing solves that last step (the latent at t = 19 whose prediction is the motion): the round trip closes
+    assert errors[0.1, 4] < 0.1 * errors[0.1, 0], errors

@@ -49,6 +49,7 @@ def run(args: argparse.Namespace) -> int:
     joints = load_window(args.input, args, max_frames=loaded.model.config.max_frames)
     report = {"input": str(args.input), "start_s": args.start or 0.0, "seconds": seconds_of(len(joints)),
               **roundtrip_error(loaded, joints, config), "steps": args.steps, "refine": args.refine,
+              "landing": args.landing,
               "prompt": args.prompt}
     if args.out is not None:
         np.save(args.out, invert(loaded, joints, config).noise.numpy(), allow_pickle=False)
@@ -60,5 +61,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"{args.input}: {report['seconds']:.1f} s{window}, {report['frames']} frames, round-trip error mean "
               f"{report['mean_m'] * 100:.2f} cm, max {report['max_m'] * 100:.2f} cm (the pose, relative to the root: "
               f"{report['pose_mean_m'] * 100:.2f} cm), noise std "
-              f"{report['noise_std']:.3f} (pure noise: 1; steps {args.steps}, refine {args.refine})")
+              f"{report['noise_std']:.3f} (pure noise: 1; steps {args.steps}, refine {args.refine}, "
+              f"landing {args.landing})")
     return 0

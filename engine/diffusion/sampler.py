@@ -163,7 +163,6 @@ class FixedPointInversion:
         ab = self.schedule.alpha_bar(torch.tensor(state.t)).item()
         ab_next = self.schedule.alpha_bar(torch.tensor(state.t_next)).item()
         t_batch = torch.full((state.x_t.shape[0],), state.t_next, dtype=torch.long)
-        dims = tuple(range(1, state.x_t.dim()))
         x_next = state.x_prev
         best, best_norm = x_next, None
         for i in range(self.iterations + 1):
@@ -171,16 +170,9 @@ class FixedPointInversion:
                 x0 = self.denoiser(x_next, t_batch, self.cond, step=state.step, controller=self.controller)
             eps = (x_next - ab_next**0.5 * x0) / max(1 - ab_next, 1e-12) ** 0.5
             residual = state.x_t - (ab**0.5 * x0 + (1 - ab) ** 0.5 * eps)
-            norm = residual.pow(2).sum(dims).sqrt()
             # keep, per batch item, the iterate whose sampling step lands closest to x_t:
             # the iteration is only a contraction where the model is smooth enough
-            better = torch.isfinite(norm) if best_norm is None else torch.isfinite(norm) & (norm < best_norm)
-            if best_norm is None:
-                best_norm = torch.where(better, norm, torch.full_like(norm, float("inf")))
-                best = torch.where(better.view(-1, *[1] * len(dims)), x_next, best)
-            else:
-                best_norm = torch.where(better, norm, best_norm)
-                best = torch.where(better.view(-1, *[1] * len(dims)), x_next, best)
+            best, best_norm, better = _keep_best(x_next, residual, best, best_norm)
             if i == self.iterations or not better.any():
                 break
             x_next = x_next + residual
@@ -188,15 +180,60 @@ class FixedPointInversion:
         return replace(state, x_prev=x_next)
 
 
+def _keep_best(x: torch.Tensor, residual: torch.Tensor, best: torch.Tensor,
+               best_norm: torch.Tensor | None) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Per batch item, keep the iterate with the smallest finite residual: (best, best_norm, which improved)."""
+    dims = tuple(range(1, residual.dim()))
+    norm = residual.pow(2).sum(dims).sqrt()
+    if best_norm is None:
+        better = torch.isfinite(norm)
+        best_norm = torch.full_like(norm, float("inf"))
+    else:
+        better = torch.isfinite(norm) & (norm < best_norm)
+    best_norm = torch.where(better, norm, best_norm)
+    best = torch.where(better.view(-1, *[1] * len(dims)), x, best)
+    return best, best_norm, better
+
+
+def land(denoiser: DenoiserFn, x0: torch.Tensor, cond: Condition, *, schedule: CosineSchedule, t: int,
+         iterations: int, controller: AttentionController | None = None) -> torch.Tensor:
+    """The inversion's first step, clean -> ``t`` (the sampler's cleanest timestep): the latent x_t whose last
+    sampling step lands on the clean motion, i.e. x0_hat(x_t, t) = x0 (B, T, D).
+
+    Classic DDIM inversion takes x0 itself as x_t, so the rebuild's last step returns x0_hat(x0, t), which is x0
+    only where the model reproduces its input (a motion like its corpus). Residual iteration x_t += sqrt(ab) ·
+    (x0 - x0_hat(x_t)) solves it where the prediction follows its input near t = 0 (a model with a skip, for a
+    condition that keeps its input); each item keeps its best iterate, so a model whose prediction ignores its
+    input at t keeps x0, as classic inversion does.
+    """
+    ab = schedule.alpha_bar(torch.tensor(t)).item()
+    t_batch = torch.full((x0.shape[0],), t, dtype=torch.long)
+    x, best, best_norm = x0, x0, None
+    for i in range(iterations + 1):
+        with torch.no_grad():
+            residual = x0 - denoiser(x, t_batch, cond, step=0, controller=controller)
+        best, best_norm, better = _keep_best(x, residual, best, best_norm)
+        if i == iterations or not better.any():
+            break
+        x = x + ab**0.5 * residual
+    return best
+
+
 def ddim_invert(denoiser: DenoiserFn, x0: torch.Tensor, cond: Condition, *, schedule: CosineSchedule,
-                num_steps: int = 50, refine: int = 2, hooks: Sequence[StepHook] = (), **kwargs) -> Iterator[StepState]:
+                num_steps: int = 50, refine: int = 2, landing: int = 0, hooks: Sequence[StepHook] = (),
+                **kwargs) -> Iterator[StepState]:
     """Clean motion -> noise that DDIM with the same steps maps back to it (x_prev of the last state).
 
     ``refine`` fixed-point iterations per step (each one more denoiser call) make the round trip
-    nearly exact; 0 gives classic DDIM inversion.
+    nearly exact; 0 gives classic DDIM inversion. ``landing`` iterations solve the first step, clean -> the
+    cleanest timestep (:func:`land`); 0 takes the clean motion as that latent, as classic inversion does. The
+    first state's ``x_t`` is the latent at the cleanest timestep.
     """
     ascending = list(reversed(schedule.timesteps(num_steps)))
-    exact = FixedPointInversion(denoiser, cond, schedule, iterations=refine, controller=kwargs.get("controller"))
+    controller = kwargs.get("controller")
+    if landing > 0:
+        x0 = land(denoiser, x0, cond, schedule=schedule, t=ascending[0], iterations=landing, controller=controller)
+    exact = FixedPointInversion(denoiser, cond, schedule, iterations=refine, controller=controller)
     return run_loop(denoiser, x0, cond, schedule=schedule, timesteps=ascending, eta=0.0,
                     hooks=[exact, *hooks], **kwargs)
 

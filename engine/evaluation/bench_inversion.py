@@ -1,7 +1,8 @@
 """`moattn bench --inversion`: the DDIM inversion round trip, motion -> noise -> motion, as a yardstick.
 
-Measured on three sets of motions, each under two settings (plain DDIM inversion, ``refine`` 0, and the
-fixed-point refinement ``moattn invert`` uses by default, ``InversionConfig().refine``):
+Measured on three sets of motions, each under two settings (plain DDIM inversion, ``refine`` and ``landing`` 0,
+and the fixed-point refinement of every step and of the first one, clean -> the cleanest timestep, that
+``moattn invert`` uses by default, ``InversionConfig().refine`` and ``.landing``):
 
 - ``corpus``: test-split corpus motions, inverted with their caption;
 - the real reference motions: every motion file in the shared real-data folder (``engine.paths.REAL_DATA_DIR``:
@@ -32,8 +33,10 @@ from engine.io.window import seconds_of
 from engine.methods.inversion import InversionConfig, roundtrip_error
 from engine.paths import REAL_DATA_DIR
 
-DEFAULT_REFINE = InversionConfig().refine  # what `moattn invert` uses unless told otherwise
-SETTINGS = {"plain_ddim": 0, "fixed_point": DEFAULT_REFINE}  # name -> fixed-point iterations per step
+_DEFAULT = InversionConfig()  # what `moattn invert` uses unless told otherwise
+# name -> fixed-point iterations per step (refine) and of the first step (landing)
+SETTINGS = {"plain_ddim": {"refine": 0, "landing": 0},
+            "fixed_point": {"refine": _DEFAULT.refine, "landing": _DEFAULT.landing}}
 DEFAULT_SETTING = "fixed_point"
 FIGURES = ("mean_m", "max_m", "pose_mean_m", "noise_std")
 
@@ -94,6 +97,10 @@ def given_motions(files, max_frames: int) -> list[Motion]:
     return [_cut(str(path), load_motion(path), max_frames) for path in files]
 
 
+def _describe(setting: dict) -> str:
+    return ", ".join(f"{k} {v}" for k, v in setting.items())
+
+
 def _cut(source: str, joints: np.ndarray, max_frames: int, *, real: bool = False) -> Motion:
     cut = joints[:max_frames]  # the model's longest duration
     return Motion(source=source, joints=cut, real=real,
@@ -103,9 +110,9 @@ def _cut(source: str, joints: np.ndarray, max_frames: int, *, real: bool = False
 def measure(loaded: LoadedModel, motion: Motion, steps: int, *, log=print) -> dict:
     """One motion's figures under every setting: {source, seconds, ..., the default's figures, by_setting}."""
     by_setting = {}
-    for name, refine in SETTINGS.items():
-        r = roundtrip_error(loaded, motion.joints, InversionConfig(prompt=motion.prompt, steps=steps, refine=refine))
-        by_setting[name] = {"refine": refine, **r}
+    for name, setting in SETTINGS.items():
+        r = roundtrip_error(loaded, motion.joints, InversionConfig(prompt=motion.prompt, steps=steps, **setting))
+        by_setting[name] = {**setting, **r}
         log(f"{motion.source} {name}: mean {r['mean_m'] * 100:.2f} cm, max {r['max_m'] * 100:.2f} cm, "
             f"pose {r['pose_mean_m'] * 100:.2f} cm, noise std {r['noise_std']:.3f}")
     default = by_setting[DEFAULT_SETTING]
@@ -137,11 +144,11 @@ def bench_inversion(loaded: LoadedModel, config: InversionBenchConfig = Inversio
         corpus_motions.append(Motion(source=f"corpus test {config.first_seed + i}",
                                      joints=s.joints[:max_frames], prompt=s.captions[0]))
     log(f"inversion benchmark: {len(corpus_motions)} corpus motions, {len(real)} real, {len(given)} given; "
-        f"{config.steps} steps, settings {', '.join(f'{n} (refine {r})' for n, r in SETTINGS.items())}")
+        f"{config.steps} steps, settings {', '.join(f'{n} ({_describe(s)})' for n, s in SETTINGS.items())}")
     corpus_rows = [measure(loaded, m, config.steps, log=log) for m in corpus_motions]
     file_rows = [measure(loaded, m, config.steps, log=log) for m in real + given]
-    by_setting = {name: {"refine": refine, **summary([r["by_setting"][name] for r in corpus_rows])}
-                  for name, refine in SETTINGS.items()}
+    by_setting = {name: {**setting, **summary([r["by_setting"][name] for r in corpus_rows])}
+                  for name, setting in SETTINGS.items()}
     return {
         "corpus": by_setting[DEFAULT_SETTING],
         "corpus_by_setting": by_setting,
@@ -168,7 +175,8 @@ def format_table(result: dict) -> str:
                 f"{r['pose_mean_m'] * 100:>9.2f}{r['noise_std']:>11.3f}")
 
     def setting_name(name: str) -> str:
-        return f"{label.get(name, name)} (r{result['settings'][name]})" + (
+        setting = result["settings"][name]
+        return f"{label.get(name, name)} (r{setting['refine']} l{setting['landing']})" + (
             " *" if name == result["default_setting"] else "")
 
     corpus = result["corpus_by_setting"]
@@ -184,7 +192,7 @@ def format_table(result: dict) -> str:
             lines.append(row(source if i == 0 else "", seconds if i == 0 else "", setting_name(name), r))
     lines.append("")
     lines.append("pose cm: the joints relative to the root (the root's path, integrated from its velocities, taken out)")
-    lines.append(f"* the default (moattn invert); r = fixed-point iterations per step; corpus: mean of the means, max of "
+    lines.append(f"* the default (moattn invert); r = fixed-point iterations per step, l = of the first step (clean -> the cleanest timestep); corpus: mean of the means, max of "
                  f"the maxima, mean noise std (pure noise: 1); {result['steps']} steps, {result['elapsed_s']:.0f} s")
     real = result["real_data"]
     if real["folder"] is None:

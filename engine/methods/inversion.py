@@ -54,8 +54,9 @@ def invert(loaded: LoadedModel, joints: np.ndarray, config: InversionConfig = In
     denoiser = _denoiser(loaded, config)
     trajectory = {CLEAN: x0}
     state = None
-    for state in ddim_invert(denoiser, x0, cond, schedule=CosineSchedule(), num_steps=config.steps, refine=config.refine):
-        trajectory.setdefault(state.t, state.x_t)  # the first: the inversion takes x0 as the latent at the smallest t
+    for state in ddim_invert(denoiser, x0, cond, schedule=CosineSchedule(), num_steps=config.steps, refine=config.refine,
+                              landing=config.landing):
+        trajectory.setdefault(state.t, state.x_t)  # the first: the latent at the smallest t (the landing's)
         trajectory[state.t_next] = state.x_prev
     if not torch.isfinite(state.x_prev).all():
         raise ValueError(_DEGENERATE + " (the inverted noise is NaN or infinite)")
