@@ -141,8 +141,9 @@ def test_transfer_from_an_imported_motion(studio):
     assert view.analysis.nearest.shape == (n,) and view.analysis.maps["mixed"].shape == (n, view.frames["follower"])
     inv = view.inversion["leader"]
     assert inv is not None and np.isfinite(inv["mean_m"]) and inv["max_m"] >= inv["mean_m"]
+    assert 0 <= inv["pose_mean_m"] and np.isfinite(inv["noise_std"])  # the figures of roundtrip_error, one home
     assert view.inversion["follower"] is None  # generated from text
-    assert "inversion error" in tab.result.object and " m mean" in tab.result.object
+    assert "inversion error" in tab.result.object and " m mean" in tab.result.object and "(pose " in tab.result.object
     assert "inversion error" in tab.leader.info.object and "inversion" not in tab.follower.info.object
     tab.leader.kind.value = "prompt"
 

@@ -76,13 +76,18 @@ def reconstruct(loaded: LoadedModel, inverted: Inverted, config: InversionConfig
 
 
 def roundtrip_error(loaded: LoadedModel, joints: np.ndarray, config: InversionConfig = InversionConfig()) -> dict:
-    """Mean and max joint position error (m) of motion -> noise -> motion, against the input's own
-    feature decoding (so the representation's rounding is not counted); ``pose_mean_m``, the mean error of the joints
-    relative to the root (the pose, without the root's path, which integrates the root's velocities and drifts); and
-    the standard deviation of the inverted noise (``noise_std``; the Gaussian noise the model samples from has 1)."""
+    """Invert ``joints``, sample back from the noise and measure the round trip (:func:`roundtrip_figures`)."""
     inverted = invert(loaded, joints, config)
+    return roundtrip_figures(inverted, reconstruct(loaded, inverted, config))
+
+
+def roundtrip_figures(inverted: Inverted, back: np.ndarray) -> dict:
+    """Mean and max joint position error (m) of the motion sampled back from the inverted noise (``back``, (T, 22,
+    3)) against the input's own feature decoding (so the representation's rounding is not counted); ``pose_mean_m``,
+    the mean error of the joints relative to the root (the pose, without the root's path, which integrates the root's
+    velocities and drifts); and the standard deviation of the inverted noise (``noise_std``; the Gaussian noise the
+    model samples from has 1)."""
     target = features_to_joints(inverted.features)
-    back = reconstruct(loaded, inverted, config)
     err = np.linalg.norm(back - target, axis=-1)
     if not np.isfinite(err).all():
         raise ValueError(_DEGENERATE + " (the round trip gave NaN or infinite positions)")

@@ -36,7 +36,7 @@ from engine.checkpoint import LoadedModel
 from engine.generate import Request, SampleConfig, frames_for, generate
 from engine.methods.edits import EditOutput, OnStep
 from engine.methods.hooks import KeepDims, PinTrajectory
-from engine.methods.inversion import InversionConfig, invert, reconstruct
+from engine.methods.inversion import InversionConfig, invert, reconstruct, roundtrip_figures
 from engine.methods.mixing import MixConfig, MixedAttention
 from engine.methods.transfer_config import ROOT_MODES, TransferConfig  # noqa: F401  (its home; read by the CLI)
 from engine.representation import SLICES, features_to_joints, joints_to_features, ric_dims
@@ -98,12 +98,7 @@ def prepare(loaded: LoadedModel, source: Source, *, seed: int, steps: int, measu
         loaded.tokenizer.encode(prompt)
     config = InversionConfig(prompt=prompt, steps=steps)
     inverted = invert(loaded, np.asarray(source.joints), config)
-    error = None
-    if measure_inversion:
-        back = reconstruct(loaded, inverted, config)
-        target = features_to_joints(inverted.features)
-        err = np.linalg.norm(back - target, axis=-1)
-        error = {"mean_m": float(err.mean()), "max_m": float(err.max())}
+    error = roundtrip_figures(inverted, reconstruct(loaded, inverted, config)) if measure_inversion else None
     return Stream(source=source, prompt=prompt or None, noise=inverted.noise, frames=inverted.noise.shape[1],
                   path=inverted.trajectory, inversion=error)
 

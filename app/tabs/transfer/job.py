@@ -320,7 +320,9 @@ def own_description(state, name: str) -> str:
 
 
 def describe_inversion(error: dict | None) -> str:
-    """The round-trip error of an inverted source in metres ('' for a generated one)."""
+    """The round-trip error of an inverted source in metres ('' for a generated one), and of its pose (the joints
+    relative to the root) where it was measured."""
     if not error:
         return ""
-    return f"inversion error {error['mean_m']:.3f} m mean, {error['max_m']:.3f} m max"
+    pose = f" (pose {error['pose_mean_m']:.3f} m)" if "pose_mean_m" in error else ""  # library items from before
+    return f"inversion error {error['mean_m']:.3f} m mean, {error['max_m']:.3f} m max{pose}"
