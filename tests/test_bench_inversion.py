@@ -38,7 +38,7 @@ def test_defaults_point_at_the_shared_folder_and_invert_setting():
     assert InversionBenchConfig().real_data == REAL_DATA_DIR == REAL_DATA  # one constant, tests read it too
     assert InversionBenchConfig.quick().motions == 6 and InversionBenchConfig().motions == 16
     assert SETTINGS[DEFAULT_SETTING] == {"refine": InversionConfig().refine, "landing": InversionConfig().landing}
-    assert InversionConfig().refine == 2 and InversionConfig().landing == 4
+    assert InversionConfig().refine == 4 and InversionConfig().landing == 4
     assert SETTINGS["plain_ddim"] == {"refine": 0, "landing": 0}
     with pytest.raises(ValueError, match="0 or more"):
         InversionBenchConfig(motions=-1)
@@ -56,7 +56,7 @@ def test_bench_shape_with_one_corpus_motion_one_real_file_and_a_long_given_file(
     result = bench_inversion(tiny, InversionBenchConfig(motions=1, steps=3, real_data=real), [given], log=lines.append)
 
     by = result["corpus_by_setting"]
-    assert set(by) == set(SETTINGS) and by["plain_ddim"]["refine"] == 0 and by["fixed_point"]["refine"] == 2
+    assert set(by) == set(SETTINGS) and by["plain_ddim"]["refine"] == 0 and by["fixed_point"]["refine"] == 4
     assert by["plain_ddim"]["landing"] == 0 and by["fixed_point"]["landing"] == 4
     corpus = result["corpus"]
     assert corpus == by[DEFAULT_SETTING] and corpus["motions"] == 1

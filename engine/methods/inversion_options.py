@@ -14,7 +14,7 @@ class InversionConfig:
 
     prompt: str = option("", help="a caption of the motion (default: unconditional)")
     steps: int = option(DEFAULT_STEPS, bounds=(1, 1000), whole=True, help="DDIM steps of the inversion")
-    refine: int = option(2, help="fixed-point iterations per inversion step (0 = plain DDIM)")
+    refine: int = option(4, help="fixed-point iterations per inversion step (0 = plain DDIM)")
     landing: int = option(4, bounds=(0, 50), whole=True,
                           help="fixed-point iterations of the first step, clean -> the cleanest timestep, so the "
                                "rebuild's last step lands on the motion (0 = take the motion as that latent)")
