@@ -100,6 +100,26 @@ def test_speed_pairs_take_the_followers_stride_at_the_leaders_steps():
     assert build_speed_pairs(TransferBenchConfig(speed_pairs=0)) == []
 
 
+def test_a_truth_that_stays_in_place_does_not_blow_the_speed_error_up():
+    """The error is relative to the truth's speed, but at least a slow walk's (SPEED_FLOOR): a jump's truth moving
+    1 cm/s against an output drifting at 0.5 m/s reads 1.0, not 50."""
+    from types import SimpleNamespace
+
+    from engine.evaluation.bench_transfer import SPEED_FLOOR
+
+    def moving(speed: float) -> np.ndarray:  # (40, 22, 3): the root on the floor at a steady speed along x
+        joints = np.zeros((40, 22, 3))
+        joints[:, :, 0] = (np.arange(40) * speed / 20)[:, None]
+        return joints
+
+    standing = SimpleNamespace(reference={"truth": [moving(0.01)]})
+    r = measure_speed(moving(0.5), standing)
+    assert abs(r["speed_truth"] - 0.01) < 1e-9 and abs(r["speed_ratio"] - 50) < 1e-6  # the ratio says what it is
+    assert abs(r["speed_error"] - (0.5 - 0.01) / SPEED_FLOOR) < 1e-9 and SPEED_FLOOR == 0.5
+    walking = SimpleNamespace(reference={"truth": [moving(1.2)]})  # above the floor: relative to the truth itself
+    assert abs(measure_speed(moving(0.6), walking)["speed_error"] - 0.5) < 1e-9
+
+
 def test_root_speed_is_metres_per_second_on_the_floor():
     t = np.arange(41) / 20.0
     joints = np.zeros((41, 22, 3))

@@ -63,7 +63,9 @@ walk -> run truth runs about 1.5x faster than its leader walked and a run -> wal
 Per method: the mean speed ratio (output / truth) per direction, the mean |speed error| / truth's speed, and
 ``gt_mpjpe_local`` on those pairs (with its ratio to the leader copy's). These pairs are not in the main table.
 The main pairs' rows carry ``speed_error`` too (there the truth keeps the leader's speed: same gait kind, or the
-corpus's default ``stride_of="leader"``), shown in the restated table.
+corpus's default ``stride_of="leader"``), shown in the restated table. The error is taken relative to the truth's
+speed but at least ``SPEED_FLOOR`` (0.5 m/s, a slow walk): a truth that stays in place (a jump, a dance) would
+otherwise divide by almost nothing and one such pair outweigh all the others (session 36's "speed error 64.6").
 
 References (JSON ``reference``), measured the same way: ``truth`` (the ground truth itself as the
 output: what a perfect transfer scores on the similarity figures, which are not 1 for it: the
@@ -266,12 +268,15 @@ def caption_for(loaded: LoadedModel, sample) -> str | None:
     return None
 
 
+SPEED_FLOOR = 0.5  # m/s: the least speed a speed error is relative to (a slow walk; see the module docstring)
+
+
 def measure_speed(out: np.ndarray, pair: Pair) -> dict:
     """Root speed of an output against its pair's ground truth (and the leader's and follower's, for reading)."""
     truth = root_speed(pair.reference["truth"][0])
     mine = root_speed(out)
     return {"speed": mine, "speed_truth": truth, "speed_ratio": mine / max(truth, 1e-9),
-            "speed_error": abs(mine - truth) / max(truth, 1e-9)}
+            "speed_error": abs(mine - truth) / max(truth, SPEED_FLOOR)}
 
 
 # ----------------------------------------------------------------------------- per-output measurements
