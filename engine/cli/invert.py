@@ -41,18 +41,18 @@ def run(args: argparse.Namespace) -> int:
 
     from engine.checkpoint import load_model
     from engine.io.window import seconds_of
-    from engine.methods.inversion import invert, roundtrip_error
+    from engine.methods.inversion import invert, reconstruct, roundtrip_figures
 
     check_outputs([args.out], (".npy",))
     config = from_args(InversionConfig, args)
     loaded = load_model(args.model, runtime=runtime_from_args(args))
     joints = load_window(args.input, args, max_frames=loaded.model.config.max_frames)
+    inverted = invert(loaded, joints, config)  # once: the round trip and --out share it
     report = {"input": str(args.input), "start_s": args.start or 0.0, "seconds": seconds_of(len(joints)),
-              **roundtrip_error(loaded, joints, config), "steps": args.steps, "refine": args.refine,
-              "landing": args.landing,
-              "prompt": args.prompt}
+              **roundtrip_figures(inverted, reconstruct(loaded, inverted, config)), "steps": args.steps,
+              "refine": args.refine, "landing": args.landing, "prompt": args.prompt}
     if args.out is not None:
-        np.save(args.out, invert(loaded, joints, config).noise.numpy(), allow_pickle=False)
+        np.save(args.out, inverted.noise.numpy(), allow_pickle=False)
     if args.json:
         print(json.dumps(report, indent=2))
     else:
