@@ -409,10 +409,13 @@ def test_counting_method_is_chosen_and_recounts_the_same_map(studio):
 def test_word_choice_and_alignment_helpers():
     assert word_choice(["a", "person", "jumps", "and", "jumps"], 4) == ("jumps", 1)
     ok, message = alignment(None, "a person jumps", "a person walks")
-    assert ok and "'jumps' → 'walks'" in message
+    assert ok and "'jumps' → 'walks' (its own attention)" in message  # the default: the swapped word keeps its own
     ok, message = alignment(None, "a person jumps", "a person walks fast")
-    assert ok and "(3 → 4 words)" in message and "'jumps' → 'walks fast' (its attention shared by the 2 words)" \
-        in message, message
+    assert ok and "(3 → 4 words)" in message and "'jumps' → 'walks fast' (their own attention)" in message, message
+    ok, message = alignment(None, "a person jumps", "a person walks fast", swapped="reference")  # the paper's
+    assert ok and "'jumps' → 'walks fast' (its attention shared by the 2 words)" in message, message
+    assert "'jumps' → 'walks', 'high' = 'high'" in alignment(None, "a person jumps high", "a person walks high",
+                                                             swapped="reference")[1]
     ok, message = alignment(None, "a person jumps and waves", "a person jumps")
     assert ok and "− 'and waves' (dropped)" in message, message
     assert not alignment(None, "a person jumps", "a person jumps")[0]

@@ -243,7 +243,7 @@ def test_replace_between_prompts_of_different_lengths_maps_aligned_words():
     plain = AttentionStore()
     model(x, torch.full((2,), 300), c, controller=plain)
     replaced = AttentionStore()
-    ctrl = Replace(ReplaceConfig(self_attention=False), num_steps=10)
+    ctrl = Replace(ReplaceConfig(self_attention=False, swapped="reference"), num_steps=10)
     model(x, torch.full((2,), 300), c, controller=stack(ctrl, replaced))
     src = plain.map(step=0, layer=0, kind="cross", slot=0)
     own = plain.map(step=0, layer=0, kind="cross", slot=1)
@@ -258,10 +258,40 @@ def test_replace_between_prompts_of_different_lengths_maps_aligned_words():
     # the same-length case copies the reference's whole map, as before
     c2 = cond(("ref", "edit"), [ref, ("a", "man", "kicks", "high")])
     same = AttentionStore()
-    model(x, torch.full((2,), 300), c2, controller=stack(Replace(ReplaceConfig(self_attention=True), num_steps=10),
-                                                         same))
+    model(x, torch.full((2,), 300), c2, controller=stack(
+        Replace(ReplaceConfig(self_attention=True, swapped="reference"), num_steps=10), same))
     for kind in ("cross", "self"):
         assert torch.equal(same.map(step=0, layer=1, kind=kind, slot=0), same.map(step=0, layer=1, kind=kind, slot=1))
+
+
+@pytest.mark.parametrize("edit", [("a", "man", "kicks", "high"), ("a", "slowly", "man", "kicks", "high")])
+def test_replace_lets_a_swapped_word_keep_its_own_attention_by_default(edit):
+    """swapped="own" (the default): 'kicks' attends with its own column; 'a', 'man', 'high' take the reference's;
+    each frame's weights sum to 1 as a softmax row does."""
+    model = tiny()
+    ref = ("a", "man", "jumps", "high")
+    c = cond(("ref", "edit"), [ref, edit])
+    x = x_for(2)
+    plain = AttentionStore()
+    model(x, torch.full((2,), 300), c, controller=plain)
+    replaced = AttentionStore()
+    assert ReplaceConfig().swapped == "own"
+    model(x, torch.full((2,), 300), c, controller=stack(Replace(ReplaceConfig(), num_steps=10), replaced))
+    kicks = edit.index("kicks")
+    kept = [(edit.index(w), ref.index(w)) for w in ("a", "man", "high")]
+    for head in range(2):  # per head: each head's rows are scaled by their own factor
+        src = plain.map(step=0, layer=0, kind="cross", slot=0, head=head)
+        own = plain.map(step=0, layer=0, kind="cross", slot=1, head=head)
+        got = replaced.map(step=0, layer=0, kind="cross", slot=1, head=head)
+        assert torch.allclose(got.sum(-1), torch.ones(got.shape[0]), atol=1e-3)
+        scale = got[:, kept[0][0]] / src[:, kept[0][1]]  # (F,) the one factor each frame's row was scaled by
+        for j, i in kept:
+            assert torch.allclose(got[:, j], src[:, i] * scale, atol=1e-3), (j, i)
+        assert torch.allclose(got[:, kicks], own[:, kicks] * scale, atol=1e-3)
+        assert not torch.allclose(own[:, kicks], src[:, 2], atol=1e-3)  # (the replaced word's column differs)
+        assert not torch.allclose(scale, torch.ones_like(scale), atol=1e-3)
+    with pytest.raises(ValueError, match="swapped must be one of own, reference"):
+        ReplaceConfig(swapped="theirs")
 
 
 def test_engine_replace_runs_prompts_of_different_lengths_and_reports_the_alignment():

@@ -136,8 +136,9 @@ def run(args: argparse.Namespace) -> int:
 
     if args.kind == "replace" and options.prompt and options.edited:
         alignment = edits.replace_alignment(loaded, options.prompt or "", options.edited or "")
-        report["alignment"] = alignment.describe()  # shown before the run: the user sees what maps onto what
-        print(alignment.describe(), file=sys.stderr, flush=True)
+        # shown before the run: the user sees what maps onto what
+        report["alignment"] = alignment.describe(swapped=options.swapped)
+        print(report["alignment"], file=sys.stderr, flush=True)
     options = with_defaults(options, loaded.config)  # the mode and weight left out: this model's (calibrated) ones
     if "weight" in REGISTRY[args.kind].inputs:
         report.update(weight=options.weight, **({"mode": options.mode} if "mode" in REGISTRY[args.kind].inputs else {}))

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 #: the fields of ``EditOptions`` an edit kind can read besides the prompt, the step window and the layers
-INPUTS = frozenset({"word", "weight", "mode", "frames", "edited", "copy_self", "fraction", "style", "count",
+INPUTS = frozenset({"word", "weight", "mode", "frames", "edited", "copy_self", "swapped", "fraction", "style", "count",
                     "chunk_frames", "seed"})
 
 
@@ -125,7 +125,7 @@ def _replace_config(o, *, frames, steps):
 
     from engine.methods.motionclr import ReplaceConfig
 
-    return replace(ReplaceConfig(), window=steps, self_attention=bool(o.copy_self))
+    return replace(ReplaceConfig(), window=steps, self_attention=bool(o.copy_self), swapped=o.swapped)
 
 
 def _shift_config(o, *, frames, steps):
@@ -164,7 +164,8 @@ def _describe_replace(o, *, frames: int) -> str:
     from engine.methods.word_alignment import align_words
     from engine.text import split_words
 
-    return "replace " + ", ".join(align_words(split_words(o.prompt), split_words(o.edited)).changes())
+    return "replace " + ", ".join(align_words(split_words(o.prompt), split_words(o.edited)).changes()) + (
+        "" if o.swapped == "own" else " (the reference's whole map)")
 
 
 def _describe_example(o, *, frames: int) -> str:
@@ -223,7 +224,7 @@ REGISTRY: dict[str, EditKind] = {k.name: k for k in (
              "Generate the prompt and the edited prompt together; the edited one takes the reference's attention "
              "maps in the first steps, so its new action lands in the reference's time slots. The words are aligned "
              "as prompt-to-prompt aligns them: words may be added (they keep their own attention) or dropped.",
-             inputs=frozenset({"edited", "copy_self"}), build=_replace_config, run=_run_replace,
+             inputs=frozenset({"edited", "copy_self", "swapped"}), build=_replace_config, run=_run_replace,
              window=_method_window("ReplaceConfig"), describe=_describe_replace),
     EditKind("shift", "shift", "Roll the reference's Q, K, V in time: the first part of the motion moves to the end.",
              inputs=frozenset({"fraction"}), build=_shift_config, run=_run("shift"),

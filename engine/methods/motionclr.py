@@ -17,7 +17,7 @@ from engine.methods.edit_options import WEIGHT_RANGES, option_spec, weight_range
 from engine.methods.mixing import MixConfig, MixedAttention
 from engine.methods.spans import Span, mask_spans, spans_mask
 from engine.methods.windows import BoundWindow, Window
-from engine.methods.word_alignment import WORD_BY_WORD, WordAlignment, align_words
+from engine.methods.word_alignment import SWAPPED, WORD_BY_WORD, WordAlignment, align_words
 
 
 def _frame_slice(frames: tuple[int, int] | None, n: int) -> slice:
@@ -168,18 +168,31 @@ class ReplaceConfig:
     Reference ("ref") and edited ("edit") prompts share the noise. Their words are aligned as prompt-to-prompt
     aligns them (:mod:`engine.methods.word_alignment`): word by word when both have as many words, otherwise the
     shared words are matched and the swapped ones take the attention of the words they replace, while words only
-    the edited prompt has keep their own maps. ``self_attention`` also copies the self-attention maps, as the
-    authors' code does (the paper replaces the cross-attention maps). Off by default: on base v9 (`moattn bench
-    --edits`, 42 draws, the same noises) copying them kept the walk's timing a little closer (IoU 0.92 against 0.87;
-    0.83 without replacement) but held the motion to the reference's action: 0.57 of the edited motions were nearer the
-    edited prompt, against 0.69 without the copy (0.95 for the edited prompt alone); the step window (0.2 to 0.5 of
-    the steps) did not change either figure.
+    the edited prompt has keep their own maps.
+
+    ``swapped``: what a *swapped* word (one the edited prompt puts in another word's place, "jumps" → "kicks")
+    attends with. ``"reference"``: the replaced word's column, so the whole map is the reference's (the paper).
+    ``"own"`` (default): its own column from the edited prompt, every other word the reference's, each frame's
+    weights scaled back to sum 1. On base v10 (`moattn bench --edits`, 42 draws, the same noises) the paper's form
+    held the motion to the reference's action: 0.69 of the edited motions were nearer the edited prompt than the
+    reference's (0.95 for the edited prompt alone), timing IoU 0.87 (0.83 without replacement); keeping the swapped
+    word's own column gave 0.88 and IoU 0.89 (`runs/s38/repl_variants.py`). The shared words' maps carry the timing;
+    the new verb's own column lets its action be read.
+
+    ``self_attention`` also copies the self-attention maps, as the authors' code does (the paper replaces the
+    cross-attention maps). Off by default: on base v9 copying them kept the walk's timing a little closer (IoU 0.92
+    against 0.87) but held the motion to the reference's action (0.57 nearer the edited prompt against 0.69).
     """
 
     window: Window = field(default_factory=lambda: Window(0.0, 0.5))
     self_attention: bool = False
+    swapped: Literal["own", "reference"] = "own"
     source: str = "ref"
     target: str = "edit"
+
+    def __post_init__(self) -> None:
+        if self.swapped not in SWAPPED:
+            raise ValueError(f"swapped must be one of {', '.join(SWAPPED)}, got {self.swapped!r}")
 
 
 class Replace(Controller):
@@ -198,16 +211,23 @@ class Replace(Controller):
 
     def _cross(self, src_probs: torch.Tensor, dst_probs: torch.Tensor, alignment: WordAlignment) -> torch.Tensor:
         """(H, F, L) maps of the edited slot: each word's column from the reference's words it is linked to, or its
-        own (an inserted word; the padding past its words)."""
+        own (an inserted word; the padding past its words; with ``swapped="own"`` a swapped word). Where a column
+        kept its own, each frame's weights are scaled back to their sum."""
         width = dst_probs.shape[-1]
         links = torch.zeros(src_probs.shape[-1], width, dtype=dst_probs.dtype, device=dst_probs.device)
         taken = torch.zeros(width, dtype=torch.bool, device=dst_probs.device)
+        own = self.config.swapped == "own"
         for j, link in enumerate(alignment.links):
+            if own and any(alignment.source[i] != alignment.target[j] for i, _ in link):
+                continue  # a swapped word keeps its own column
             for i, w in link:
                 links[i, j] = w
                 taken[j] = True
-        mapped = torch.einsum("hfw,wn->hfn", src_probs, links)
-        return torch.where(taken, mapped, dst_probs)
+        mapped = torch.where(taken, torch.einsum("hfw,wn->hfn", src_probs, links), dst_probs)
+        if not own:
+            return mapped
+        total = dst_probs.sum(-1, keepdim=True)  # (H, F, 1): 1 on a softmax row
+        return mapped * (total / mapped.sum(-1, keepdim=True).clamp_min(1e-12))
 
     def on_probs(self, probs, ctx: AttnCtx):
         c = self.config
@@ -219,7 +239,7 @@ class Replace(Controller):
                 continue  # the unconditional pass has no cross-attention
             if ctx.kind == "cross" and ctx.words is not None:
                 alignment = self.alignment(ctx.words.words[src], ctx.words.words[dst])
-                if alignment.mode != WORD_BY_WORD:
+                if alignment.mode != WORD_BY_WORD or (c.swapped == "own" and alignment.changed):
                     probs[dst] = self._cross(probs[src], probs[dst], alignment)
                     continue
             probs[dst] = probs[src]

@@ -17,6 +17,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 WORD_BY_WORD, ALIGNED = "word by word", "aligned"
+#: what a swapped word attends with in the replacement (``ReplaceConfig.swapped``): its own cross-attention column,
+#: or the reference's word's (the paper: the edited prompt takes the reference's whole map)
+SWAPPED = ("own", "reference")
 
 # prompt-to-prompt's seq_aligner.ScoreParams(gap=0, match=1, mismatch=-1)
 GAP, MATCH, MISMATCH = 0, 1, -1
@@ -74,8 +77,9 @@ class WordAlignment:
     def changed(self) -> bool:
         return self.source != self.target
 
-    def rows(self) -> list[str]:
-        """One line per aligned group: kept ('a' = 'a'), swapped ('jumps' → 'kicks'), inserted, dropped."""
+    def rows(self, *, swapped: str = "reference") -> list[str]:
+        """One line per aligned group: kept ('a' = 'a'), swapped ('jumps' → 'kicks'), inserted, dropped.
+        ``swapped``: as ``ReplaceConfig.swapped`` ("own": a swapped word keeps its own attention)."""
         out = []
         for src, dst in self.groups:
             a = " ".join(self.source[i] for i in src)
@@ -84,7 +88,9 @@ class WordAlignment:
                 out.append(f"'{a}' = '{b}'")
             elif src and dst:
                 note = ""
-                if len(src) != len(dst):
+                if swapped == "own":
+                    note = " (its own attention)" if len(dst) == 1 else " (their own attention)"
+                elif len(src) != len(dst):
                     note = (f" (its attention shared by the {len(dst)} words)" if len(src) == 1 else
                             " (their attention summed)" if len(dst) == 1 else
                             f" (their attention summed, shared by the {len(dst)} words)")
@@ -109,10 +115,10 @@ class WordAlignment:
                 out.append(f"−'{a}'")
         return out
 
-    def describe(self) -> str:
+    def describe(self, *, swapped: str = "reference") -> str:
         how = ("word by word (prompt-to-prompt's replace)" if self.mode == WORD_BY_WORD else
                f"as prompt-to-prompt refines ({len(self.source)} → {len(self.target)} words)")
-        return f"aligned {how}: " + ", ".join(self.rows())
+        return f"aligned {how}: " + ", ".join(self.rows(swapped=swapped))
 
 
 def align_words(source: Sequence[str], target: Sequence[str]) -> WordAlignment:

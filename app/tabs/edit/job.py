@@ -32,7 +32,7 @@ def word_choice(words: list[str] | tuple[str, ...], position: int) -> tuple[str,
     return word, list(words[:position]).count(word)
 
 
-def alignment(tokenizer, reference: str, edited: str) -> tuple[bool, str]:
+def alignment(tokenizer, reference: str, edited: str, *, swapped: str = "own") -> tuple[bool, str]:
     """How in-place replacement will align the two prompts' words: (ok, the alignment or why not, for the user).
 
     The words are aligned as prompt-to-prompt aligns them (``engine.methods.word_alignment``): word by word when the
@@ -40,7 +40,7 @@ def alignment(tokenizer, reference: str, edited: str) -> tuple[bool, str]:
     words they replace, added words keep their own and dropped words are said. Both prompts are read as the engine
     reads them (``Tokenizer.encode``): a prompt it refuses is refused with its message, and a swapped-in word it
     leaves out cannot replace anything (words it reads by meaning or as a typo can; words left out of both prompts
-    alike do not matter)."""
+    alike do not matter). ``swapped``: what a swapped word attends with (``EditOptions.swapped``)."""
     from engine.methods.word_alignment import align_words
     from engine.text import PromptError, split_words
 
@@ -60,7 +60,7 @@ def alignment(tokenizer, reference: str, edited: str) -> tuple[bool, str]:
         return False, "the edited prompt is the same as the prompt: change a word (e.g. the verb)"
     typed = align_words(ref, new)
     if not tokens:
-        return True, typed.describe()
+        return True, typed.describe(swapped=swapped)
     gone_ref, gone_new = set(tokens["prompt"].left_out), set(tokens["edited prompt"].left_out)
     for src, dst in typed.groups:
         a = " ".join(ref[i] for i in src)
@@ -76,7 +76,7 @@ def alignment(tokenizer, reference: str, edited: str) -> tuple[bool, str]:
         left_out = ", ".join(dict.fromkeys([*gone_ref, *gone_new])) or "none"
         return False, f"the model reads both prompts alike (words left out: {left_out}): nothing to replace"
     notes = list(dict.fromkeys(n for t in tokens.values() for n in t.notes()))
-    return True, read.describe() + (f" ({'; '.join(notes)})" if notes else "")
+    return True, read.describe(swapped=swapped) + (f" ({'; '.join(notes)})" if notes else "")
 
 
 def swap_example(words: list[str]) -> list[str]:
@@ -154,7 +154,7 @@ def prepare(state, settings: EditSettings) -> EditPlan:
     for text in (s for s in (source, style) if isinstance(s, str)):
         loaded.tokenizer.encode(text)  # PromptError (a ValueError) with the unknown words
     if "edited" in entry.inputs:
-        ok, message = alignment(loaded.tokenizer, prompt, cfg.edited)
+        ok, message = alignment(loaded.tokenizer, prompt, cfg.edited, swapped=cfg.swapped)
         if not ok:
             raise ValueError(message)
     span = tuple(int(f) for f in cfg.frames) if cfg.frames is not None else None

@@ -107,7 +107,7 @@ class EditTab(pn.viewable.Viewer):
         s.param.watch(self._post_span_curve, "current")
         e.param.watch(self._on_kind, "kind")
         e.param.watch(self._on_mode, "mode")
-        e.param.watch(self._on_alignment, "edited")
+        e.param.watch(self._on_alignment, ["edited", "swapped"])
         e.param.watch(self._on_last_edit, "last_edit")
         s.param.watch(self._on_prompt, ["prompt_words", "reading"])
         s.param.watch(self._on_prompt_text, "prompt")
@@ -406,7 +406,7 @@ class EditTab(pn.viewable.Viewer):
             tokenizer = self.state.model.tokenizer
         except Exception:
             tokenizer = None
-        return alignment(tokenizer, self.state.prompt, self.settings.edited)
+        return alignment(tokenizer, self.state.prompt, self.settings.edited, swapped=self.settings.swapped)
 
     def _on_alignment(self, *_):
         e = self.settings
