@@ -67,9 +67,13 @@ def test_control_options_declare_every_option_once():
     assert declared["method"].choices == ("blending", "inpainting") and declared["method"].default == "blending"
     for name in CONTROLS:
         info = option_info(ControlOptions, ControlOptions.weight_field(name))
-        assert info.default == 1.0 and info.bounds == (0.0, math.inf) and info.soft == (0.0, 1.0) and info.help
+        assert info.bounds == (0.0, math.inf) and info.soft == (0.0, 1.0) and info.help
         assert info.flag == f"--{name.replace('_', '-')}-weight"
-    o = ControlOptions(root_weight=3.0, right_wrist_weight=1.0)
+    # a wrist's model weighs a quarter of the root's by default (an equal share cost the walk on drawn paths)
+    assert ControlOptions().shares(["root", "left_wrist"]) == [0.8, 0.2]
+    assert ControlOptions().shares(["root", "left_wrist", "right_wrist"]) == pytest.approx([2 / 3, 1 / 6, 1 / 6])
+    assert ControlOptions().shares(["right_wrist"]) == [1.0]
+    o = ControlOptions(root_weight=3.0, left_wrist_weight=1.0, right_wrist_weight=1.0)
     assert o.weights() == {"root": 3.0, "left_wrist": 1.0, "right_wrist": 1.0}
     assert o.shares(["root", "right_wrist"]) == [0.75, 0.25]
     with pytest.raises(ValueError, match="unknown control method 'blend'"):
@@ -205,7 +209,8 @@ def test_moattn_control_blends_the_root_and_both_wrists(tiny_model_dir, tiny_con
     assert main([*common, "--root-weight", "2", "--right-wrist-weight", "0.5"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["method"] == "blending" and report["controls"] == ["root", "left_wrist", "right_wrist"]
-    assert report["weights"] == pytest.approx({"root": 2 / 3.5, "left_wrist": 1 / 3.5, "right_wrist": 0.5 / 3.5})
+    # the left wrist keeps its default weight, 0.25
+    assert report["weights"] == pytest.approx({"root": 2 / 2.75, "left_wrist": 0.25 / 2.75, "right_wrist": 0.5 / 2.75})
     assert "No control bench is recorded" in report["bench"]
     assert report["root_error"]["mean_m"] < 0.05
     # each wrist followed its own letter: its height (up to the one offset of the floor that joints_to_features
@@ -221,7 +226,7 @@ def test_moattn_control_blends_the_root_and_both_wrists(tiny_model_dir, tiny_con
         reach = np.abs(np.hypot(got[:n, 0], got[:n, 2]) - np.hypot(target[:n, 0], target[:n, 2])).mean()
         assert height < 0.02 and reach < 0.02, (side, height, reach)
     # --weights gives them at once, in the order of the paths given
-    assert main([*common, "--weights", "2", "1", "0.5"]) == 0
+    assert main([*common, "--weights", "2", "0.25", "0.5"]) == 0
     assert json.loads(capsys.readouterr().out)["weights"] == report["weights"]
     # the baseline
     assert main([*common, "--method", "inpainting"]) == 0

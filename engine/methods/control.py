@@ -142,8 +142,9 @@ def controlled(loaded: LoadedModel, prompt: str, controls: list[Control], *, sec
                sample: SampleConfig = SampleConfig(), on_step=None,
                planted_feet: bool = option_info(ControlOptions, "planted_feet").default) -> Generation:
     """Text + controls -> motion. With ``models`` (name -> fine-tuned control model): each control's
-    model, blended (DiffusionBlending) with ``weights`` (None: equal; one per control in order, or control name ->
-    raw weight; scaled to sum 1 by :func:`~engine.methods.control_options.blend_shares`), controls noise-free
+    model, blended (DiffusionBlending) with ``weights`` (None: the declared defaults, ``ControlOptions``'s: the root 1,
+    a wrist 1/4; one per control in order, or control name -> raw weight; scaled to sum 1 by
+    :func:`~engine.methods.control_options.blend_shares`), controls noise-free
     (Algorithm 2). Without: plain inpainting with ``loaded`` (the baseline), which takes no weights.
     ``planted_feet``: either method's prediction is wrapped in :class:`~engine.diffusion.feet.PlantedFeet` (the legs
     move so feet on the floor stay put; the root and the wrists, the controlled cells, are left as they are)."""
@@ -164,7 +165,8 @@ def controlled(loaded: LoadedModel, prompt: str, controls: list[Control], *, sec
         if missing:
             raise FileNotFoundError(f"no control model for {', '.join(missing)}")
         denoisers = [denoiser_for(models[n], sample) for n in names]
-        base = DiffusionBlending(denoisers, blend_shares(weights, names))
+        base = DiffusionBlending(denoisers, blend_shares(ControlOptions().weights() if weights is None else weights,
+                                                         names))
         noise_free = True
     else:
         base = denoiser_for(loaded, sample)
