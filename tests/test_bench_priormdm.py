@@ -141,9 +141,13 @@ def check_drawn(control: dict) -> None:
     assert set(drawn["tasks"]) == set(TASKS) == set(drawn["paths"])
     for task, rows in drawn["tasks"].items():
         assert set(rows) == set(control["tasks"][task])  # every method of the true paths, on the drawn ones
-        assert len(drawn["paths"][task]) == 2 and all(p["seconds"] >= 3.0 for p in drawn["paths"][task])
+        # the task the studio's verdict reads draws verdict_factor (3) times as many paths; the other-feet rows don't
+        n = 2 * (ControlBenchConfig().verdict_factor if task == "root+left_wrist" else 1)
+        assert ControlBenchConfig().verdict_factor == 3
+        assert len(drawn["paths"][task]) == n and all(p["seconds"] >= 3.0 for p in drawn["paths"][task])
+        assert len(control["drawn_other_feet"]["paths"][task]) == 2
         for method, r in rows.items():
-            assert r["paths"] == 2 and [p["path"] for p in r["per_path"]] == [p["name"] for p in drawn["paths"][task]]
+            assert r["paths"] == n and [p["path"] for p in r["per_path"]] == [p["name"] for p in drawn["paths"][task]]
             assert np.isfinite(r["error_m"]) and 0 <= r["off_0_5m"] <= 1 and 0 <= r["skate"] <= 1
             ratio, true_error = control["drawn_vs_true_error"][task][method], control["tasks"][task][method]["error_m"]
             assert ratio == (r["error_m"] / true_error if true_error >= 0.005 else None)
@@ -159,7 +163,7 @@ def check_drawn(control: dict) -> None:
 
     assert control["truth_adherence"]["action_n"] == 2
     for task, rows in drawn["tasks"].items():
-        assert drawn["prompt_truth_adherence"][task]["action_n"] == 2
+        assert drawn["prompt_truth_adherence"][task]["action_n"] == len(drawn["paths"][task])
         for method, r in rows.items():
             verdicts = [p["adherence"] for p in r["per_path"]]
             assert all(set(v) == set(ATTRIBUTES) for v in verdicts)

@@ -299,7 +299,8 @@ def test_a_bench_run_becomes_the_record_the_studio_reads(tiny_model_dir, tiny_co
     for method in ("blending", "inpainting"):
         assert record["figures"][method]["skate"] == drawn[method]["skate"]
         assert record["figures"][method]["action_match"] == drawn[method]["action_match"]
-    assert record["run"] == {"drawn_paths": 1, "steps": 2, "motions": 2, "planted_feet": True}
+    # the record counts the paths of the task it speaks for: 3 x --drawn (ControlBenchConfig.verdict_factor)
+    assert record["run"] == {"drawn_paths": 3, "steps": 2, "motions": 2, "planted_feet": True}
     verdict = bench_verdict(folder)
     assert verdict.figures == record["figures"] and verdict.leader == judge(record["figures"])[0]
-    assert "(moattn bench --control, 1 drawn path, 2 steps, planted feet on)" in verdict.message
+    assert "(moattn bench --control, 3 drawn paths, 2 steps, planted feet on)" in verdict.message

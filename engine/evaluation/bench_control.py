@@ -16,7 +16,9 @@ circles and zig-zags at walking speed from the origin heading +Z, and letters wr
 with a wrist (the root + left wrist task pairs root path k with left-wrist letter k), each with a
 prompt a person would type for it (in the model's vocabulary). The same methods generate them;
 figures (JSON ``control.drawn.tasks.<task>.<method>``): ``error_m``, ``off_0_5m`` and ``skate`` as
-above (no FID: drawn paths have no reference motions), per path under ``per_path``.
+above (no FID: drawn paths have no reference motions), per path under ``per_path``. The drawn root + left wrist
+task, whose figures the studio's verdict reads (``control_options.bench_verdict``), draws
+``ControlBenchConfig.verdict_factor`` times as many paths in the main rows (27 by default).
 
 Adherence of the prompted action, on true and drawn paths alike: ``engine.evaluation.adherence.check_motion``
 reads each generated motion against ``engine.intent.parse_intent`` of its prompt (all checks, no reliability
@@ -45,7 +47,7 @@ from engine.evaluation.metrics import fid, foot_skate
 from engine.generate import FPS, SampleConfig
 from engine.intent import parse_intent
 from engine.methods.control import Control, control_base, control_dims, controlled, load_controls
-from engine.methods.control_options import ControlOptions, option_info
+from engine.methods.control_options import BENCH_TASK, ControlOptions, option_info
 from engine.methods.drawn_paths import DrawnPath, drawn_letters, drawn_root_paths
 from engine.methods.paths import to_world
 from engine.paths import shown_folder
@@ -64,6 +66,10 @@ class ControlBenchConfig:
     seed: int = 0
     min_seconds: float = 3.0
     drawn_paths: int = 9  # drawn root paths, and letters per wrist (0: true paths only)
+    # the task the studio's verdict reads (drawn root + left wrist, control_options.BENCH_TASK) draws this many times
+    # as many paths in the main rows: with 9, one path was 11 % of the action figure, and blending and inpainting
+    # were one or two paths apart (session 38: 27 paths put a path at 4 %)
+    verdict_factor: int = 3
     # every row samples with the planted-feet correction as the CLI and the studio do by default; the drawn paths are
     # also sampled the other way (``drawn_other_feet``), so the paper's sampling stays on the record
     planted_feet: bool = option_info(ControlOptions, "planted_feet").default
@@ -217,7 +223,7 @@ def bench_control(loaded: LoadedModel, evaluator: LoadedEvaluator, config: Contr
         result["tasks"][task] = rows
     if config.drawn_paths > 0:
         result["drawn"] = bench_drawn(loaded, models, config, log=lambda line: log(f"{line} ({time.time() - t0:.0f} s)"))
-        other = replace(config, planted_feet=not config.planted_feet)
+        other = replace(config, planted_feet=not config.planted_feet, verdict_factor=1)
         feet = "on" if other.planted_feet else "off"
         result["drawn_other_feet"] = bench_drawn(
             loaded, models, other, log=lambda line: log(f"{line}, planted feet {feet} ({time.time() - t0:.0f} s)"))
@@ -252,7 +258,8 @@ def bench_drawn(loaded: LoadedModel, models: dict[str, LoadedModel], config: Con
     """Every task's methods on the drawn paths: error, share > 0.5 m off, foot skate; per path as well."""
     out = {"paths": {}, "tasks": {}, "prompt_truth_adherence": {}}
     for task, names in TASKS.items():
-        cases = drawn_cases(task, config.drawn_paths, min_seconds=config.min_seconds)
+        n = config.drawn_paths * (config.verdict_factor if task == BENCH_TASK else 1)
+        cases = drawn_cases(task, n, min_seconds=config.min_seconds)
         out["paths"][task] = [{"name": c.name, "prompt": c.prompt, "seconds": c.seconds} for c in cases]
         intents = [parse_intent(c.prompt) for c in cases]
         out["prompt_truth_adherence"][task] = score(check_motion(ground_truth_motion(i, config.seed + k), i)

@@ -97,7 +97,8 @@ class BenchOptions:
     seeds: int | None = option(None, type=int, group=EDITS,
         help="--duet: seeds per held-out duet (default 1); --adherence: seeds per prompt (default 4, quick 2)")
     drawn: int | None = option(None, type=int, group=EDITS,
-        help="--control: drawn paths per control (default 9, quick 3; 0: true paths only)")
+        help="--control: drawn paths per control (default 9, quick 3; 0: true paths only); the drawn root + left "
+             "wrist task, which the studio's verdict reads, draws 3 times as many")
     prompts: Path | None = option(None, type=Path, group=EDITS,
         help="--adherence / --sampling: a file of prompts, one per line (default: the shipped set of prompts people "
              "type)")

@@ -126,11 +126,12 @@ class ControlOptions:
     method: str = option("blending", choices=METHODS, label="Method",
                          help="blending: the fine-tuned control models blended (DiffusionBlending); inpainting: the "
                               "base model with the controls inpainted (the baseline)")
-    # Blending's default shares: the root's model carries the walk, a wrist's model the arm. On drawn root + left
-    # wrist paths (runs/s38/drawn_blend.py, 27 paths, 50 steps) equal shares detected the prompted action in 19 of
-    # 27 motions (inpainting 21); root 0.7 / wrist 0.3 in 21, 0.8 / 0.2 in 23, 0.9 / 0.1 in 23, the root's model
-    # alone (the wrist inpainted) in 23; foot skate 0.055 -> 0.047 (inpainting 0.29). So a wrist weighs 1/4 of
-    # the root: 0.8 / 0.2 with one wrist, 2/3 and 1/6 each with both; a wrist alone has the whole blend.
+    # Blending's default shares: the root's model carries the walk, a wrist's model the arm. Drawn root + left wrist
+    # paths (runs/s38/drawn_blend.py, 27 paths, 50 steps, two sets of noises: the bench's seeds and seeds + 100):
+    # foot skate 0.047 / 0.056 with root 0.8 / wrist 0.2 against 0.055 / 0.072 with equal shares (inpainting 0.29 /
+    # 0.28); the prompted action in 23 + 20 of 54 motions against 19 + 21 (inpainting 21 + 19), a difference inside
+    # the noise (root 0.7 / 0.3: 21, 0.9 / 0.1: 23, the root's model alone: 23 on the first set). So a wrist weighs
+    # 1/4 of the root: 0.8 / 0.2 with one wrist, 2/3 and 1/6 each with both; a wrist alone has the whole blend.
     root_weight: float = option(1.0, bounds=WEIGHT_BOUNDS, soft=(0.0, 1.0), step=0.05, metavar="W",
                                 help="blend weight of the root path's control model (scaled with the others to sum 1)")
     left_wrist_weight: float = option(WRIST_WEIGHT, bounds=WEIGHT_BOUNDS, soft=(0.0, 1.0), step=0.05, metavar="W",
