@@ -221,9 +221,10 @@ REGISTRY: dict[str, EditKind] = {k.name: k for k in (
              inputs=frozenset({"word", "frames"}), build=_erase_config, run=_run("reweight"),
              default_frames=_last_half, describe=lambda o, *, frames: f"erase '{o.word}'"),
     EditKind("replace", "replace",
-             "Generate the prompt and the edited prompt together; the edited one takes the reference's attention "
-             "maps in the first steps, so its new action lands in the reference's time slots. The words are aligned "
-             "as prompt-to-prompt aligns them: words may be added (they keep their own attention) or dropped.",
+             "Generate the prompt and the edited prompt together; the edited one takes the reference's "
+             "cross-attention maps in the first steps (its swapped words keep their own, unless 'reference' is "
+             "chosen), so its new action lands in the reference's time slots. The words are aligned as "
+             "prompt-to-prompt aligns them: words may be added (they keep their own attention) or dropped.",
              inputs=frozenset({"edited", "copy_self", "swapped"}), build=_replace_config, run=_run_replace,
              window=_method_window("ReplaceConfig"), describe=_describe_replace),
     EditKind("shift", "shift", "Roll the reference's Q, K, V in time: the first part of the motion moves to the end.",
