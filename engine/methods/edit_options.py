@@ -19,7 +19,7 @@ if TYPE_CHECKING:  # imported lazily below: the CLI reads KINDS without loading 
 
 from engine.methods.edit_kinds import EDIT_KINDS, KINDS, REGISTRY  # noqa: F401 (the registry's names, re-exported)
 from engine.methods.spans import Span, as_spans, check_spans, parse_spans
-from engine.methods.word_alignment import SWAPPED
+from engine.methods.word_alignment import SWAPPED, SWAPPED_DEFAULT
 from engine.options import option, spec, validate
 
 Source = Any  # a prompt (str), or joints (T, 22, 3) of a real motion (DDIM-inverted by the edit)
@@ -103,7 +103,7 @@ class EditOptions:
                              help="replace: also copy the reference's self-attention maps, as the authors' code does "
                                   "(keeps the timing a little closer, lands the new action less often; the paper "
                                   "copies the cross-attention only)")
-    swapped: str = option("own", choices=SWAPPED, label="Swapped words attend with",
+    swapped: str = option(SWAPPED_DEFAULT, choices=SWAPPED, label="Swapped words attend with",
                           help="replace: what the edited prompt's swapped word attends with while the other words take "
                                "the reference's attention: 'own' its own (the default: on the shipped model 0.88 of "
                                "the edited motions are recognised as the new action against 0.69, with the timing "

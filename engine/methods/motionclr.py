@@ -17,7 +17,7 @@ from engine.methods.edit_options import WEIGHT_RANGES, option_spec, weight_range
 from engine.methods.mixing import MixConfig, MixedAttention
 from engine.methods.spans import Span, mask_spans, spans_mask
 from engine.methods.windows import BoundWindow, Window
-from engine.methods.word_alignment import SWAPPED, WORD_BY_WORD, WordAlignment, align_words
+from engine.methods.word_alignment import SWAPPED, SWAPPED_DEFAULT, WORD_BY_WORD, WordAlignment, align_words
 
 
 def _frame_slice(frames: tuple[int, int] | None, n: int) -> slice:
@@ -186,7 +186,7 @@ class ReplaceConfig:
 
     window: Window = field(default_factory=lambda: Window(0.0, 0.5))
     self_attention: bool = False
-    swapped: Literal["own", "reference"] = "own"
+    swapped: Literal["own", "reference"] = SWAPPED_DEFAULT
     source: str = "ref"
     target: str = "edit"
 

@@ -20,6 +20,7 @@ WORD_BY_WORD, ALIGNED = "word by word", "aligned"
 #: what a swapped word attends with in the replacement (``ReplaceConfig.swapped``): its own cross-attention column,
 #: or the reference's word's (the paper: the edited prompt takes the reference's whole map)
 SWAPPED = ("own", "reference")
+SWAPPED_DEFAULT = "own"  # the one home of the default (ReplaceConfig, EditOptions); measured in ReplaceConfig's doc
 
 # prompt-to-prompt's seq_aligner.ScoreParams(gap=0, match=1, mismatch=-1)
 GAP, MATCH, MISMATCH = 0, 1, -1

@@ -22,6 +22,7 @@ from app.session.jobs import Delivery, JobDescription, Worker
 from app.session.counting import CountReadout, auto_count, count_imported
 from app.tabs.edit.settings import PROMPT_SOURCE, EditSettings, EditSummary
 from engine.methods.edit_kinds import EditKind
+from engine.methods.word_alignment import SWAPPED_DEFAULT
 
 RECORD_BUDGET = 400 * 1024 * 1024  # the edit's AttentionStore keeps 512 MB at most: stay below it
 
@@ -32,7 +33,7 @@ def word_choice(words: list[str] | tuple[str, ...], position: int) -> tuple[str,
     return word, list(words[:position]).count(word)
 
 
-def alignment(tokenizer, reference: str, edited: str, *, swapped: str = "own") -> tuple[bool, str]:
+def alignment(tokenizer, reference: str, edited: str, *, swapped: str = SWAPPED_DEFAULT) -> tuple[bool, str]:
     """How in-place replacement will align the two prompts' words: (ok, the alignment or why not, for the user).
 
     The words are aligned as prompt-to-prompt aligns them (``engine.methods.word_alignment``): word by word when the
