@@ -227,10 +227,12 @@ def test_words_align_as_prompt_to_prompt_aligns_them():
     assert merged.links[2] == ((2, 1.0), (3, 1.0))
     both = align_words("a person walks then jumps twice".split(), "a person slowly walks forward then kicks".split())
     assert both.changes() == ["+'slowly'", "+'forward'", "'jumps twice' → 'kicks'"]
+    assert both.swaps == {6} and both.inserted == (2, 4)  # 'kicks' takes others' place; 'slowly', 'forward' are new
     assert both.describe().startswith("aligned as prompt-to-prompt refines (6 → 7 words): 'a' = 'a', ")
     # as many words on both sides: word by word, even where a shared word moved
     moved = align_words("a person jumps then walks".split(), "a person walks then jumps".split())
     assert moved.mode == WORD_BY_WORD and moved.changes() == ["'jumps' → 'walks'", "'walks' → 'jumps'"]
+    assert moved.swaps == {2, 4}
     with pytest.raises(ValueError, match="at least one word"):
         align_words((), ("a",))
 

@@ -217,8 +217,9 @@ class Replace(Controller):
         links = torch.zeros(src_probs.shape[-1], width, dtype=dst_probs.dtype, device=dst_probs.device)
         taken = torch.zeros(width, dtype=torch.bool, device=dst_probs.device)
         own = self.config.swapped == "own"
+        swaps = alignment.swaps
         for j, link in enumerate(alignment.links):
-            if own and any(alignment.source[i] != alignment.target[j] for i, _ in link):
+            if own and j in swaps:
                 continue  # a swapped word keeps its own column
             for i, w in link:
                 links[i, j] = w

@@ -78,7 +78,13 @@ class WordAlignment:
     def changed(self) -> bool:
         return self.source != self.target
 
-    def rows(self, *, swapped: str = "reference") -> list[str]:
+    @property
+    def swaps(self) -> frozenset[int]:
+        """Edited words put in other words' place ('jumps' → 'kicks'): their indices in ``target``."""
+        return frozenset(j for src, dst in self.groups if src and dst and
+                         [self.source[i] for i in src] != [self.target[k] for k in dst] for j in dst)
+
+    def rows(self, *, swapped: str = SWAPPED_DEFAULT) -> list[str]:
         """One line per aligned group: kept ('a' = 'a'), swapped ('jumps' → 'kicks'), inserted, dropped.
         ``swapped``: as ``ReplaceConfig.swapped`` ("own": a swapped word keeps its own attention)."""
         out = []
@@ -116,7 +122,7 @@ class WordAlignment:
                 out.append(f"−'{a}'")
         return out
 
-    def describe(self, *, swapped: str = "reference") -> str:
+    def describe(self, *, swapped: str = SWAPPED_DEFAULT) -> str:
         how = ("word by word (prompt-to-prompt's replace)" if self.mode == WORD_BY_WORD else
                f"as prompt-to-prompt refines ({len(self.source)} → {len(self.target)} words)")
         return f"aligned {how}: " + ", ".join(self.rows(swapped=swapped))
