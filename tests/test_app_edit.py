@@ -533,6 +533,12 @@ def test_a_session_opens_on_its_models_calibrated_emphasis_mode(tiny_model_dir, 
         tab.weight.value = 0.45
         tab.mode.value = "mul"
         assert tab.settings.weight == DEFAULT_WEIGHTS["mul"]
+        assert tab.settings.layers == [0] and tab.layers.value == [0]  # the layers calibrated for mul
+        tab.mode.value = "guide"  # the word erased in every layer: the calibrated layers are mul's
+        assert (tab.weight.start, tab.weight.end, tab.settings.weight) == (-1.0, 1.0, DEFAULT_WEIGHTS["guide"])
+        assert tab.settings.layers == [] and tab.layers.value == []
+        tab.mode.value = "mul"
+        assert tab.settings.layers == [0]
     finally:
         st.close()
     plain = Studio(model_dir=tiny_model_dir, initial=None)  # no calibrated mode: the paper's add, +0.3

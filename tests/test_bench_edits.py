@@ -74,6 +74,10 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     assert result["counting"]["samples"] == 2
     assert 0.0 <= result["counting"]["attention"] <= 1.0 and 0.0 <= result["counting"]["baseline"] <= 1.0
     assert -1.0 <= result["emphasis_spearman"] <= 1.0
+    e = result["emphasis"]
+    assert e["mode"] == "add" and set(e["other_modes"]) == {"mul", "guide"}  # the tiny model is not calibrated
+    assert e["other_modes"]["guide"]["every_layer"] and e["other_modes"]["guide"]["weights"] == [-0.5, 0.0, 1.0]
+    assert all(-1.0 <= o["spearman"] <= 1.0 for o in e["other_modes"].values())
     r = result["replacement"]
     assert r["pairs"] + r["pairs_without_walk"] == 4  # 2 prompt pairs x 2 seeds
     assert sum(len(v) for v in r["per_pair"].values()) == r["pairs"]
@@ -98,6 +102,7 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     table = format_table(json.loads(json.dumps(result, default=float)))
     assert table == format_table(result)
     assert f"({result['counting']['samples']} motions)" in table
+    assert "  in guide mode (every layer): Spearman" in table
     assert f"evaluator): {r['edit_recognized']:.2f}" in table
     assert sum(line.startswith("  a person walks forward then") for line in table.splitlines()) == len(r["per_pair"])
     assert table.splitlines()[-1].startswith("3 sampling steps, guidance 2.5, eta 1, 3.0-s motions")

@@ -9,7 +9,8 @@ from engine.checkpoint import load_model
 from engine.evaluation.calibrate_edits import CalibrationConfig, calibrate_emphasis, write_calibration
 from engine.methods.edit_options import EditOptions, build_config, calibrated_layers, default_window
 
-TINY = CalibrationConfig(prompts=(("a person jumps", "jumps"),), points=3, seeds=1, steps=2, seconds=1.0)
+TINY = CalibrationConfig(prompts=(("a person jumps", "jumps"),), points=3, seeds=1, steps=2, seconds=1.0,
+                         modes=("add", "mul"))  # the modes searched layer by layer
 ADD = CalibrationConfig(**{**TINY.__dict__, "modes": ("add",)})  # one mode: the layer selection alone
 
 
@@ -21,6 +22,11 @@ def test_default_window_reads_calibrated_layers():
     assert default_window("shift", config).layers is None  # only emphasis-like edits are calibrated
     assert default_window("shift", config).end == 0.4
     assert calibrated_layers({"edits": {"emphasize_layers": None}}) is None
+    # the layers belong to the calibrated mode ("add" where none is named): another mode acts in every layer
+    assert default_window("emphasize", config, "add").layers == (1, 4, 5)
+    assert default_window("emphasize", config, "guide").layers is None
+    assert build_config(EditOptions(kind="emphasize", word="jumps", mode="guide"), frames=40,
+                        model_config=config).window.layers is None
     opts = EditOptions(kind="emphasize", word="jumps")
     assert build_config(opts, frames=40, model_config=config).window.layers == (1, 4, 5)
     # the user's layers win over the calibration
@@ -169,3 +175,25 @@ def test_the_calibrated_mode_is_the_default_of_emphasis_and_its_weight_follows(t
     assert (ground.mode, ground.weight) == ("add", DEFAULT_WEIGHTS["add"])
     with pytest.raises(ValueError, match="unknown emphasis mode"):
         calibrated_mode({"edits": {"emphasize_mode": "pow"}})
+
+
+def test_guide_mode_is_measured_once_over_every_layer_and_kept_when_it_responds_best(tiny_model_dir, monkeypatch):
+    import engine.evaluation.calibrate_edits as cal
+
+    loaded = load_model(tiny_model_dir)
+    n = loaded.model.num_layers
+    assert "guide" in CalibrationConfig().modes  # a full calibration measures it
+    seen = []
+
+    def response(_loaded, layers, _config, mode):
+        seen.append((mode, tuple(layers)))
+        if mode == "guide":
+            return cal.Response(0.8, 0.3)
+        return cal.Response(0.5 if tuple(layers) == (0,) else -1.0, 0.1)
+
+    monkeypatch.setattr(cal, "response", response)
+    config = CalibrationConfig(**{**TINY.__dict__, "modes": ("add", "guide"), "threshold": 0.3})
+    result = calibrate_emphasis(loaded, config, log=lambda _: None)
+    assert [s for s in seen if s[0] == "guide"] == [("guide", tuple(range(n)))]  # one measurement, every layer
+    assert result["mode"] == "guide" and result["layers"] == list(range(n)) and result["response"] == 0.8
+    assert result["modes"]["add"]["layers"] == [0] and result["weights"]["guide"] == [-0.5, 0.0, 1.0]

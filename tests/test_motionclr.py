@@ -231,3 +231,32 @@ def test_counting_run_chooses_layers_and_steps():
         CountingRun(skip_layers=1.0)
     with pytest.raises(ValueError, match="steps"):
         CountingRun(steps=(0.8, 0.2))
+
+
+def test_guide_mode_moves_the_out_slot_away_from_the_word_erased_and_nothing_else():
+    from engine.methods.motionclr import erased
+    from engine.methods.word_guidance import WordGuidance
+
+    model, c = tiny(), cond(("ref", "out"))
+    x = torch.randn(2, FRAMES, 263, generator=torch.Generator().manual_seed(2))
+    t = torch.full((2,), 300)
+    cfg = ReweightConfig(word="jumps", weight=0.5, mode="guide", window=Window(0.0, 0.5))
+    plain = model(x, t, c, step=1)
+    # guide mode changes no attention map by itself: the controller is a no-op and the output bit-identical
+    assert torch.equal(model(x, t, c, step=1, controller=Reweight(cfg, num_steps=10)), plain)
+    erase = Reweight(erased(cfg), num_steps=10)
+    without = model(x, t, c, step=1, controller=erase)
+    assert (without[1] - plain[1]).abs().max() > 1e-4  # erasing the word changes the prediction
+
+    def guided(weight, step=1):
+        return WordGuidance(model, erase=erase, weight=weight, role="out", steps=erase.window.steps)(x, t, c, step=step)
+
+    assert torch.equal(guided(0.5)[0], plain[0])  # the ref slot keeps the plain prediction
+    assert torch.allclose(guided(0.5)[1], plain[1] + 0.5 * (plain[1] - without[1]), atol=1e-6)
+    assert torch.allclose(guided(-1.0)[1], without[1], atol=1e-6)  # -1: the word erased
+    assert torch.equal(guided(0.0), plain)
+    assert torch.equal(guided(0.5, step=7), plain)  # outside the step window: no guidance
+    with pytest.raises(ValueError, match="between -1 and 1"):
+        ReweightConfig(word="jumps", weight=1.5, mode="guide")
+    with pytest.raises(ValueError, match="add, mul, guide"):
+        ReweightConfig(word="jumps", mode="scale")

@@ -49,7 +49,9 @@ from engine.evaluation.evaluator import LoadedEvaluator
 from engine.evaluation.metrics import diversity, fid
 from engine.generate import Request, SampleConfig, generate
 from engine.methods import edits
-from engine.methods.edit_options import EditOptions, calibrated_layers, calibrated_mode, run_edit, sweep_weights
+from engine.methods.edit_options import (
+    SWEEP_WEIGHTS, EditOptions, calibrated_layers, calibrated_mode, run_edit, sweep_weights,
+)
 from engine.methods.motionclr import ExampleConfig, Ground, GroundingConfig, ReplaceConfig, ShiftConfig
 from engine.representation import SLICES, joints_to_features
 from engine.skeleton import JOINT_INDEX
@@ -66,6 +68,8 @@ class EditBenchConfig:
                                          "a person waves the right hand")
     emphasis_seeds: int = 3
     emphasis_points: int = 5  # of the calibrated mode's sweep (engine.methods.edit_options.SWEEP_WEIGHTS): 5 or 3
+    #: modes measured beside the calibrated one (the headline figure), each in its own default layers; () = none
+    emphasis_other_modes: tuple[str, ...] = tuple(SWEEP_WEIGHTS)
     pairs: int = 7
     replacement_seeds: int = 6  # 42 draws: "verb recognised" is a share, and 21 draws left it a +-0.1 guess
     shift_prompts: int = 7
@@ -212,9 +216,12 @@ def bench_counting(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -
             "by_method": by_method}
 
 
-def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -> tuple[dict, list[np.ndarray]]:
+def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, mode: str | None = None,
+                   log=print) -> tuple[dict, list[np.ndarray]]:
+    """Emphasis in ``mode`` (None: the calibrated one, as `moattn edit emphasize` and the studio act without
+    --mode), in that mode's default layers."""
     frames = int(config.seconds * 20)
-    mode = calibrated_mode(loaded.config)  # as `moattn edit emphasize` and the studio act without --mode
+    mode = mode or calibrated_mode(loaded.config)
     weights = sweep_weights(mode, config.emphasis_points)
     draws, outputs, per_prompt, jump_rhos = [], [], {}, []
     for prompt in config.emphasis_prompts:
@@ -232,13 +239,14 @@ def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, log=print) -
                 jump_rhos.append(draw["spearman"])
             per_prompt.setdefault(prompt, []).append({"seed": seed, "amplitudes": [round(h, 3) for h in heights],
                                                       **draw})
-            log(f"emphasis {prompt!r} seed {seed}: rho {draw['spearman']:.2f}, change {draw['change']:+.0%}, "
+            log(f"emphasis ({mode}) {prompt!r} seed {seed}: rho {draw['spearman']:.2f}, change {draw['change']:+.0%}, "
                 f"amplitudes {np.round(heights, 3).tolist()}")
     return {"spearman": float(np.mean([d["spearman"] for d in draws])),
             "change": float(np.mean([d["change"] for d in draws])),
             "visible": float(np.mean([d["visible"] for d in draws])), "per_prompt": per_prompt,
             "jumps_min": float(min(jump_rhos)) if jump_rhos else None, "mode": mode, "weights": list(weights),
-            "layers": list(calibrated_layers(loaded.config) or range(loaded.model.num_layers))}, outputs
+            "layers": list(calibrated_layers(loaded.config, mode) or range(loaded.model.num_layers)),
+            "every_layer": calibrated_layers(loaded.config, mode) is None}, outputs
 
 
 def _pairs(loaded: LoadedModel, n: int) -> list[tuple[str, str]]:
@@ -446,6 +454,10 @@ def bench_edits(loaded: LoadedModel, evaluator: LoadedEvaluator, config: EditBen
     reference = evaluator.motion_embeddings(load_split("test", count=config.reference_samples).features)
     counting = bench_counting(loaded, config, log=log)
     emphasis, emph_out = bench_emphasis(loaded, config, log=log)
+    emphasis["other_modes"] = {m: bench_emphasis(loaded, config, mode=m, log=log)[0]
+                               for m in config.emphasis_other_modes if m != emphasis["mode"]}
+    for other in emphasis["other_modes"].values():
+        other.pop("per_prompt")  # the headline mode's draws are kept; the others' figures suffice
     replacement, repl_out = bench_replacement(loaded, evaluator, config, log=log)
     shifting, shift_out = bench_shift(loaded, config, log=log)
     example = bench_example(loaded, evaluator, reference, config, log=log)
@@ -491,6 +503,10 @@ def format_grounding(g: dict) -> str:
             f"{outside}, attention count {attention}")
 
 
+def _layers_text(emphasis: dict) -> str:
+    return "every layer" if emphasis.get("every_layer") else "layers " + ", ".join(map(str, emphasis["layers"]))
+
+
 def format_table(result: dict) -> str:
     """The human-readable report of a :func:`bench_edits` result (also of a saved ``--json``)."""
     c, r, e = result["counting"], result["replacement"], result["example_based"]
@@ -507,6 +523,10 @@ def format_table(result: dict) -> str:
             f"(rho >= 0.8, >= {VISIBLE_CHANGE:.0%}) {result['emphasis']['visible']:.2f}" if "change" in result["emphasis"]
             else "") + (f"; lowest 'jumps' draw {result['emphasis']['jumps_min']:.2f}"
                         if result["emphasis"].get("jumps_min") is not None else ""),
+        *[f"  in {m} mode ({_layers_text(o)}): Spearman {o['spearman']:.2f}, change "
+          f"{o['change']:+.0%}, visibly bigger {o['visible']:.2f}"
+          + (f", lowest 'jumps' draw {o['jumps_min']:.2f}" if o.get("jumps_min") is not None else "")
+          for m, o in result["emphasis"].get("other_modes", {}).items()],
         f"replacement timing IoU: {r['iou']:.2f} (same noise, no replacement: {r['iou_without_replacement']:.2f}; "
         f"{r['pairs']} draws timed (prompt pairs x seeds), {r['pairs_without_walk']} whose reference does not walk)",
     ]

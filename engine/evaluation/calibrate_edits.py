@@ -9,8 +9,9 @@ on base v5 the rank correlation alone chose a layer whose emphasis moved the amp
 prompts that the benchmark does not use, and builds the
 layer set by forward selection (layers interact, so a set is measured as a whole). It does so for each way of
 weighting the column, added (the paper's) or multiplied (which scales the word's pull where it already acts, not at
-every frame alike), and keeps the mode that responds best. The result goes into the model's
-``config.json`` ("edits": {"emphasize_mode": "add"|"mul", "emphasize_layers": [...], "calibration": {...}}), where
+every frame alike); guide mode (the prediction moved away from the one with the word erased,
+:mod:`engine.methods.word_guidance`) is measured once, over every layer. It keeps the mode that responds best. The result goes into the model's
+``config.json`` ("edits": {"emphasize_mode": "add"|"mul"|"guide", "emphasize_layers": [...], "calibration": {...}}), where
 the CLI, the app and the benchmark read it as the emphasis default (grounding acts in every layer: on the shipped model the
 calibrated layers put fewer jumps in the chosen spans than no grounding at all, see the edits bench's grounding row).
 """
@@ -115,8 +116,19 @@ def _better(trial: Response, current: Response, config: CalibrationConfig) -> bo
     return trial.score >= current.score - config.min_gain and bigger
 
 
+#: modes measured once with every layer, not layer by layer: guide's other pass is the prediction without the word,
+#: which erasing the word's column in every layer gives (a per-layer search would cost twice a plain mode's)
+WHOLE_MODEL_MODES = ("guide",)
+
+
 def _select_layers(loaded: LoadedModel, config: CalibrationConfig, mode: str, log) -> dict:
     """Forward selection of the layers for one mode -> {"layers", "best" (their Response), "per_layer", "history"}."""
+    if mode in WHOLE_MODEL_MODES:
+        every = list(range(loaded.model.num_layers))
+        best = response(loaded, tuple(every), config, mode=mode)
+        log(f"{mode}: every layer: response {best.score:+.2f} (change {best.change:+.0%})")
+        return {"layers": every, "best": best, "per_layer": {},
+                "history": [{"layers": every, "response": round(best.score, 3), "change": round(best.change, 3)}]}
     per_layer: dict[int, Response] = {}
     for layer in range(loaded.model.num_layers):
         per_layer[layer] = response(loaded, (layer,), config, mode=mode)

@@ -153,8 +153,8 @@ def _style_config(o, *, frames, steps):
 # ------------------------------------------------------------------------------------------- in a few words
 def _describe_weighted(what: str):
     def describe(o, *, frames: int) -> str:
-        sign = "+" if o.mode == "add" and o.weight >= 0 else ""
-        w = f"{sign}{o.weight:.2f}" if o.mode == "add" else f"×{o.weight:.2f}"
+        sign = "+" if o.mode != "mul" and o.weight >= 0 else ""
+        w = f"×{o.weight:.2f}" if o.mode == "mul" else f"{sign}{o.weight:.2f}" + (" guided" if o.mode == "guide" else "")
         spans = ", ".join(f"{a}–{min(b, frames)}" for a, b in o.spans)
         return f"{what} '{o.word}' {w}" + (f" frames {spans}" if spans else "")
     return describe
@@ -212,8 +212,10 @@ def _run_style(loaded, options, config, **common):
 REGISTRY: dict[str, EditKind] = {k.name: k for k in (
     EditKind("emphasize", "emphasise",
              "Weight the picked word's cross-attention column: multiplied (×w: over 1 = more of that action, under "
-             "1 = less) or added (+w, the paper's form: positive = more, range ±0.5). It opens on the form and "
-             "layers measured to grow the action on this model.",
+             "1 = less) or added (+w, the paper's form: positive = more, range ±0.5); or guide (+w): move the motion "
+             "away from the one with the word erased (positive = more, -1 = the word erased; on the shipped model it "
+             "grows jumps and kicks most reliably, not waves). It opens on the form and layers measured to grow the "
+             "action on this model.",
              inputs=frozenset({"word", "weight", "mode", "frames"}), build=_emphasize_config,
              run=_run("reweight"), calibrated=True, describe=_describe_weighted("emphasise")),
     EditKind("erase", "erase",

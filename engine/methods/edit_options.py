@@ -28,13 +28,18 @@ Source = Any  # a prompt (str), or joints (T, 22, 3) of a real motion (DDIM-inve
 # engine.methods.motionclr.ReweightConfig checks the mode's own range).
 # Measured on the shipped model ("a person jumps twice", emphasis on "jumps", 3 seeds): the trunk's largest
 # pitch is 36 deg unedited, 55 deg at add +0.5 or mul x3, and 68 deg ("bent double") at add +1.0.
-WEIGHT_RANGES: dict[str, tuple[float, float]] = {"add": (-0.5, 0.5), "mul": (0.0, 3.0)}
+# "guide" (session 39) leaves the attention as it is and moves the prediction away from the one whose word column is
+# erased: x0 + w (x0 - x0 without the word); -1 is the word erased, and past +1 the extrapolation leaves the corpus.
+WEIGHT_RANGES: dict[str, tuple[float, float]] = {"add": (-0.5, 0.5), "mul": (0.0, 3.0), "guide": (-1.0, 1.0)}
+#: how each mode reads in a front end (the Edit tab's mode buttons)
+MODE_LABELS: dict[str, str] = {"add": "add +w", "mul": "multiply ×w", "guide": "guide +w"}
 WEIGHT_BOUNDS = (min(lo for lo, _ in WEIGHT_RANGES.values()), max(hi for _, hi in WEIGHT_RANGES.values()))
-#: the weight each mode starts from when none is given (the CLI, the Edit tab): add +0.3, multiply x2
-DEFAULT_WEIGHTS: dict[str, float] = {"add": 0.3, "mul": 2.0}
+#: the weight each mode starts from when none is given (the CLI, the Edit tab): add +0.3, multiply x2, guide +0.5
+DEFAULT_WEIGHTS: dict[str, float] = {"add": 0.3, "mul": 2.0, "guide": 0.5}
 #: the weights a benchmark or a calibration sweeps per mode, lowest to highest, the unedited weight in the middle
 #: (multiplying from x0.5 to x2 around the unedited x1, as adding goes from -0.4 to +0.4 around 0)
-SWEEP_WEIGHTS: dict[str, tuple[float, ...]] = {"add": (-0.4, -0.2, 0.0, 0.2, 0.4), "mul": (0.5, 0.75, 1.0, 1.5, 2.0)}
+SWEEP_WEIGHTS: dict[str, tuple[float, ...]] = {"add": (-0.4, -0.2, 0.0, 0.2, 0.4), "mul": (0.5, 0.75, 1.0, 1.5, 2.0),
+                                               "guide": (-0.5, -0.25, 0.0, 0.5, 1.0)}
 
 
 def weight_range_text() -> str:
@@ -87,11 +92,12 @@ class EditOptions:
                              help="which appearance of the word in the prompt, counted from 0")
     weight: float | None = option(None, bounds=WEIGHT_BOUNDS, step=0.05, label="Weight", help="emphasis weight",
                                   none="the mode's: " + ", ".join(f"{m} {w:g}" for m, w in DEFAULT_WEIGHTS.items()),
-                                  note=f"{weight_range_text()}; mul > 1 emphasises")
+                                  note=f"{weight_range_text()}; mul > 1 and guide > 0 emphasise")
     mode: str | None = option(None, choices=tuple(WEIGHT_RANGES), label="Mode",
                               none="emphasize: the mode calibrated for the model (moattn bench --edits --calibrate); "
                                    "else add",
-                              help="how the weight acts on the word's attention: added or multiplied")
+                              help="how the weight acts: added to or multiplied with the word's attention column, or guide: the "
+                                   "prediction moved away from the one with the word erased, x0 + w (x0 - x0 erased)")
     frames: Span | tuple[Span, ...] | None = option(
         None, parse=parse_spans, metavar="START:END[,START:END...]",
         help="the frame span(s) [start, end) the edit touches, e.g. 10:20; ground takes several, e.g. "
@@ -159,8 +165,11 @@ def option_spec(name: str) -> OptionSpec:
 CALIBRATED_KINDS = tuple(k for k, v in REGISTRY.items() if v.calibrated)
 
 
-def calibrated_layers(model_config: dict | None) -> tuple[int, ...] | None:
-    """The layers where emphasis measurably grows the action, as calibrated for this model (None = all)."""
+def calibrated_layers(model_config: dict | None, mode: str | None = None) -> tuple[int, ...] | None:
+    """The layers where emphasis measurably grows the action, as calibrated for this model (None = all). They belong
+    to the calibrated mode: emphasis in another ``mode`` acts in every layer (None)."""
+    if mode is not None and mode != calibrated_mode(model_config):
+        return None
     layers = ((model_config or {}).get("edits") or {}).get("emphasize_layers")
     return tuple(int(i) for i in layers) if layers else None
 
@@ -187,17 +196,17 @@ def with_defaults(options: EditOptions, model_config: dict | None = None) -> Edi
     return options if (mode, weight) == (options.mode, options.weight) else replace(options, mode=mode, weight=weight)
 
 
-def default_window(kind: str, model_config: dict | None = None) -> Window:
+def default_window(kind: str, model_config: dict | None = None, mode: str | None = None) -> Window:
     """The method's own step/layer window for an edit kind (what ``--step-window`` / ``--layers`` override).
 
-    ``model_config`` (a loaded model's config) supplies calibrated emphasis layers, see
-    :mod:`engine.evaluation.calibrate_edits`.
+    ``model_config`` (a loaded model's config) supplies calibrated emphasis layers for the calibrated mode (``mode``
+    None or that mode; another mode acts in every layer), see :mod:`engine.evaluation.calibrate_edits`.
     """
     from engine.methods.windows import Window
 
     entry = REGISTRY.get(kind)
     if kind in CALIBRATED_KINDS:
-        return Window(layers=calibrated_layers(model_config))
+        return Window(layers=calibrated_layers(model_config, mode))
     if entry is not None and entry.window is not None:
         return entry.window(model_config)
     return Window()
@@ -218,7 +227,8 @@ def build_config(options: EditOptions, *, frames: int, model_config: dict | None
     if not entry.is_edit:
         raise ValueError(f"{options.kind!r} is not an edit (counting is edits.count_generated / count_motion)")
     options = with_defaults(options, model_config)
-    return entry.build(options, frames=frames, steps=window(options, default_window(options.kind, model_config)))
+    return entry.build(options, frames=frames,
+                       steps=window(options, default_window(options.kind, model_config, options.mode)))
 
 
 def run_edit(loaded, options: EditOptions, *, frames: int, sample, record: bool = False,

@@ -16,14 +16,15 @@ from engine.analysis.counting import CountingConfig, CountResult, count_from_att
 from engine.attention import AttentionStore, StoreConfig, stack
 from engine.checkpoint import LoadedModel
 from engine.diffusion import StepState
-from engine.generate import Generation, Request, SampleConfig, generate
+from engine.generate import Generation, Request, SampleConfig, denoiser_for, generate
 from engine.methods.hooks import PinTrajectory
 from engine.methods.inversion import InversionConfig, invert
 from engine.methods.motionclr import (
     ExampleBased, ExampleConfig, Ground, GroundingConfig, Replace, ReplaceConfig, Reweight, ReweightConfig, Shift,
-    ShiftConfig, StyleTransfer, StyleTransferConfig,
+    ShiftConfig, StyleTransfer, StyleTransferConfig, erased,
 )
 from engine.methods.word_alignment import WordAlignment, align_words
+from engine.methods.word_guidance import WordGuidance
 
 Source = str | np.ndarray  # a prompt, or joints (T, 22, 3) of a real motion
 OnStep = Callable[[StepState], None] | None  # called after every sampling step (progress, cancel by raising)
@@ -62,18 +63,25 @@ def _store(record: bool) -> AttentionStore | None:
 
 
 def _pair_edit(loaded, prompt: str, controller, *, frames: int, sample: SampleConfig, record: bool,
-               roles=("ref", "out"), prompts=None, on_step: OnStep = None) -> EditOutput:
+               roles=("ref", "out"), prompts=None, on_step: OnStep = None, denoiser=None) -> EditOutput:
     store = _store(record)
     request = Request(prompts=list(prompts or [prompt, prompt]), frames=[frames] * len(roles), roles=list(roles),
                       noise=_noise(loaded, len(roles), frames, sample.seed))
-    gen = generate(loaded, request, sample, controller=stack(controller, store), on_step=on_step)
+    gen = generate(loaded, request, sample, controller=stack(controller, store), on_step=on_step, denoiser=denoiser)
     return EditOutput(generation=gen, before_role=roles[0], after_role=roles[1], store=store)
 
 
 def reweight(loaded: LoadedModel, prompt: str, config: ReweightConfig, *, frames: int,
              sample: SampleConfig = SampleConfig(), record: bool = False, on_step: OnStep = None) -> EditOutput:
-    """(De-)emphasis or erasing of ``config.word``: "ref" is the unedited motion, "out" the edited one."""
+    """(De-)emphasis or erasing of ``config.word``: "ref" is the unedited motion, "out" the edited one. Guide mode
+    samples through :class:`WordGuidance` (the word's column erased in the other pass) instead of a controller."""
     loaded.tokenizer.encode(prompt).word_index(config.word, config.occurrence)  # a clear error for a missing word
+    if config.mode == "guide":
+        erase = Reweight(erased(config), num_steps=sample.steps)
+        guided = WordGuidance(denoiser_for(loaded, sample), erase=erase, weight=config.weight, role=config.role,
+                              steps=erase.window.steps)
+        return _pair_edit(loaded, prompt, None, frames=frames, sample=sample, record=record, on_step=on_step,
+                          denoiser=guided)
     return _pair_edit(loaded, prompt, Reweight(config, num_steps=sample.steps), frames=frames, sample=sample, record=record,
                       on_step=on_step)
 

@@ -5,7 +5,7 @@ Batch slots are found by role name; words by word (never by raw token index).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -49,7 +49,9 @@ def halves(ctx: AttnCtx, *roles: str) -> list[tuple[int, ...]]:
 # ----------------------------------------------------------------------------- (de-)emphasis, erasing
 @dataclass(frozen=True)
 class ReweightConfig:
-    """(De-)emphasise a word: its cross-attention column gets +weight ("add") or ×weight ("mul").
+    """(De-)emphasise a word: its cross-attention column gets +weight ("add") or ×weight ("mul"); or "guide": the
+    column is left as it is and the prediction moves away from the one with the column erased
+    (:class:`engine.methods.word_guidance.WordGuidance`, built by :func:`engine.methods.edits.reweight`).
 
     ``frames`` limits the change to a frame interval [start, end) (None = all frames);
     ``role`` names the batch slots edited; ``occurrence`` picks a repeated word.
@@ -57,15 +59,15 @@ class ReweightConfig:
 
     word: str
     weight: float = 0.3
-    mode: Literal["add", "mul"] = "add"
+    mode: Literal["add", "mul", "guide"] = "add"
     window: Window = field(default_factory=Window)
     frames: tuple[int, int] | None = None
     role: str = "out"
     occurrence: int = 0
 
     def __post_init__(self) -> None:
-        if self.mode not in ("add", "mul"):
-            raise ValueError(f"mode must be 'add' or 'mul', got {self.mode!r}")
+        if self.mode not in WEIGHT_RANGES:
+            raise ValueError(f"mode must be one of {', '.join(WEIGHT_RANGES)}, got {self.mode!r}")
         lo, hi = WEIGHT_RANGES[self.mode]
         if not lo <= self.weight <= hi:
             raise ValueError(f"the {self.mode} weight must be between {lo:g} and {hi:g} (past that the body bends "
@@ -78,10 +80,11 @@ class Reweight(Controller):
     def __init__(self, config: ReweightConfig, *, num_steps: int):
         self.config = config
         self.window: BoundWindow = config.window.bind(num_steps)
+        self.needs_maps = config.mode != "guide"  # guide edits no map (WordGuidance does its work): a no-op here
 
     def on_probs(self, probs, ctx: AttnCtx):
         c = self.config
-        if ctx.kind != "cross" or not self.window.covers(ctx) or ctx.words is None:
+        if c.mode == "guide" or ctx.kind != "cross" or not self.window.covers(ctx) or ctx.words is None:
             return None
         slots = ctx.roles.slots(c.role)
         if not slots:
@@ -95,6 +98,11 @@ class Reweight(Controller):
             else:
                 probs[slot, :, rows, col] *= c.weight
         return probs
+
+
+def erased(config: ReweightConfig) -> ReweightConfig:
+    """The same word, occurrence, window, frames and role with its column erased (x0): guide mode's other pass."""
+    return replace(config, weight=0.0, mode="mul")
 
 
 def erase_config(word: str, *, frames: tuple[int, int] | None = None, factor: float = 0.1,

@@ -10,7 +10,7 @@ import param
 
 from app.components.option_params import param_for
 from engine.methods.edit_kinds import INPUTS, REGISTRY, EditKind
-from engine.methods.edit_options import DEFAULT_WEIGHTS, EditOptions, default_mode
+from engine.methods.edit_options import DEFAULT_WEIGHTS, MODE_LABELS, EditOptions, default_mode
 
 #: label shown in the tab -> ``moattn edit`` kind, and each kind's help: both from the engine's registry
 KIND_LABELS = {k.label: name for name, k in REGISTRY.items()}
@@ -32,7 +32,7 @@ class EditSettings(param.Parameterized):
     word = param_for(EditOptions, "word", default="")
     occurrence = param_for(EditOptions, "occurrence")
     # the modes, labelled; a session opens on the mode calibrated for its model (``for_session``)
-    mode = param_for(EditOptions, "mode", default="add", objects={"add +w": "add", "multiply ×w": "mul"})
+    mode = param_for(EditOptions, "mode", default="add", objects={label: m for m, label in MODE_LABELS.items()})
     weight = param_for(EditOptions, "weight", default=DEFAULT_WEIGHTS["add"])
     frames = param.Range(default=None, allow_None=True, doc="frame window [start, end) (None = the kind's default)")
     spans = param.List(default=[], item_type=tuple,

@@ -47,7 +47,7 @@ class EditTab(pn.viewable.Viewer):
                                                  variant="outline", css_classes=["edit-words"], margin=(2, 10),
                                                  sizing_mode="stretch_width", stylesheets=[WRAP_BUTTONS_CSS])
         self.mode = pn.widgets.RadioButtonGroup.from_param(e.param.mode, color="primary", variant="outline",
-                                                           css_classes=["edit-mode"], width=220)
+                                                           css_classes=["edit-mode"], width=270)
         for widget in (self.kind, self.mode):  # their tooltip below them: on the right it ran off the screen
             if isinstance(widget.description, str):
                 widget.description = Tooltip(content=widget.description, position="bottom")
@@ -400,6 +400,11 @@ class EditTab(pn.viewable.Viewer):
 
         self.weight.param.update(start=start, end=end, value=value)  # the widget writes the settings' weight
         e.weight = value
+        if changed and e.entry.calibrated:  # the calibrated layers belong to the calibrated mode: follow the switch
+            from engine.methods.edit_options import default_window
+
+            e.layers = sorted(default_window(e.entry.name, self._model_config(), e.mode).layers or [])
+            self._sync(lambda: setattr(self.layers, "value", list(e.layers)))
 
     def _alignment(self) -> tuple[bool, str]:
         try:

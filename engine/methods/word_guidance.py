@@ -1,0 +1,50 @@
+"""Emphasis by guidance (the "guide" mode of ``moattn edit emphasize``): a denoiser wrapper with the model's signature.
+
+MotionCLR (de-)emphasises a word by re-weighting its cross-attention column. In this project's small denoiser the
+response of the action to that weight is not monotone (session 38: "waves" barely answers it; some "jumps" draws
+shrink). Erasing the word's column, by contrast, removes its action reliably ("a person jumps" with "jumps" erased
+stands still). Guide mode uses that direction: on the edited slots
+
+    x0 = x0 + w (x0 - x0 with the word's column erased)
+
+so w > 0 pushes further along what the word adds, w < 0 towards the motion without it, and w = -1 is the word
+erased. The erasure is a :class:`engine.methods.motionclr.Reweight` (x0 on the column) acting in the edit's step
+window, layers and frames, so outside them the two predictions agree and nothing changes. Like classifier-free
+guidance, but against one word instead of the whole prompt.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import torch
+
+from engine.attention.controller import AttentionController
+from engine.model.denoiser import Condition
+
+
+@dataclass
+class WordGuidance:
+    """``denoiser`` guided away from its own prediction with ``erase`` acting (the word's column erased).
+
+    The erased pass runs with ``erase`` alone: a recording controller of the call (the attention store) sees the
+    guided call's own maps once, not the erased pass's. Slots other than ``role``'s keep the plain prediction.
+    """
+
+    denoiser: Callable
+    erase: AttentionController
+    weight: float
+    role: str = "out"
+    steps: frozenset[int] | None = None  # the sampling steps ``erase`` acts in (None: every step); elsewhere no guidance
+
+
+    def __call__(self, x: torch.Tensor, t: torch.Tensor, cond: Condition, *, step: int = 0,
+                 controller: AttentionController | None = None) -> torch.Tensor:
+        x0 = self.denoiser(x, t, cond, step=step, controller=controller)  # (B, T, D)
+        slots = cond.roles.slots(self.role)
+        if self.weight == 0.0 or not slots or (self.steps is not None and step not in self.steps):
+            return x0
+        erased = self.denoiser(x, t, cond, step=step, controller=self.erase)  # (B, T, D)
+        out = x0.clone()
+        out[slots] = x0[slots] + self.weight * (x0[slots] - erased[slots])
+        return out
