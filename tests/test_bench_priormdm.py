@@ -172,6 +172,7 @@ def check_drawn(control: dict) -> None:
             assert true["adherence"]["action_n"] == 2 and 0 <= true["action_match"] <= 1
     table = control_table(control)
     assert "share of the motions whose prompted action is detected" in table
+    assert f"; root+left_wrist: {len(drawn['paths']['root+left_wrist'])} paths" in table  # not only the root's list
     true_row = next(i for i, line in enumerate(table.splitlines()) if line.startswith("root ") and "true" in line)
     assert "drawn" in table.splitlines()[true_row + 1]  # drawn-path row right under the true-path row
     assert "drawn / true path error" in table

@@ -324,7 +324,9 @@ def format_table(result: dict) -> str:
             for task, rows in ratios.items()))
         paths = result["drawn"]["paths"]
         lines.append(f"drawn paths: root {', '.join(p['name'] for p in paths['root'])}; letters (left, right wrist) "
-                     f"{', '.join(p['name'].split('_')[1] for p in paths['left_wrist'])}")
+                     f"{', '.join(p['name'].split('_')[1] for p in paths['left_wrist'])}" + "".join(
+                         f"; {task}: {len(cases)} paths (root path k with letter k)"
+                         for task, cases in paths.items() if "+" in task))
     ratio = result["blending_fid_vs_inpainting"]
     lines.append("blending / inpainting FID (root + left wrist): " + ("n/a (no control models)" if ratio is None
                                                                        else f"{ratio:.2f} (target <= 0.5)"))
