@@ -68,6 +68,11 @@ def test_emphasis_changes_the_edit_and_keeps_the_reference(studio):
     assert after.attention is not None and after.attention.steps == (0, 2, 5, 7)
     assert after.attention.cross_maps.shape[-1] == 4
     assert "emphasise" in tab.result.object and tab.progress.value == 0  # the bar is empty once idle
+    # the result line says whether the action grew, by the emphasis bench's own measure
+    from engine.analysis.action_size import amplitude
+
+    size = f"{amplitude(before.joints, 'jumps'):.2f} → {amplitude(after.joints, 'jumps'):.2f} m"
+    assert html.escape(f"action size 'jumps' (pelvis peak above its median height): {size}") in tab.result.object
 
 
 def test_emphasis_weight_sign_and_multiplicative_mode(studio):
@@ -551,6 +556,11 @@ def test_a_session_opens_on_its_models_calibrated_emphasis_mode(tiny_model_dir, 
                  "--model", str(folder), "--out", str(out), "--no-library"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert (report["mode"], report["weight"]) == ("mul", 2.0)
+    from engine.analysis.action_size import amplitude
+
+    size = report["action_size"]  # the edited motion's action, measured as the bench measures it
+    assert size["word"] == "jumps" and size["measure"] == "pelvis peak above its median height"
+    assert size["after_m"] == pytest.approx(amplitude(np.load(out), "jumps"), abs=1e-3)
 
 
 def test_switching_to_ground_after_a_multiplied_emphasis_takes_a_grounding_weight(tiny_model_dir, tmp_path):

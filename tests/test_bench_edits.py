@@ -7,7 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from engine.evaluation.bench_edits import (VISIBLE_CHANGE, EditBenchConfig, amplitude, bench_edits, emphasis_response,
+from engine.analysis.action_size import amplitude
+from engine.evaluation.bench_edits import (VISIBLE_CHANGE, EditBenchConfig, bench_edits, emphasis_response,
                                            format_table, grounding_spans, iou,
                                            nearer_first, root_speed, spans_hit, walk_threshold, walking_interval)
 from engine.generate import SampleConfig
@@ -147,3 +148,15 @@ def test_emphasis_response_scores_what_a_person_sees():
     assert smaller["score"] == pytest.approx(-1.0) and not smaller["visible"] and smaller["change"] < 0
     edge = emphasis_response((-0.4, 0.0, 0.4), [1.0, 1.0 + VISIBLE_CHANGE / 2, 1.0 + VISIBLE_CHANGE * 1.2])  # +11 % of the unedited
     assert edge["visible"] and edge["score"] == pytest.approx(1.0)
+
+
+def test_action_size_names_what_it_measures_and_skips_words_without_an_action():
+    from engine.analysis.action_size import size_change
+
+    low, high = _motion(jump=0.2), _motion(jump=0.3)
+    size = size_change("jumps", before=low, after=high)
+    assert size.measure == "pelvis peak above its median height"
+    assert size.before == pytest.approx(amplitude(low, "jumps")) and size.after == pytest.approx(amplitude(high, "jumps"))
+    assert size.relative == pytest.approx((size.after - size.before) / size.before)
+    assert size.describe().startswith("'jumps' (pelvis peak above its median height): 0.2") and "+" in size.describe()
+    assert size_change("person", before=low, after=high) is None  # no action to measure

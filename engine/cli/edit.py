@@ -152,6 +152,13 @@ def run(args: argparse.Namespace) -> int:
          recipe=cli_recipe(args, made_by="moattn edit", prompt=prompt, frames=frames, edit=args.kind))
     if args.kind == "ground":
         report["spans"] = spans_text(out.extra.get("spans", ()))
+    if args.kind in ("emphasize", "erase") and options.word:  # did the action grow (shrink)? the bench's measure
+        from engine.analysis.action_size import size_change
+
+        size = size_change(options.word, before=out.before, after=out.after)
+        if size is not None:
+            report["action_size"] = size.to_json()
+            print(f"action size {size.describe()}", file=sys.stderr, flush=True)
     if args.kind == "example":
         report.update(chunk_frames=options.chunk_frames, outputs=options.count)
     if args.render is not None:  # the studio's exporter: before and after side by side, titled as kept

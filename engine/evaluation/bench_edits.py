@@ -42,6 +42,7 @@ import torch
 from scipy.ndimage import gaussian_filter1d
 from scipy.stats import spearmanr
 
+from engine.analysis.action_size import amplitude
 from engine.analysis.counting import COUNTING_METHODS, CountingConfig, count_from_attention
 from engine.attention import AttentionStore, StoreConfig, stack
 from engine.checkpoint import LoadedModel
@@ -53,8 +54,7 @@ from engine.methods.edit_options import (
     SWEEP_WEIGHTS, EditOptions, calibrated_layers, calibrated_mode, run_edit, sweep_weights,
 )
 from engine.methods.motionclr import ExampleConfig, Ground, GroundingConfig, ReplaceConfig, ShiftConfig
-from engine.representation import SLICES, joints_to_features
-from engine.skeleton import JOINT_INDEX
+from engine.representation import joints_to_features
 from engine.units import DEFAULT_ETA, DEFAULT_GUIDANCE
 
 REPEATED_ACTIONS = ("jump", "hop", "squat", "clap", "kick", "punch", "wave", "bow", "jumping_jacks")
@@ -102,37 +102,6 @@ class EditBenchConfig:
 
 
 # ----------------------------------------------------------------------------- measurements on joints
-def body_frame(joints: np.ndarray) -> np.ndarray:
-    """Joints in the body frame, (T-1, 22, 3): x lateral and z forward relative to the root with the heading
-    removed, y the height above the floor (HumanML3D's "ric"; the root's own row is zero)."""
-    ric = joints_to_features(joints)[:, SLICES["ric"]].reshape(-1, 21, 3)
-    return np.concatenate([np.zeros((len(ric), 1, 3)), ric], axis=1)
-
-
-def amplitude(joints: np.ndarray, verb: str) -> float:
-    """How big the action is, measured as the corpus's ``intensity`` scales it.
-
-    jumps / hops: the pelvis's peak above its median height; waves: the wrist's side-to-side swing
-    (peak to peak of a sine with the high-passed lateral position's std, in the body frame); punches: the wrist's forward
-    reach; kicks and anything else: the moving limb's height range.
-    """
-    if verb.startswith("jump") or verb.startswith("hop"):
-        pelvis = joints[:, 0, 1]
-        return float(pelvis.max() - np.median(pelvis))
-    wrists = [JOINT_INDEX["right_wrist"], JOINT_INDEX["left_wrist"]]
-    if verb.startswith("wave"):
-        lateral = body_frame(joints)[:, wrists, 0]
-        swing = lateral - gaussian_filter1d(lateral, 6.0, axis=0, mode="nearest")
-        return float(2.0 * np.sqrt(2.0) * swing.std(axis=0).max())
-    if verb.startswith("punch"):
-        forward = body_frame(joints)[:, wrists, 2]
-        return float((forward.max(0) - forward.min(0)).max())
-    limbs = {"kick": ("right_foot", "left_foot"), "clap": ("right_wrist", "left_wrist")}
-    names = next((v for k, v in limbs.items() if verb.startswith(k)), ("right_wrist", "left_wrist"))
-    heights = joints[:, [JOINT_INDEX[n] for n in names], 1]
-    return float((heights.max(0) - heights.min(0)).max())
-
-
 def root_speed(joints: np.ndarray) -> np.ndarray:
     """Smoothed horizontal root speed per frame (m/s)."""
     v = np.linalg.norm(np.diff(joints[:, 0, [0, 2]], axis=0), axis=-1) * 20

@@ -89,7 +89,8 @@ class Response(NamedTuple):
 
 def response(loaded: LoadedModel, layers: tuple[int, ...], config: CalibrationConfig, *, mode: str = "add") -> Response:
     """The mean emphasis response over the calibration prompts and seeds, emphasis in ``layers`` only, in ``mode``."""
-    from engine.evaluation.bench_edits import amplitude, emphasis_response
+    from engine.analysis.action_size import amplitude
+    from engine.evaluation.bench_edits import emphasis_response
 
     frames = int(config.seconds * 20)
     weights = config.weights(mode)

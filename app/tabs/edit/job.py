@@ -21,8 +21,12 @@ from app.session.items import MotionItem
 from app.session.jobs import Delivery, JobDescription, Worker
 from app.session.counting import CountReadout, auto_count, count_imported
 from app.tabs.edit.settings import PROMPT_SOURCE, EditSettings, EditSummary
+from engine.analysis.action_size import size_change
 from engine.methods.edit_kinds import EditKind
 from engine.methods.word_alignment import SWAPPED_DEFAULT
+
+#: edits whose result line reports the word's action size before and after (emphasis and erasure change it)
+SIZED_KINDS = ("emphasize", "erase")
 
 RECORD_BUDGET = 400 * 1024 * 1024  # the edit's AttentionStore keeps 512 MB at most: stay below it
 
@@ -299,8 +303,11 @@ class EditJob:
         first = afters[0]
         n = min(len(first.joints), len(before.joints))
         diff = float(np.linalg.norm(first.joints[:n] - before.joints[:n], axis=-1).max()) if n else 0.0
+        size = (size_change(job.options.word, before=before.joints, after=first.joints)
+                if job.kind.name in SIZED_KINDS and job.options.word else None)
         summary = EditSummary(kind=job.label, description=job.description, before=before.name,
-                              after=[a.name for a in afters], seconds_taken=result.seconds_taken, max_difference=diff)
+                              after=[a.name for a in afters], seconds_taken=result.seconds_taken, max_difference=diff,
+                              size="" if size is None else size.describe())
         return Delivery(items=[*new, *afters], show=first.name, compare=before.name,
                         status=f"{job.description}: done in {result.seconds_taken:.1f} s ({job.sample.steps} steps)",
                         readout=(self.settings, {"last_edit": summary}))

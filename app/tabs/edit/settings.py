@@ -78,3 +78,4 @@ class EditSummary:
     after: list[str]
     seconds_taken: float
     max_difference: float  # max joint distance (m) between before and the first after, frame-wise
+    size: str = ""  # emphasis / erasure: the word's action size before and after (engine.analysis.action_size)

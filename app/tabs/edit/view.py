@@ -438,7 +438,9 @@ class EditTab(pn.viewable.Viewer):
         outs = ", ".join(f"*{html.escape(a)}*" for a in last.after)
         self.result.object = (f"**{html.escape(last.description)}** in {last.seconds_taken:.1f} s · "
                               f"before: *{html.escape(last.before)}* · after: {outs} · largest joint change "
-                              f"{last.max_difference:.2f} m. Shown side by side in the viewer.")
+                              f"{last.max_difference:.2f} m" + (f" · action size {html.escape(last.size)}"
+                                                                 if last.size else "")
+                              + ". Shown side by side in the viewer.")
 
     # ------------------------------------------------------------------ counting
     def _build_count_map(self) -> None:

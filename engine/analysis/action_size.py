@@ -1,0 +1,88 @@
+"""How big an action is, measured the way the corpus's ``intensity`` scales it (the emphasis benchmark's amplitude).
+
+``moattn bench --edits`` and the emphasis calibration rank it against the emphasis weight; ``moattn edit`` and the
+Edit tab report it before and after an emphasis or an erasure, so a user sees whether the action grew.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import gaussian_filter1d
+
+from engine.representation import SLICES, joints_to_features
+from engine.skeleton import JOINT_INDEX
+
+_WRISTS = ("right_wrist", "left_wrist")
+#: what is measured, per action family (a word's stem), and for any other word
+MEASURES: dict[str, str] = {
+    "jump": "pelvis peak above its median height", "hop": "pelvis peak above its median height",
+    "wave": "wrist's side-to-side swing", "punch": "wrist's forward reach", "kick": "foot's height range",
+    "clap": "wrist's height range",
+}
+OTHER_MEASURE = "wrist's height range"
+
+
+def body_frame(joints: np.ndarray) -> np.ndarray:
+    """Joints in the body frame, (T-1, 22, 3): x lateral and z forward relative to the root with the heading
+    removed, y the height above the floor (HumanML3D's "ric"; the root's own row is zero)."""
+    ric = joints_to_features(joints)[:, SLICES["ric"]].reshape(-1, 21, 3)
+    return np.concatenate([np.zeros((len(ric), 1, 3)), ric], axis=1)
+
+
+def _family(verb: str) -> str | None:
+    return next((k for k in MEASURES if verb.startswith(k)), None)
+
+
+def amplitude(joints: np.ndarray, verb: str) -> float:
+    """How big the action is (m), measured as the corpus's ``intensity`` scales it.
+
+    jumps / hops: the pelvis's peak above its median height; waves: the wrist's side-to-side swing
+    (peak to peak of a sine with the high-passed lateral position's std, in the body frame); punches: the wrist's forward
+    reach; kicks and anything else: the moving limb's height range.
+    """
+    family = _family(verb)
+    if family in ("jump", "hop"):
+        pelvis = joints[:, 0, 1]
+        return float(pelvis.max() - np.median(pelvis))
+    wrists = [JOINT_INDEX[w] for w in _WRISTS]
+    if family == "wave":
+        lateral = body_frame(joints)[:, wrists, 0]
+        swing = lateral - gaussian_filter1d(lateral, 6.0, axis=0, mode="nearest")
+        return float(2.0 * np.sqrt(2.0) * swing.std(axis=0).max())
+    if family == "punch":
+        forward = body_frame(joints)[:, wrists, 2]
+        return float((forward.max(0) - forward.min(0)).max())
+    names = ("right_foot", "left_foot") if family == "kick" else _WRISTS
+    heights = joints[:, [JOINT_INDEX[n] for n in names], 1]
+    return float((heights.max(0) - heights.min(0)).max())
+
+
+@dataclass(frozen=True)
+class SizeChange:
+    """An action's size before and after an edit of its word."""
+
+    word: str
+    measure: str
+    before: float  # m
+    after: float  # m
+
+    @property
+    def relative(self) -> float:
+        return (self.after - self.before) / max(abs(self.before), 1e-6)
+
+    def describe(self) -> str:
+        return (f"'{self.word}' ({self.measure}): {self.before:.2f} → {self.after:.2f} m ({self.relative:+.0%})")
+
+    def to_json(self) -> dict:
+        return {"word": self.word, "measure": self.measure, "before_m": round(self.before, 4),
+                "after_m": round(self.after, 4), "change": round(self.relative, 4)}
+
+
+def size_change(word: str, *, before: np.ndarray, after: np.ndarray) -> SizeChange | None:
+    """The size of ``word``'s action in ``before`` and ``after`` (joints (T, 22, 3)); None for a word that names no
+    action this measures (e.g. "person")."""
+    if _family(word) is None:
+        return None
+    return SizeChange(word=word, measure=MEASURES[_family(word)], before=amplitude(before, word),
+                      after=amplitude(after, word))
