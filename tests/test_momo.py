@@ -22,7 +22,7 @@ from engine.methods.momo import (
 from engine.methods.momo_baselines import inpaint_upper_body, lower_body_dims, motion_space_nn
 from engine.methods.windows import Window
 from engine.representation import SLICES
-from engine.skeleton import JOINT_INDEX
+from engine.skeleton import FOOT_JOINTS, JOINT_INDEX
 from engine.synth import Corpus
 from engine.text import PromptError
 
@@ -82,7 +82,7 @@ def test_mixing_without_its_roles_is_a_clear_error():
 
 def test_an_empty_window_gives_the_plain_generation(loaded):
     """No mixing step: `out` is the follower prompt sampled from the leader's noise (up to batched float sums)."""
-    config = TransferConfig(start=0.5, end=0.5, root="none")
+    config = TransferConfig(start=0.5, end=0.5, root="none", flights=False)  # nothing taken from the leader
     sample = SampleConfig(steps=STEPS, guidance=2.0, seed=3)
     result = transfer(loaded, Source(prompt="a person walks forward", seconds=2), [Source(prompt="a person jumps", seconds=2)],
                       config, sample=sample)
@@ -379,3 +379,47 @@ def test_root_and_direction_options_fail_clearly(loaded):
         transfer_streams(loaded, stream, [stream], TransferConfig(directions=2), sample=SampleConfig(steps=2))
     with pytest.raises(ValueError, match="start must be between 0 and 1"):
         TransferConfig(start=-0.1)
+
+
+def _standing(frames: int = 40) -> np.ndarray:
+    """A still body: feet on the floor (y 0.05 for the ankles, 0 for the toes), the pelvis at 0.9 m."""
+    joints = np.zeros((frames, 22, 3))
+    joints[:, :, 1] = np.linspace(0.9, 1.6, 22)[None]
+    for ankle, toe in FOOT_JOINTS.values():
+        joints[:, ankle, 1], joints[:, toe, 1] = 0.05, 0.0
+    return joints
+
+
+def test_flight_lift_follows_the_leader_off_the_floor_and_never_pushes_down():
+    from engine.methods.momo import flight_lift
+
+    leader, out = _standing(), _standing()
+    leader[15:25, :, 1] += 0.3  # a jump: the whole body 0.3 m up for 10 frames
+    lift = flight_lift(leader, out)
+    assert lift.shape == (40,)
+    assert lift[17:23].min() == pytest.approx(0.3, abs=0.02) and lift[:10].max() == 0 and lift[29:].max() == 0
+    # an out already in the air is lifted only by what it lacks; a leader on the floor lifts nothing
+    out[15:25, :, 1] += 0.1
+    assert flight_lift(leader, out)[17:23].max() == pytest.approx(0.2, abs=0.02)
+    assert not flight_lift(_standing(), out).any()
+    crouch = _standing()
+    crouch[10:20, 0, 1] -= 0.3  # the pelvis lower, the feet on the floor: no lift, and never a push down
+    assert not flight_lift(crouch, _standing()).any()
+
+
+def test_flights_option_lifts_the_out_where_the_leader_leaves_the_floor(loaded, monkeypatch):
+    import engine.methods.momo as momo
+
+    sample = SampleConfig(steps=STEPS, guidance=2.0)
+    leader, follower = Source(prompt="a person jumps", seconds=2), Source(prompt="a person walks forward", seconds=2)
+    # a known lift (the tiny model's leader need not jump): 0.25 m over frames 10-19
+    monkeypatch.setattr(momo, "flight_lift", lambda lead, out: np.where((np.arange(len(out)) >= 10) &
+                                                                         (np.arange(len(out)) < 20), 0.25, 0.0))
+    lifted = transfer(loaded, leader, [follower], TransferConfig(flights=True), sample=sample)
+    plain = transfer(loaded, leader, [follower], TransferConfig(flights=False), sample=sample)
+    a, b = lifted.out(0), plain.out(0)
+    np.testing.assert_allclose(a[10:20, :, 1] - b[10:20, :, 1], 0.25, atol=1e-4)  # every joint, root included
+    np.testing.assert_allclose(a[:, :, [0, 2]], b[:, :, [0, 2]], atol=1e-5)  # the path and the pose stay
+    np.testing.assert_allclose(a[:10], b[:10], atol=1e-5)
+    np.testing.assert_array_equal(lifted.leader_joints(), plain.leader_joints())
+    assert TransferConfig().flights  # on by default: chosen by `moattn bench --transfer` (session 39)

@@ -48,6 +48,8 @@ Methods: ``momo`` (``TransferConfig()``, the default: its root mode is the one t
 ``momo_rotation`` (the paper's root: the leader's root rotation copied, the output's own speed),
 ``momo_trajectory`` (the leader's whole root path and speed inpainted; one of these two equals ``momo``),
 ``momo_feet`` (the default plus the leader's footwork kept, an option that is not in the paper),
+``momo_no_flights`` (the default without lifting the out with the leader's flights, ``TransferConfig.flights``:
+the paper's output, which a walking follower keeps on the floor under a jumping leader),
 ``momo_directions`` (the default plus the paper's direction trick: the follower and 3 turned copies,
 concatenated), ``nn_motion``, ``nn_latent``, ``inpaint_upper`` (see momo_baselines), and
 ``momo_gen`` (the paper's "MoMo Gen.": leader and follower generated from the pair's captions instead
@@ -95,8 +97,8 @@ from engine.units import DEFAULT_GUIDANCE
 
 LEADER_ACTIONS = ("walk", "run", "jog", "jump", "jump_forward", "dance", "side_step", "walk_backward", "hop")
 FOLLOWER_ACTIONS = ("walk", "run", "jog", "dance", "jump", "side_step")
-METHODS = ("momo", "momo_rotation", "momo_trajectory", "momo_feet", "momo_directions", "momo_gen", "nn_motion",
-           "nn_latent", "inpaint_upper")
+METHODS = ("momo", "momo_rotation", "momo_trajectory", "momo_feet", "momo_no_flights", "momo_directions", "momo_gen",
+           "nn_motion", "nn_latent", "inpaint_upper")
 DIRECTIONS = 4  # momo_directions: the follower and 3 turned copies (the paper's direction trick)
 REFERENCES = ("truth", "leader_copy")
 KEYS = ("fid", "r_precision_top3", "foot_contact", "follower_rot", "follower_loc", "gt_mpjpe", "gt_mpjpe_local")
@@ -343,10 +345,11 @@ def restate(row: dict, *, leader_copy: dict, nn_motion: dict, truth: dict) -> No
 
 
 def _variants() -> dict[str, TransferConfig]:
-    """The MoMo rows: the default config, both root modes, the footwork option, the direction trick."""
+    """The MoMo rows: the default config, both root modes, the footwork option, the out without the leader's
+    flights, the direction trick."""
     return {"momo": TransferConfig(), "momo_rotation": TransferConfig(root="rotation"),
             "momo_trajectory": TransferConfig(root="trajectory"), "momo_feet": TransferConfig(feet=True),
-            "momo_directions": TransferConfig(directions=DIRECTIONS)}
+            "momo_no_flights": TransferConfig(flights=False), "momo_directions": TransferConfig(directions=DIRECTIONS)}
 
 
 def _gen_prompt(loaded: LoadedModel, sample) -> str:

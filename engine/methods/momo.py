@@ -238,6 +238,8 @@ def transfer_streams(loaded: LoadedModel, leader: Stream, followers: Sequence[St
                    controller=stack(store, mix), hooks=hooks, on_step=on_step)
     if config.root == "rotation":
         copy_root_rotation(gen, leader_slot=0, out_slots=outs, frames=leader.frames)
+    if config.flights:
+        follow_flights(gen, leader_slot=0, out_slots=outs, frames=leader.frames)
     output = EditOutput(generation=gen, before_role=LEADER, after_role=OUT, store=store)
     return Transfer(output=output, leader=leader, followers=list(followers), config=config, copies=copies)
 
@@ -260,6 +262,44 @@ def copy_root_rotation(gen, *, leader_slot: int, out_slots: Sequence[int], frame
     for slot in out_slots:
         gen.features[slot, :frames, rot] = gen.features[leader_slot, :frames, rot]
         gen.joints[slot] = features_to_joints(gen.features[slot, :frames])
+
+
+#: a foot over this height (m) above its motion's own floor is off the floor (:func:`flight_lift`)
+FLIGHT_MARGIN = 0.05
+_FEET = [j for pair in FOOT_JOINTS.values() for j in pair]  # ankles and toes
+
+
+def flight_lift(leader: np.ndarray, out: np.ndarray, *, margin: float = FLIGHT_MARGIN) -> np.ndarray:
+    """(T,) metres to lift ``out`` (T, 22, 3) by so it leaves the floor where ``leader`` (T', 22, 3) does.
+
+    Each motion's floor is the 5th percentile of its lowest foot's height. Where the leader's lowest foot is over
+    ``margin`` above its floor, the out is lifted until its lowest foot is as high above its own floor (never
+    lowered); elsewhere 0; smoothed over a frame either side so the lift does not jump.
+    """
+    from scipy.ndimage import gaussian_filter1d
+
+    n = min(len(leader), len(out))
+    lead_low, out_low = leader[:, _FEET, 1].min(1), out[:, _FEET, 1].min(1)  # (T,) each
+    lead_up = lead_low[:n] - np.percentile(lead_low, 5)
+    out_up = out_low[:n] - np.percentile(out_low, 5)
+    lift = np.where(lead_up > margin, np.maximum(lead_up - out_up, 0.0), 0.0)
+    full = np.zeros(len(out))
+    full[:n] = gaussian_filter1d(lift, 1.0) if n > 1 else lift
+    return full
+
+
+def follow_flights(gen, *, leader_slot: int, out_slots: Sequence[int], frames: int) -> None:
+    """The outputs lifted with the leader's flights (:func:`flight_lift`): their root height and every joint's
+    height feature move together, and their joints are rebuilt from the features."""
+    lead = gen.joints[leader_slot][:frames]
+    heights = [SLICES["root_height"].start] + [ric_dims(j)[1] for j in range(1, lead.shape[1])]
+    for slot in out_slots:
+        lift = flight_lift(lead, gen.joints[slot][:frames])
+        if not lift.any():
+            continue
+        features = gen.features[slot]  # (T, D), a view
+        features[:frames, heights] += lift[:, None].astype(features.dtype)
+        gen.joints[slot] = features_to_joints(features[:frames])
 
 
 def transfer(loaded: LoadedModel, leader: Source, followers: Sequence[Source], config: TransferConfig = TransferConfig(),

@@ -72,6 +72,12 @@ class TransferConfig:
                              "and ankles' root-relative positions are inpainted at every step, so the output steps "
                              "exactly where and when the leader does and the follower shows in the rest of the body "
                              "(its own gait style and walk -> run changes are given up)")
+    flights: bool = option(True, label="lift the out with the leader's flights (not in the paper)",
+                           help="where the leader is off the floor (its lowest foot over 5 cm above its own floor: a "
+                                "jump, a hop), the finished out is lifted so its lowest foot is as high above its "
+                                "floor as the leader's: MoMo builds the out from its follower's values, and a walking "
+                                "follower has no airborne frame, so without this a jumping leader's out stays on the "
+                                "floor (session 38)")
     directions: int = option(
         1, bounds=(1, MAX_DIRECTIONS), whole=True, metavar="N", label="Follower directions (the paper's direction trick)",
         help="the paper's direction trick: each output attends over this many copies of its follower, concatenated "

@@ -118,7 +118,7 @@ def prepare(state, settings: TransferSettings) -> TransferPlan:
     extra = more_followers(cfg.more_followers, seconds=cfg.follower.seconds, loaded=loaded)
     layers = None if cfg.layers is None else tuple(range(int(cfg.layers[0]), int(cfg.layers[1]) + 1))
     config = TransferConfig(start=float(cfg.steps[0]), end=float(cfg.steps[1]), layers=layers, root=cfg.root,
-                            feet=bool(cfg.feet), directions=int(cfg.directions))
+                            feet=bool(cfg.feet), flights=bool(cfg.flights), directions=int(cfg.directions))
     window = config.window(loaded.model.config.layers)  # layers outside the model fail here, with the range
     streams = (1 + len(extra)) * config.directions
     if streams > MAX_FOLLOWER_STREAMS:

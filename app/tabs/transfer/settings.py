@@ -61,6 +61,7 @@ class TransferSettings(param.Parameterized):
     color_by = param.Selector(default="roles", objects=list(COLOR_BY), label="Skeleton colours",
                               doc="skeleton colours in the viewer")
     feet = param_for(TransferConfig, "feet")
+    flights = param_for(TransferConfig, "flights")
     more_followers = param.String(default="", label="More followers (optional): one prompt per line, each gets its "
                                                     "own out",
                                   doc="more follower prompts, one per line: the leader drives each of them too (one "

@@ -163,6 +163,7 @@ class TransferTab(pn.viewable.Viewer):
         self.root = pn.widgets.RadioButtonGroup.from_param(t.param.root, color="primary", variant="outline",
                                                            css_classes=["transfer-root"])
         self.feet = pn.widgets.Checkbox.from_param(t.param.feet, css_classes=["transfer-feet"])
+        self.flights = pn.widgets.Checkbox.from_param(t.param.flights, css_classes=["transfer-flights"])
         self.directions = pn.widgets.IntSlider.from_param(t.param.directions, css_classes=["transfer-directions"],
                                                           sizing_mode="stretch_width")
         self.root_help = pn.pane.Markdown(self._root_help(), css_classes=["transfer-root-help"], margin=(0, 10),
@@ -238,7 +239,8 @@ class TransferTab(pn.viewable.Viewer):
     def __panel__(self):
         sources = pn.Row(self.leader, self.follower)
         settings = pn.Column(self.more, self.layers, self.steps, pn.pane.Markdown("Root of the out", margin=(0, 10)),
-                             self.root, self.root_help, self.directions, self.feet, sizing_mode="stretch_width")
+                             self.root, self.root_help, self.directions, self.feet, self.flights,
+                             sizing_mode="stretch_width")
         colours = pn.Row(pn.pane.Markdown("Skeleton colours", margin=(8, 10)), self.color)
         return pn.Column(sources, settings, self.bar, self.result, pn.Row(self.show), colours, self.analysed_row,
                          pn.layout.Divider(), self.plots, css_classes=["transfer-tab"], sizing_mode="stretch_width")
