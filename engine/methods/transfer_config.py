@@ -17,7 +17,8 @@ from engine.options import option
 ROOT_CHOICES: dict[str, tuple[str, str]] = {
     "trajectory": ("leader's path",
                    "the leader's root rotation and linear velocity are inpainted at every step: the output keeps the "
-                   "leader's path and speed (a walk -> run runs at walking speed); its root height stays its own"),
+                   "leader's path and speed (a walk -> run runs at walking speed); its root height stays its own (but "
+                   "see the flights option)"),
     "rotation": ("leader's heading (paper)",
                  "the paper's fix: the leader's root rotation (angular velocity about the vertical) is copied into the "
                  "finished output, which keeps its own speed and stride (a walk -> run runs at running speed) but "
