@@ -256,7 +256,7 @@ def test_guide_mode_moves_the_out_slot_away_from_the_word_erased_and_nothing_els
     assert torch.allclose(guided(-1.0)[1], without[1], atol=1e-6)  # -1: the word erased
     assert torch.equal(guided(0.0), plain)
     assert torch.equal(guided(0.5, step=7), plain)  # outside the step window: no guidance
-    with pytest.raises(ValueError, match="between -1 and 1"):
+    with pytest.raises(ValueError, match=r"between -1 and 1 \(-1 is the word erased"):
         ReweightConfig(word="jumps", weight=1.5, mode="guide")
     with pytest.raises(ValueError, match="add, mul, guide"):
         ReweightConfig(word="jumps", mode="scale")

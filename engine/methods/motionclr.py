@@ -70,8 +70,9 @@ class ReweightConfig:
             raise ValueError(f"mode must be one of {', '.join(WEIGHT_RANGES)}, got {self.mode!r}")
         lo, hi = WEIGHT_RANGES[self.mode]
         if not lo <= self.weight <= hi:
-            raise ValueError(f"the {self.mode} weight must be between {lo:g} and {hi:g} (past that the body bends "
-                             f"out of shape), got {self.weight:g}")
+            why = ("-1 is the word erased; past +1 the motion leaves the corpus" if self.mode == "guide"
+                   else "past that the body bends out of shape")
+            raise ValueError(f"the {self.mode} weight must be between {lo:g} and {hi:g} ({why}), got {self.weight:g}")
 
 
 class Reweight(Controller):
