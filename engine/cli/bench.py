@@ -179,10 +179,14 @@ def run_calibration(args: argparse.Namespace) -> int:
     print("emphasis response (mean rank correlation of weight vs amplitude, scaled down where the change is under "
           "10 %, on the calibration prompts), per mode:")
     for mode, row in result["modes"].items():
-        singles = "  ".join(f"{layer}: {rho:+.2f}" for layer, rho in row["per_layer"].items())
-        print(f"  {mode} ({', '.join(f'{w:g}' for w in result['weights'][mode])}), layer alone: {singles}")
-        print(f"  {mode}, layers {', '.join(map(str, row['layers']))}: {row['response']:+.2f} "
-              f"(change {row['change']:+.0%})")
+        weights = ", ".join(f"{w:g}" for w in result["weights"][mode])
+        if row["per_layer"]:  # a mode searched layer by layer (guide is measured once, over every layer)
+            singles = "  ".join(f"{layer}: {rho:+.2f}" for layer, rho in row["per_layer"].items())
+            print(f"  {mode} ({weights}), layer alone: {singles}")
+            where = "layers " + ", ".join(map(str, row["layers"]))
+        else:
+            where = f"({weights}) every layer"
+        print(f"  {mode}, {where}: {row['response']:+.2f} (change {row['change']:+.0%})")
     for row in result["history"]:
         print(f"  {result['mode']}: layers {', '.join(map(str, row['layers']))}: {row['response']:+.2f} "
               f"(change {row['change']:+.0%})")
