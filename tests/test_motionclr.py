@@ -245,6 +245,9 @@ def test_guide_mode_moves_the_out_slot_away_from_the_word_erased_and_nothing_els
     # guide mode changes no attention map by itself: the controller is a no-op and the output bit-identical
     assert torch.equal(model(x, t, c, step=1, controller=Reweight(cfg, num_steps=10)), plain)
     erase = Reweight(erased(cfg), num_steps=10)
+    out_only = c.take([1])  # the erased pass runs on the out slot alone: its tensors, role and words
+    assert out_only.roles.names == ("out",) and out_only.words.words == (c.words.words[1],)
+    assert torch.equal(out_only.text_ids, c.text_ids[1:]) and torch.equal(out_only.frame_mask, c.frame_mask[1:])
     without = model(x, t, c, step=1, controller=erase)
     assert (without[1] - plain[1]).abs().max() > 1e-4  # erasing the word changes the prediction
 

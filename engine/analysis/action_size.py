@@ -14,13 +14,12 @@ from engine.representation import SLICES, joints_to_features
 from engine.skeleton import JOINT_INDEX
 
 _WRISTS = ("right_wrist", "left_wrist")
-#: what is measured, per action family (a word's stem), and for any other word
+#: what is measured, per action family (a word's stem)
 MEASURES: dict[str, str] = {
     "jump": "pelvis peak above its median height", "hop": "pelvis peak above its median height",
     "wave": "wrist's side-to-side swing", "punch": "wrist's forward reach", "kick": "foot's height range",
     "clap": "wrist's height range",
 }
-OTHER_MEASURE = "wrist's height range"
 
 
 def body_frame(joints: np.ndarray) -> np.ndarray:
@@ -82,7 +81,8 @@ class SizeChange:
 def size_change(word: str, *, before: np.ndarray, after: np.ndarray) -> SizeChange | None:
     """The size of ``word``'s action in ``before`` and ``after`` (joints (T, 22, 3)); None for a word that names no
     action this measures (e.g. "person")."""
-    if _family(word) is None:
+    family = _family(word)
+    if family is None:
         return None
-    return SizeChange(word=word, measure=MEASURES[_family(word)], before=amplitude(before, word),
+    return SizeChange(word=word, measure=MEASURES[family], before=amplitude(before, word),
                       after=amplitude(after, word))

@@ -152,7 +152,7 @@ def run(args: argparse.Namespace) -> int:
          recipe=cli_recipe(args, made_by="moattn edit", prompt=prompt, frames=frames, edit=args.kind))
     if args.kind == "ground":
         report["spans"] = spans_text(out.extra.get("spans", ()))
-    if args.kind in ("emphasize", "erase") and options.word:  # did the action grow (shrink)? the bench's measure
+    if REGISTRY[args.kind].sized and options.word:  # did the action grow (shrink)? the bench's measure
         from engine.analysis.action_size import size_change
 
         size = size_change(options.word, before=out.before, after=out.after)

@@ -191,6 +191,7 @@ def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, mode: str | 
     --mode), in that mode's default layers."""
     frames = int(config.seconds * 20)
     mode = mode or calibrated_mode(loaded.config)
+    layers = calibrated_layers(loaded.config, mode)  # what run_edit acts in for this mode (None: every layer)
     weights = sweep_weights(mode, config.emphasis_points)
     draws, outputs, per_prompt, jump_rhos = [], [], {}, []
     for prompt in config.emphasis_prompts:
@@ -214,8 +215,7 @@ def bench_emphasis(loaded: LoadedModel, config: EditBenchConfig, *, mode: str | 
             "change": float(np.mean([d["change"] for d in draws])),
             "visible": float(np.mean([d["visible"] for d in draws])), "per_prompt": per_prompt,
             "jumps_min": float(min(jump_rhos)) if jump_rhos else None, "mode": mode, "weights": list(weights),
-            "layers": list(calibrated_layers(loaded.config, mode) or range(loaded.model.num_layers)),
-            "every_layer": calibrated_layers(loaded.config, mode) is None}, outputs
+            "layers": list(layers or range(loaded.model.num_layers)), "every_layer": layers is None}, outputs
 
 
 def _pairs(loaded: LoadedModel, n: int) -> list[tuple[str, str]]:

@@ -10,8 +10,9 @@ prompts that the benchmark does not use, and builds the
 layer set by forward selection (layers interact, so a set is measured as a whole). It does so for each way of
 weighting the column, added (the paper's) or multiplied (which scales the word's pull where it already acts, not at
 every frame alike); guide mode (the prediction moved away from the one with the word erased,
-:mod:`engine.methods.word_guidance`) is measured once, over every layer. It keeps the mode that responds best. The result goes into the model's
-``config.json`` ("edits": {"emphasize_mode": "add"|"mul"|"guide", "emphasize_layers": [...], "calibration": {...}}), where
+:mod:`engine.methods.word_guidance`) is measured once, over every layer. It keeps the mode that responds best.
+The result goes into the model's ``config.json`` ("edits": {"emphasize_mode": "add"|"mul"|"guide",
+"emphasize_layers": [...], "calibration": {...}}), where
 the CLI, the app and the benchmark read it as the emphasis default (grounding acts in every layer: on the shipped model the
 calibrated layers put fewer jumps in the chosen spans than no grounding at all, see the edits bench's grounding row).
 """

@@ -37,7 +37,8 @@ class EditKind:
     What a front end needs besides: ``default_frames(frames)``, the frame span it touches when none is given;
     ``spans``: it takes several frame spans (ground); ``positive_weight``: only the weight's size counts;
     ``describe(options, frames=)``, the edit in a few words; ``outputs(options)``, how many edited motions it makes;
-    ``before_title``, what the motion it starts from is called beside them.
+    ``before_title``, what the motion it starts from is called beside them; ``sized``: the CLI and the tab report
+    the word's action size before and after (:mod:`engine.analysis.action_size`).
     """
 
     name: str
@@ -56,6 +57,7 @@ class EditKind:
     describe: Callable[..., str] | None = None
     outputs: Callable[[Any], int] = _one_output
     before_title: str = "reference"
+    sized: bool = False
 
     def __post_init__(self) -> None:
         unknown = set(self.inputs) - INPUTS
@@ -217,11 +219,11 @@ REGISTRY: dict[str, EditKind] = {k.name: k for k in (
              "grows jumps and kicks most reliably, not waves). It opens on the form and layers measured to grow the "
              "action on this model.",
              inputs=frozenset({"word", "weight", "mode", "frames"}), build=_emphasize_config,
-             run=_run("reweight"), calibrated=True, describe=_describe_weighted("emphasise")),
+             run=_run("reweight"), calibrated=True, sized=True, describe=_describe_weighted("emphasise")),
     EditKind("erase", "erase",
              "Multiply the picked word's cross-attention by 0.1 inside the frame window (default: last half).",
              inputs=frozenset({"word", "frames"}), build=_erase_config, run=_run("reweight"),
-             default_frames=_last_half, describe=lambda o, *, frames: f"erase '{o.word}'"),
+             default_frames=_last_half, sized=True, describe=lambda o, *, frames: f"erase '{o.word}'"),
     EditKind("replace", "replace",
              "Generate the prompt and the edited prompt together; the edited one takes the reference's "
              "cross-attention maps in the first steps (its swapped words keep their own, unless 'reference' is "

@@ -85,7 +85,7 @@ class Reweight(Controller):
 
     def on_probs(self, probs, ctx: AttnCtx):
         c = self.config
-        if c.mode == "guide" or ctx.kind != "cross" or not self.window.covers(ctx) or ctx.words is None:
+        if ctx.kind != "cross" or not self.window.covers(ctx) or ctx.words is None:
             return None
         slots = ctx.roles.slots(c.role)
         if not slots:
@@ -96,7 +96,7 @@ class Reweight(Controller):
             col = ctx.words.index(slot, c.word, c.occurrence)
             if c.mode == "add":
                 probs[slot, :, rows, col] += c.weight
-            else:
+            elif c.mode == "mul":  # guide edits no map (needs_maps is False: never called)
                 probs[slot, :, rows, col] *= c.weight
         return probs
 

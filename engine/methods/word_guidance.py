@@ -27,8 +27,9 @@ from engine.model.denoiser import Condition
 class WordGuidance:
     """``denoiser`` guided away from its own prediction with ``erase`` acting (the word's column erased).
 
-    The erased pass runs with ``erase`` alone: a recording controller of the call (the attention store) sees the
-    guided call's own maps once, not the erased pass's. Slots other than ``role``'s keep the plain prediction.
+    The erased pass runs on ``role``'s slots alone (the others keep the plain prediction) and with ``erase`` alone: a
+    recording controller of the call (the attention store) sees the guided call's own maps once, not the erased
+    pass's.
     """
 
     denoiser: Callable
@@ -44,7 +45,7 @@ class WordGuidance:
         slots = cond.roles.slots(self.role)
         if self.weight == 0.0 or not slots or (self.steps is not None and step not in self.steps):
             return x0
-        erased = self.denoiser(x, t, cond, step=step, controller=self.erase)  # (B, T, D)
+        erased = self.denoiser(x[slots], t[slots], cond.take(slots), step=step, controller=self.erase)  # (S, T, D)
         out = x0.clone()
-        out[slots] = x0[slots] + self.weight * (x0[slots] - erased[slots])
+        out[slots] = x0[slots] + self.weight * (x0[slots] - erased)
         return out

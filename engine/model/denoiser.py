@@ -101,6 +101,15 @@ class Condition:
             return self
         return self.map_tensors(lambda t: t.to(device))
 
+    def take(self, slots: list[int]) -> "Condition":
+        """The condition of these batch slots only, in this order: tensors (tensor extras too), roles and words."""
+        index = torch.tensor(slots, dtype=torch.long)
+        taken = self.map_tensors(lambda t: t[index.to(t.device)])
+        roles = BatchRoles(names=tuple(self.roles.names[i] for i in slots),
+                           uncond=tuple(self.roles.uncond[i] for i in slots))
+        words = None if self.words is None else WordIndex(words=tuple(self.words.words[i] for i in slots))
+        return replace(taken, roles=roles, words=words)
+
     def with_uncond(self) -> "Condition":
         """The CFG batch: these slots, then the same slots without text."""
         return Condition(

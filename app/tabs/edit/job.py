@@ -25,9 +25,6 @@ from engine.analysis.action_size import size_change
 from engine.methods.edit_kinds import EditKind
 from engine.methods.word_alignment import SWAPPED_DEFAULT
 
-#: edits whose result line reports the word's action size before and after (emphasis and erasure change it)
-SIZED_KINDS = ("emphasize", "erase")
-
 RECORD_BUDGET = 400 * 1024 * 1024  # the edit's AttentionStore keeps 512 MB at most: stay below it
 
 
@@ -304,7 +301,7 @@ class EditJob:
         n = min(len(first.joints), len(before.joints))
         diff = float(np.linalg.norm(first.joints[:n] - before.joints[:n], axis=-1).max()) if n else 0.0
         size = (size_change(job.options.word, before=before.joints, after=first.joints)
-                if job.kind.name in SIZED_KINDS and job.options.word else None)
+                if job.kind.sized and job.options.word else None)
         summary = EditSummary(kind=job.label, description=job.description, before=before.name,
                               after=[a.name for a in afters], seconds_taken=result.seconds_taken, max_difference=diff,
                               size="" if size is None else size.describe())
