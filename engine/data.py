@@ -233,6 +233,7 @@ def batch_loader(
     pin_memory: bool = False,
     prefetch_factor: int = 2,
     length_groups: int = 1,
+    reuse: int = 1,
     **collate_kwargs,
 ) -> Iterator[Batch]:
     """An endless stream of batches, built in this process (``workers=0``) or by DataLoader worker processes.
@@ -250,6 +251,12 @@ def batch_loader(
     k = w (mod W) and the DataLoader hands them back in order, so the stream is the same for any ``workers``.
     ``pin_memory``: page-locked batches for fast, asynchronous copies to a CUDA device (ignored without CUDA).
     Close the iterator (``.close()``) to stop worker processes early; they also stop when it is garbage-collected.
+
+    ``reuse`` R > 1: every item goes into R consecutive groups (batches, without length groups), each time with its
+    own crop, caption and text dropout (and the trainer's own timestep and noise). Group g reads the window of
+    G x batch_size items that starts at item g x G x batch_size / R, so each group holds distinct items and builds
+    only 1/R of them anew (kept from the group before in this process). Batch k is then no longer about items
+    ``k * batch_size + j``: the stream has consumed ``k * batch_size / R`` new items after k batches.
     """
     if batch_size < 1:
         raise ValueError(f"batch_size must be at least 1, got {batch_size}")
@@ -259,9 +266,11 @@ def batch_loader(
         raise ValueError(f"workers must be 0 or more, got {workers}")
     if length_groups < 1:
         raise ValueError(f"length_groups must be 1 or more, got {length_groups}")
+    if reuse < 1 or batch_size % reuse:
+        raise ValueError(f"reuse must be 1 or more and divide the batch size ({batch_size}), got {reuse}")
     dataset = _BatchStream(source, tokenizer=tokenizer, normalize=normalize, batch_size=batch_size, seed=seed,
                            start_index=start_index, stride=stride, collate_kwargs=collate_kwargs,
-                           length_groups=length_groups)
+                           length_groups=length_groups, reuse=reuse)
     pin = pin_memory and torch.cuda.is_available()
     if workers == 0:
         return _in_process(dataset, pin)
@@ -303,27 +312,41 @@ class _BatchStream(torch.utils.data.IterableDataset):
     groups, group g's batches for every group this process builds (all, or g = w mod W)."""
 
     def __init__(self, source: MotionSource, *, tokenizer: Tokenizer, normalize, batch_size: int, seed: int,
-                 start_index: int, stride: int, collate_kwargs: dict, length_groups: int = 1):
+                 start_index: int, stride: int, collate_kwargs: dict, length_groups: int = 1, reuse: int = 1):
         super().__init__()
         self.source, self.tokenizer, self.normalize = source, tokenizer, normalize
         self.batch_size, self.seed, self.start_index, self.stride = batch_size, seed, start_index, stride
         self.collate_kwargs = collate_kwargs
         self.length_groups = length_groups
+        self.reuse = reuse
+        self._kept: dict[int, MotionText | None] = {}  # with reuse: the window's items, by slot (None: skipped)
 
     def _items(self, first: int, count: int) -> list[MotionText]:
-        """Finite items of the slots first .. first + count - 1."""
+        """Finite items of the slots first .. first + count - 1 (with reuse, the ones the window before read are
+        taken from it)."""
+        kept = {j: self._kept[j] for j in range(first, first + count) if j in self._kept}
         items = []
         for j in range(first, first + count):
-            index = self.start_index + self.stride * j
-            item = self.source.get(index)
-            if not np.isfinite(item.features).all():  # a broken sample must never reach the model
-                warnings.warn(f"training sample {index} has non-finite features; skipped", RuntimeWarning)
-            elif not any(_readable(c, self.tokenizer) for c in item.captions):  # e.g. every caption over-long
-                warnings.warn(f"training sample {index}: none of its captions can be tokenised; skipped",
-                              RuntimeWarning)
-            else:
+            item = kept[j] if j in kept else self._item(self.start_index + self.stride * j)
+            if self.reuse > 1:
+                kept[j] = item
+            if item is not None:
                 items.append(item)
+        if self.reuse > 1:
+            self._kept = kept
         return items
+
+    def _item(self, index: int) -> MotionText | None:
+        """Source item ``index``, or None (with a warning) where it must not reach the model."""
+        item = self.source.get(index)
+        if not np.isfinite(item.features).all():  # a broken sample must never reach the model
+            warnings.warn(f"training sample {index} has non-finite features; skipped", RuntimeWarning)
+        elif not any(_readable(c, self.tokenizer) for c in item.captions):  # e.g. every caption over-long
+            warnings.warn(f"training sample {index}: none of its captions can be tokenised; skipped",
+                          RuntimeWarning)
+        else:
+            return item
+        return None
 
     def _collate(self, items: list[MotionText], rng: np.random.Generator) -> Batch | None:
         if not items:
@@ -331,13 +354,13 @@ class _BatchStream(torch.utils.data.IterableDataset):
         return collate(items, tokenizer=self.tokenizer, normalize=self.normalize, rng=rng, **self.collate_kwargs)
 
     def batch(self, k: int) -> Batch | None:
-        items = self._items(k * self.batch_size, self.batch_size)
+        items = self._items(k * self.batch_size // self.reuse, self.batch_size)
         return self._collate(items, np.random.default_rng([self.seed, k]))
 
     def group(self, g: int) -> list[Batch | None]:
         """Group g's batches: its G x batch_size items sorted by cropped length, cut into G, in a drawn order."""
         size = self.length_groups * self.batch_size
-        items = self._items(g * size, size)
+        items = self._items(g * size // self.reuse, size)
         cap = self.collate_kwargs.get("max_frames", MAX_FRAMES)
         items.sort(key=lambda item: min(len(item.features), cap))
         chunks = [items[i * self.batch_size:(i + 1) * self.batch_size] for i in range(self.length_groups)]

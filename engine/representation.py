@@ -12,6 +12,7 @@ Layout per frame (T-1 frames for T poses):
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -263,8 +264,10 @@ def recover_root(features: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     return 2.0 * half, root
 
 
-def features_to_joints(features: np.ndarray | torch.Tensor) -> np.ndarray | torch.Tensor:
-    """HumanML3D features (..., T, 263) -> joint positions (..., T, 22, 3) (the "ric" path).
+def features_to_joints(features: np.ndarray | torch.Tensor, *,
+                       only: Sequence[int] | None = None) -> np.ndarray | torch.Tensor:
+    """HumanML3D features (..., T, 263) -> joint positions (..., T, 22, 3) (the "ric" path); ``only``: just these
+    joints (none of them the root), (..., T, len(only), 3), in that order (the training's foot term reads 4 of 22).
 
     Accepts numpy or torch; returns the same kind.
     """
@@ -274,6 +277,12 @@ def features_to_joints(features: np.ndarray | torch.Tensor) -> np.ndarray | torc
         raise ValueError(f"features must end in {FEATURE_DIM} dims, got shape {tuple(x.shape)}")
     heading, root = recover_root(x)
     ric = x[..., SLICES["ric"]].reshape(x.shape[:-1] + (NUM_JOINTS - 1, 3))
+    if only is not None:
+        if not all(0 < j < NUM_JOINTS for j in only):
+            raise ValueError(f"only: joints 1..{NUM_JOINTS - 1} (the root is not a ric joint), got {list(only)}")
+        ric = _yaw_rotate(ric[..., [j - 1 for j in only], :], -heading[..., None])
+        joints = ric + torch.stack([root[..., 0], torch.zeros_like(root[..., 0]), root[..., 2]], -1)[..., None, :]
+        return joints.numpy() if as_numpy else joints
     ric = _yaw_rotate(ric, -heading[..., None])
     ric = ric + torch.stack([root[..., 0], torch.zeros_like(root[..., 0]), root[..., 2]], -1)[..., None, :]
     joints = torch.cat([root[..., None, :], ric], dim=-2)

@@ -104,6 +104,10 @@ class TrainConfig:
     # batches of similar length: the items of this many batches are sorted by length and cut into batches
     # (engine.data.batch_loader); 1 = random batches padded to their longest item
     length_groups: int = 8
+    # session 40: at equal steps 2 trains the same model as 1 (dev adherence, held-out loss) at 1.1x the steps/s
+    reuse: int = field(default=2, metadata={"help": "each corpus item goes into this many batches (groups), each time "
+                                                   "with its own crop, caption and noise: building the batch, a fifth "
+                                                   "of a step, shrinks to 1/N (1: every item once)"})
     max_minutes: float = 0.0  # stop (and checkpoint) after this many minutes of training; 0 = no limit
     device: str = "auto"  # auto | cpu | cuda | cuda:N (under torchrun on CUDA: cuda:LOCAL_RANK)
     precision: str = "auto"  # auto | fp32 | bf16 | fp16 (engine.runtime: bf16 on CPUs only where native)
@@ -127,7 +131,7 @@ class TrainConfig:
 
 # fields a resumed run takes from the new call rather than from its checkpoint
 _RUNTIME_FIELDS = ("steps", "log_every", "ckpt_every", "snapshot_every", "threads", "workers", "device", "precision",
-                   "length_groups", "max_minutes")
+                   "length_groups", "reuse", "max_minutes")
 
 
 def kept_from_checkpoint(given: dict, saved: dict) -> dict[str, tuple]:
@@ -236,6 +240,9 @@ class TrainingRun:
             raise ValueError(f"--loss-weighting {config.loss_weighting!r}: expected one of {', '.join(LOSS_WEIGHTINGS)}")
         if config.length_groups < 1 or config.max_minutes < 0:
             raise ValueError("--length-groups must be at least 1 and --max-minutes 0 or more")
+        if config.reuse < 1 or config.batch_size % config.reuse:
+            raise ValueError(f"--reuse must be at least 1 and divide --batch-size ({config.batch_size}), "
+                             f"got {config.reuse}")
         self.config = config
         self.progress = progress
         self.distributed = int(os.environ.get("WORLD_SIZE", "1")) > 1
@@ -373,7 +380,7 @@ class TrainingRun:
                 p.requires_grad_(name.startswith("skip_path."))
             timesteps_below = skip_timesteps(model)
         trained = [p for p in model.parameters() if p.requires_grad]
-        optimizer = torch.optim.AdamW(trained, lr=config.lr, weight_decay=config.weight_decay)
+        optimizer = adamw(trained, lr=config.lr, weight_decay=config.weight_decay)
         if opt_state is not None:
             optimizer.load_state_dict(opt_state)
         self.model, self.ema, self.optimizer = model, ema, optimizer
@@ -383,7 +390,7 @@ class TrainingRun:
             batch_size=config.batch_size, seed=config.seed * 1000 + self.rank + self.step,
             start_index=self.index + self.rank, stride=self.world, workers=config.workers,
             pin_memory=runtime.device.type == "cuda", max_frames=config.max_frames, text_dropout=config.text_dropout,
-            length_groups=config.length_groups,
+            length_groups=config.length_groups, reuse=config.reuse,
         )
         gen = torch.Generator().manual_seed(config.seed * 7919 + self.rank * 104729 + self.step)
         control_dims = None
@@ -453,7 +460,7 @@ class TrainingRun:
                             print(f"--max-minutes {config.max_minutes:g} reached at step {self.step}", flush=True)
                         break
                     batch = next(self.stream)
-                    self.index += config.batch_size * self.world
+                    self.index += config.batch_size * self.world // config.reuse  # the new items it read
                     outcome = self.train_step(batch, step=self.step, lr=lr_at(self.step, config))
                     if not outcome.applied:
                         if outcome.overflow:
@@ -614,10 +621,12 @@ class TrainStep:
         weights = None if self.timestep_weights is None else self.timestep_weights[t]
         mse, vel = masked_losses(x0_hat.float(), x0, cond.frame_mask, weights)
         foot = torch.zeros((), device=mse.device)
-        if self.foot_weight:
+        counted = (t < self.foot_below).to(device)  # (B,) the samples the foot term counts
+        if self.foot_weight and bool(counted.any()):
             mean, std = (s.to(device) for s in self.stats)
-            foot = foot_term(x0_hat.float() * std + mean, x0.float() * std + mean, cond.frame_mask,
-                             samples=t < self.foot_below)
+            # the term on its samples alone: the same mean over their planted frames, without rebuilding the rest
+            foot = foot_term(x0_hat[counted].float() * std + mean, x0[counted].float() * std + mean,
+                             cond.frame_mask[counted])
         return mse, vel, foot
 
     def loss(self, batch: Batch) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -645,6 +654,14 @@ class TrainStep:
             decay = min(self.ema_decay, (1 + step) / (10 + step))
             torch._foreach_lerp_(list(self.ema.parameters()), list(self.model.parameters()), 1 - decay)
         return StepOutcome(mse=mse.item(), vel=vel.item(), applied=True, foot=foot.item())
+
+
+def adamw(params, *, lr: float, weight_decay: float) -> torch.optim.AdamW:
+    """The trainers' optimizer: AdamW, with its fused kernel (one update for every tensor; the same algorithm and the
+    same state dict as the default one, about 1.05x faster per training step on the CPU, `moattn bench --train`)."""
+    params = list(params)
+    fused = bool(params) and all(p.device.type in ("cpu", "cuda") and p.is_floating_point() for p in params)
+    return torch.optim.AdamW(params, lr=lr, weight_decay=weight_decay, fused=fused or None)
 
 
 def _runtime(config: TrainConfig, *, distributed: bool) -> Runtime:

@@ -33,7 +33,7 @@ from engine.model.denoiser import Condition
 from engine.attention.context import WordIndex
 from engine.generate import FPS
 from engine.paths import MODEL_DIR
-from engine.train import lr_at, stop_on_signals
+from engine.train import adamw, lr_at, stop_on_signals
 from engine.runtime import CPU, Runtime
 
 
@@ -145,7 +145,7 @@ class ComTrainingRun:
         net = model.denoiser
         params = [p for n, p in net.named_parameters() if p.requires_grad]
         ema = copy.deepcopy(net).eval()
-        optimizer = torch.optim.AdamW(params, lr=config.lr, weight_decay=config.weight_decay)
+        optimizer = adamw(params, lr=config.lr, weight_decay=config.weight_decay)
         if self.state is not None:
             net.load_state_dict(self.state["model"], strict=False)
             ema.load_state_dict(self.state["ema"], strict=False)

@@ -238,6 +238,11 @@ def test_lever_screen_rows_score_each_model_on_the_dev_prompts(tiny_model_dir, t
     assert row["foot_skate"] is not None and row["inversion_cm"] > 0 and row["refused"] == 0
     assert main(["bench", "--levers", "--model", "/nonexistent"]) == 2
     assert "needs the model folders" in capsys.readouterr().err
+    # a real file that cannot be read is refused before any row is scored
+    assert main(["bench", "--levers", str(tiny_model_dir), "--prompts", str(prompts), "--real",
+                 "cmu_131_01_walk.bvh"]) == 2
+    err = capsys.readouterr().err
+    assert "cmu_131_01_walk.bvh" in err and "[1/2]" not in err  # no prompt was sampled
     assert main(["bench", "--inversion", "--guidance", "2", "--model", "/nonexistent"]) == 2
     assert "--guidance and --guidance-from go with --adherence or --levers" in capsys.readouterr().err
     assert main(["bench", "--inversion", "--guidance-from", "0", "--model", "/nonexistent"]) == 2

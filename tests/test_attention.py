@@ -80,6 +80,35 @@ def test_explicit_softmax_path_matches_fast_path():
     assert torch.allclose(m.sum(-1), torch.ones(24), atol=1e-2)
 
 
+def test_the_training_path_computes_the_same_attention():
+    """Training's own explicit path (one baddbmm with the mask as a bias; the softmax kept in bf16 under autocast)
+    gives the sampling path's output: to float precision in fp32, to bf16's in bf16, padded keys and text-less slots
+    included."""
+    from engine.model.attention import training_probs
+
+    model, cond = tiny_model(), condition()
+    cond.text_mask[1, 2:] = False  # padded words
+    cond.frame_mask[0, 20:] = False  # padded frames
+    x, t = inputs()
+    with torch.no_grad():
+        sampled = model(x, t, cond)
+    model.train()
+    trained = model(x, t, cond)
+    assert torch.allclose(trained, sampled, atol=1e-5)
+    trained.sum().backward()  # and it has a gradient
+    assert all(p.grad is not None for p in model.blocks[0].self_attn.parameters())
+    g = torch.Generator().manual_seed(4)
+    q, k = torch.randn(2, 2, 5, 8, generator=g), torch.randn(2, 2, 7, 8, generator=g)
+    mask = torch.ones(2, 7, dtype=torch.bool)
+    mask[0, 4:] = False
+    expected = (q @ k.transpose(-1, -2) / 8**0.5).masked_fill(~mask[:, None, None, :], float("-inf")).softmax(-1)
+    assert torch.allclose(training_probs(q, k, mask), expected, atol=1e-6)
+    with torch.autocast("cpu", dtype=torch.bfloat16):
+        low = training_probs(q.bfloat16(), k.bfloat16(), mask)
+    assert low.dtype == torch.bfloat16 and float(low[0, :, :, 4:].abs().max()) == 0.0
+    assert torch.allclose(low.float(), expected, atol=2e-2)
+
+
 def test_probs_edit_changes_only_what_it_should():
     model, cond = tiny_model(), condition()
     x, t = inputs()

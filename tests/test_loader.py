@@ -1,6 +1,7 @@
 """batch_loader: batch k is a pure function of (seed, start_index, stride, k), whatever the number of workers."""
 from __future__ import annotations
 
+import collections
 import itertools
 import pickle
 import warnings
@@ -164,6 +165,41 @@ def test_length_groups_with_workers_see_the_same_items():
     one = _take(ToySource(), 8, workers=0, batch_size=4, length_groups=4)
     two = _take(ToySource(), 8, workers=2, batch_size=4, length_groups=4)
     assert sorted(i for b in one for i in _indices(b)) == sorted(i for b in two for i in _indices(b))
+
+
+class CountingSource(ToySource):
+    """ToySource that counts how often each item is built."""
+
+    def __init__(self):
+        super().__init__()
+        self.built: collections.Counter = collections.Counter()
+
+    def get(self, index: int) -> MotionText:
+        self.built[index] += 1
+        return super().get(index)
+
+
+@pytest.mark.parametrize("groups", [1, 4])
+def test_reuse_puts_each_item_in_two_consecutive_groups_and_builds_it_once(groups):
+    """--reuse 2: group g reads the window of G x B items starting at g x G x B / 2: every item in two groups, never
+    twice in one batch, with its own crop and caption draws each time, and built once."""
+    source = CountingSource()
+    n = 4 * groups  # batches taken: 4 groups (or 4 batches)
+    batches = _take(source, n, workers=0, batch_size=4, length_groups=groups, reuse=2)
+    per_group = [sorted(i for b in batches[g * groups:(g + 1) * groups] for i in _indices(b)) for g in range(4)]
+    half = 2 * groups
+    assert per_group == [list(range(g * half, g * half + 2 * half)) for g in range(4)]
+    assert all(len(set(_indices(b))) == len(_indices(b)) for b in batches)
+    assert max(source.built.values()) == 1 and len(source.built) == 5 * half  # the last window's tail: built once
+    _same(batches, _take(ToySource(), n, workers=0, batch_size=4, length_groups=groups, reuse=2))
+    # workers build their groups apart (nothing kept across workers): the same batches (with length groups, the
+    # same items: the order of a group's batches then depends on the workers, as without reuse)
+    two = _take(ToySource(), n, workers=2, batch_size=4, length_groups=groups, reuse=2)
+    if groups == 1:
+        _same(batches, two)
+    assert sorted(i for b in two for i in _indices(b)) == sorted(i for b in batches for i in _indices(b))
+    with pytest.raises(ValueError, match="reuse"):
+        _take(ToySource(), 1, workers=0, batch_size=4, reuse=3)
 
 
 def test_action_focus_oversamples_its_actions_deterministically():

@@ -105,3 +105,14 @@ def test_labels_json_roundtrip_is_plain():
     assert data["frames"] == s.joints.shape[0]
     assert len(data["root_path"]) == s.joints.shape[0]
     assert {"outline", "motifs", "contacts", "jumps", "segments"} <= set(data)
+
+
+def test_labels_are_built_on_first_use_and_match_the_canonical_frame():
+    """Training reads only features and captions, so a sample's labels wait until asked for; when asked they are the
+    canonical frame's: the root path starts at the origin like the canonical joints."""
+    s = Corpus("train").sample(3)
+    assert "labels" not in vars(s)
+    labels = s.labels
+    assert labels is s.labels and labels.index == 3 and labels.split == "train"
+    root = np.asarray(labels.root_path)
+    assert np.allclose(root, s.joints[:, 0, [0, 2]], atol=1e-4)

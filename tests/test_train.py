@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 import torch
 
 from engine.checkpoint import load_model
@@ -138,15 +139,16 @@ def test_torchrun_two_processes_and_resume_under_another_world_size(tmp_path):
     proc, state = _moattn_train(folder, out, 12, processes=2)
     assert "training on cpu, fp32, 2 processes" in proc.stdout
     assert state["step"] == 12
-    # each step consumed batch_size items on each of the 2 ranks; rank 0 alone logged
-    assert state["next_index"] == 12 * 4 * 2
+    # each step read half a batch of new items on each of the 2 ranks (--reuse 2, the default: every item goes into
+    # two batches); rank 0 alone logged
+    assert state["next_index"] == 12 * 4 * 2 // 2
     log = [json.loads(line) for line in (out / "log.jsonl").read_text().splitlines()]
     assert [r["step"] for r in log] == [4, 8, 12]
     # the item counter is global: one process continues where two stopped, and two continue after one
     _, state = _moattn_train(folder, out, 16, processes=1, resume=True)
-    assert (state["step"], state["next_index"]) == (16, 12 * 4 * 2 + 4 * 4)
+    assert (state["step"], state["next_index"]) == (16, (12 * 4 * 2 + 4 * 4) // 2)
     _, state = _moattn_train(folder, out, 20, processes=2, resume=True)
-    assert (state["step"], state["next_index"]) == (20, 12 * 4 * 2 + 4 * 4 + 4 * 4 * 2)
+    assert (state["step"], state["next_index"]) == (20, (12 * 4 * 2 + 4 * 4 + 4 * 4 * 2) // 2)
     log = [json.loads(line) for line in (out / "log.jsonl").read_text().splitlines()]
     assert [r["step"] for r in log] == [4, 8, 12, 16, 20]
     assert all(np.isfinite(r["mse"]) for r in log)
@@ -414,3 +416,77 @@ def test_a_network_fine_tune_of_a_model_with_a_skip_path_leaves_the_path_alone(t
     before, after = load_model(tuned).model.state_dict(), load_model(again).model.state_dict()
     assert all(torch.equal(before[k], after[k]) for k in before if k.startswith("skip_path."))
     assert not torch.equal(before["out_proj.weight"], after["out_proj.weight"])
+
+
+def test_the_foot_term_rebuilds_only_the_feet_and_gives_the_whole_skeletons_value():
+    """features_to_joints(only=...) is the full rebuild's columns; the foot term on them equals the term on all 22."""
+    from engine.diffusion.losses import FEET, ROOT_DIMS, foot_contact_loss, foot_term
+    from engine.evaluation.adherence import ground_truth_motion
+    from engine.intent import parse_intent
+    from engine.representation import features_to_joints, joints_to_features
+
+    walk = ground_truth_motion(parse_intent("a person walks forward"), 3)
+    target = torch.as_tensor(joints_to_features(walk), dtype=torch.float32)[None]
+    full = features_to_joints(target)
+    assert torch.equal(features_to_joints(target, only=FEET), full[..., list(FEET), :])
+    with pytest.raises(ValueError, match="root"):
+        features_to_joints(target, only=(0, 7))
+    pred = target.clone()
+    pred[..., 1:3] *= 1.5
+    mask = torch.ones(pred.shape[:2], dtype=torch.bool)
+    legs = torch.cat([pred[..., :ROOT_DIMS], pred[..., ROOT_DIMS:]], -1)
+    whole = foot_contact_loss(features_to_joints(legs), full, mask)
+    assert float(whole) > 0.01
+    assert torch.allclose(foot_term(pred, target, mask), whole, rtol=1e-6)
+
+
+def test_the_training_step_counts_the_foot_term_on_its_noise_levels_only():
+    """TrainStep rebuilds the feet of the samples below foot_below alone: the same value as the term over the whole
+    batch with the others masked out."""
+    import copy
+
+    from engine.data import collate
+    from engine.diffusion.losses import foot_term
+    from engine.evaluation.adherence import ground_truth_motion
+    from engine.intent import parse_intent
+    from engine.model.denoiser import Denoiser
+    from engine.representation import joints_to_features
+    from engine.runtime import CPU
+    from engine.text import Tokenizer
+    from engine.train import TrainStep, adamw
+
+    torch.manual_seed(0)
+    model = Denoiser(TINY).train()
+    walks = [MotionText(features=joints_to_features(ground_truth_motion(parse_intent("a person walks forward"), seed)),
+                        captions=("a person walks",)) for seed in range(6)]
+    batch = collate(walks, tokenizer=Tokenizer(["a", "person", "walks"]), normalize=lambda f: f,
+                    rng=np.random.default_rng(0), max_frames=40)
+    stats = (torch.zeros(263), torch.ones(263))  # the features are the walks' own: x0 in metres
+    step = TrainStep(model=model, net=model, ema=copy.deepcopy(model),
+                     optimizer=adamw(model.parameters(), lr=1e-3, weight_decay=0.0), runtime=CPU,
+                     generator=torch.Generator().manual_seed(3), foot_weight=1.0, foot_below=500, stats=stats)
+    _, _, foot = step.losses(batch)
+    # the same draws again, by hand: t and noise come first from the step's generator
+    gen = torch.Generator().manual_seed(3)
+    t = torch.randint(0, step.schedule.steps, (batch.x0.shape[0],), generator=gen)
+    noise = torch.randn(batch.x0.shape, generator=gen)
+    assert 0 < int((t < 500).sum()) < len(t)  # some samples counted, some not
+    with torch.no_grad():
+        x0_hat = model(step.schedule.q_sample(batch.x0, t, noise), t, batch.cond)
+    expected = foot_term(x0_hat, batch.x0, batch.cond.frame_mask, samples=t < 500)
+    assert float(expected) > 0.0
+    assert torch.allclose(foot.detach(), expected, rtol=1e-5, atol=1e-7)
+
+
+def test_reuse_counts_only_the_new_items_a_run_read(tmp_path):
+    """--reuse 2: each step reads half a batch of new items, so the item counter a resumed run starts from advances by
+    half as much; a batch size the reuse does not divide is refused at once."""
+    train(config(tmp_path, steps=6, reuse=2), source=ToySource(), progress=False)
+    state = torch.load(tmp_path / "run" / "train_state.pt", weights_only=True)
+    assert (state["step"], state["next_index"]) == (6, 6 * 8 // 2)
+    assert json.loads((tmp_path / "run" / "config.json").read_text())["train"]["reuse"] == 2
+    train(config(tmp_path, steps=8, reuse=2), source=ToySource(), progress=False, resume=True, given=("steps",))
+    state = torch.load(tmp_path / "run" / "train_state.pt", weights_only=True)
+    assert (state["step"], state["next_index"]) == (8, 8 * 8 // 2)
+    with pytest.raises(ValueError, match="--reuse"):
+        train(config(tmp_path, out=str(tmp_path / "other"), reuse=3), source=ToySource(), progress=False)

@@ -1,26 +1,32 @@
 """The denoiser's training loss, shared by the base trainer (engine.train) and the duet block's (engine.methods.duet_losses)."""
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import torch
 
 from engine.representation import SLICES, features_to_joints
 from engine.skeleton import FOOT_JOINTS
 
 ROOT_DIMS = SLICES["root_height"].stop  # the root's rotation velocity, linear velocity and height: features 0-3
+FEET = (*FOOT_JOINTS["left"], *FOOT_JOINTS["right"])  # the joints the foot contact term reads: ankles and toes
 
 
 def masked_losses(x0_hat: torch.Tensor, x0: torch.Tensor, mask: torch.Tensor,
                   weights: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
     """Mean squared error over real frames, and of the frame-to-frame differences; ``weights`` (B,) weigh each
     sample's frames (per-timestep loss weights)."""
-    m = mask[..., None].float()  # (B, T, 1)
-    mv = m[:, 1:] * m[:, :-1]  # (B, T-1, 1): both frames real
+    m = mask.float()  # (B, T)
+    mv = m[:, 1:] * m[:, :-1]  # (B, T-1): both frames real
     if weights is not None:  # each sample's weight counts once in either term
-        w = weights.to(m.device, m.dtype)[:, None, None]
+        w = weights.to(m.device, m.dtype)[:, None]
         m, mv = m * w, mv * w
-    mse = ((x0_hat - x0) ** 2 * m).sum() / (m.sum() * x0.shape[-1]).clamp_min(1)
-    dv = (x0_hat[:, 1:] - x0_hat[:, :-1]) - (x0[:, 1:] - x0[:, :-1])
-    vel = (dv**2 * mv).sum() / (mv.sum() * x0.shape[-1]).clamp_min(1)
+    # the frame-to-frame differences of the error are those of the prediction less the target's; each term is summed
+    # over the features first, so the masks weigh (B, T) sums, not (B, T, 263) values
+    err = x0_hat - x0
+    mse = (err.square().sum(-1) * m).sum() / (m.sum() * x0.shape[-1]).clamp_min(1)
+    dv = err[:, 1:] - err[:, :-1]
+    vel = (dv.square().sum(-1) * mv).sum() / (mv.sum() * x0.shape[-1]).clamp_min(1)
     return mse, vel
 
 
@@ -30,13 +36,13 @@ FOOT_PLANTED_HEIGHT, FOOT_PLANTED_SPEED = 0.05, 0.025
 
 
 def foot_contact_loss(joints_hat: torch.Tensor, joints: torch.Tensor, mask: torch.Tensor,
-                      fps: float = 20.0, samples: torch.Tensor | None = None) -> torch.Tensor:
+                      fps: float = 20.0, samples: torch.Tensor | None = None,
+                      feet: Sequence[int] = FEET) -> torch.Tensor:
     """MDM's foot contact term (Tevet et al. 2023, L_foot): the predicted motion's foot joints (ankles and toes) should
     not move across the floor where the target's are planted. joints_hat, joints (B, T, 22, 3) in metres (the target's
     floor at y = 0), mask (B, T) real frames, ``samples`` (B,) bool: the samples the term counts (None: all). The mean
     over planted foot frame pairs of the predicted horizontal foot speed squared, in (m/s)^2; 0 where nothing is
-    planted."""
-    feet = [*FOOT_JOINTS["left"], *FOOT_JOINTS["right"]]
+    planted. ``feet``: where the foot joints are among the given joints (default: the skeleton's 22)."""
     p, q = joints[:, :, feet], joints_hat[:, :, feet]  # (B, T, 4, 3)
     low = (p[:, 1:, :, 1] < FOOT_PLANTED_HEIGHT) & (p[:, :-1, :, 1] < FOOT_PLANTED_HEIGHT)
     still = (p[:, 1:, :, [0, 2]] - p[:, :-1, :, [0, 2]]).norm(dim=-1) < FOOT_PLANTED_SPEED
@@ -56,4 +62,7 @@ def foot_term(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor, *,
     every timestep, 0.63 below t = 400): the x0 error weighs the 3 root dims among 263, so a slower root was the
     cheapest way to still a planted foot."""
     legs = torch.cat([pred[..., :ROOT_DIMS].detach(), pred[..., ROOT_DIMS:]], dim=-1)
-    return foot_contact_loss(features_to_joints(legs), features_to_joints(target), mask, samples=samples)
+    # only the foot joints are rebuilt (the loss reads nothing else), as foot_contact_loss's joints 0..3
+    feet = list(range(len(FEET)))
+    return foot_contact_loss(features_to_joints(legs, only=FEET), features_to_joints(target, only=FEET), mask,
+                             samples=samples, feet=feet)

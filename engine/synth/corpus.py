@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -40,8 +41,18 @@ class Sample:
     joints: np.ndarray
     features: np.ndarray
     captions: list[str]
-    labels: Labels
     synthesis: Synthesis = field(repr=False)
+    #: (rotation (3, 3), shift (3,)) taking the synthesis's world frame to the canonical one
+    placement: tuple[np.ndarray, np.ndarray] = field(repr=False, compare=False, kw_only=True)
+    held_out_template: bool = field(default=False, kw_only=True)
+
+    @cached_property
+    def labels(self) -> Labels:
+        """The ground truth in the canonical frame, built on first use (training reads only features and captions:
+        3 % of building a training batch saved)."""
+        rotation, shift = self.placement
+        return build_labels(self.synthesis, split=self.split, index=self.index, rotation=rotation, shift=shift,
+                            held_out_pair=is_held_out(self.program), held_out_template=self.held_out_template)
 
     @property
     def local_rotations(self) -> np.ndarray:
@@ -60,10 +71,8 @@ def make_sample(program: Program, *, split: str = "custom", index: int = 0, capt
                                  n=4, held_out=held_out_template)
     joints = joints.astype(np.float32)
     feats = joints_to_features(joints) if with_features else np.zeros((0, 263), np.float32)
-    labels = build_labels(syn, split=split, index=index, rotation=rot, shift=shift,
-                          held_out_pair=is_held_out(program), held_out_template=held_out_template)
-    return Sample(split=split, index=index, program=program, joints=joints,
-                  features=feats, captions=captions, labels=labels, synthesis=syn)
+    return Sample(split=split, index=index, program=program, joints=joints, features=feats, captions=captions,
+                  synthesis=syn, placement=(rot, shift), held_out_template=held_out_template)
 
 
 class Corpus:
