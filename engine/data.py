@@ -256,7 +256,9 @@ def batch_loader(
     own crop, caption and text dropout (and the trainer's own timestep and noise). Group g reads the window of
     G x batch_size items that starts at item g x G x batch_size / R, so each group holds distinct items and builds
     only 1/R of them anew (kept from the group before in this process). Batch k is then no longer about items
-    ``k * batch_size + j``: the stream has consumed ``k * batch_size / R`` new items after k batches.
+    ``k * batch_size + j``: the stream has consumed ``k * batch_size / R`` new items after k batches. Worker
+    processes send the same stream, but each builds its groups apart (consecutive groups go to different workers),
+    so the saving is the in-process trainer's.
     """
     if batch_size < 1:
         raise ValueError(f"batch_size must be at least 1, got {batch_size}")

@@ -280,12 +280,10 @@ def features_to_joints(features: np.ndarray | torch.Tensor, *,
     if only is not None:
         if not all(0 < j < NUM_JOINTS for j in only):
             raise ValueError(f"only: joints 1..{NUM_JOINTS - 1} (the root is not a ric joint), got {list(only)}")
-        ric = _yaw_rotate(ric[..., [j - 1 for j in only], :], -heading[..., None])
-        joints = ric + torch.stack([root[..., 0], torch.zeros_like(root[..., 0]), root[..., 2]], -1)[..., None, :]
-        return joints.numpy() if as_numpy else joints
+        ric = ric[..., [j - 1 for j in only], :]
     ric = _yaw_rotate(ric, -heading[..., None])
     ric = ric + torch.stack([root[..., 0], torch.zeros_like(root[..., 0]), root[..., 2]], -1)[..., None, :]
-    joints = torch.cat([root[..., None, :], ric], dim=-2)
+    joints = ric if only is not None else torch.cat([root[..., None, :], ric], dim=-2)
     return joints.numpy() if as_numpy else joints
 
 

@@ -56,7 +56,7 @@ class TrainBenchConfig:
     prompt_words: int = 12
     vocab_size: int = 512
     warmup: int = 3
-    steps: int = 5
+    steps: int = 12  # 5 read ±15 % between runs of the same code (session 40)
     peak_size: int | None = None  # square matmul side for the peak; None: 2048 on the CPU, 8192 on CUDA
     peak_repeats: int = 5
     generator_workers: tuple[int, ...] | None = None  # None: 0, 1, 2 and min(4, CPUs)
