@@ -64,7 +64,7 @@ class TrainBenchConfig:
     generator_batch_size: int = 32
     velocity_weight: float = 0.5  # TrainConfig's
     grad_clip: float = 1.0
-    stream_steps: int = 40  # timed steps of the trainer's stream rows (after a few warm-up steps); 0 = no rows
+    stream_steps: int = 80  # timed steps of the trainer's stream rows (after a few warm-up steps); 0 = no rows
     stream_rows: tuple[tuple[int, int], ...] = ((1, 1), (8, 1), (8, 2))  # (length_groups, reuse) of the stream rows
 
     def __post_init__(self) -> None:
