@@ -392,6 +392,12 @@ class TrainingRun:
             pin_memory=runtime.device.type == "cuda", max_frames=config.max_frames, text_dropout=config.text_dropout,
             length_groups=config.length_groups, reuse=config.reuse,
         )
+        if self.main:
+            print(f"batches of {config.batch_size}"
+                  + (f", of similar length (groups of {config.length_groups})" if config.length_groups > 1 else "")
+                  + (f", each item in {config.reuse} batches" if config.reuse > 1 else "")
+                  + (f", built by {config.workers} worker processes" if config.workers else ", built in-process"),
+                  flush=True)
         gen = torch.Generator().manual_seed(config.seed * 7919 + self.rank * 104729 + self.step)
         control_dims = None
         if config.control:

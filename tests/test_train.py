@@ -138,6 +138,7 @@ def test_torchrun_two_processes_and_resume_under_another_world_size(tmp_path):
     out = tmp_path / "ddp"
     proc, state = _moattn_train(folder, out, 12, processes=2)
     assert "training on cpu, fp32, 2 processes" in proc.stdout
+    assert "batches of 4, of similar length (groups of 8), each item in 2 batches, built in-process" in proc.stdout
     assert state["step"] == 12
     # each step read half a batch of new items on each of the 2 ranks (--reuse 2, the default: every item goes into
     # two batches); rank 0 alone logged
