@@ -21,6 +21,8 @@
 --tempo      the model's count tempo: per counted action, the scale of its predicted length at which it makes the
              count asked for most often; --write stores it where --seconds auto reads it
              (engine/evaluation/calibrate_tempo.py)
+--intensity  does the model follow the words that scale an action ("jumps high", "waves gently")? each action plain
+             and with the corpus's intensity words from the same noise (engine/evaluation/bench_intensity.py)
 --train      training steps/s, samples/s, GFLOP/s and share of the matmul peak for the shipped model's shape
              and one twice as wide (fp32 and bf16 on the CPU; --device / --precision), and whether the corpus
              generator keeps up with 0/1/2/several DataLoader workers (engine/evaluation/bench_train.py)
@@ -55,8 +57,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--eta goes with --adherence, --levers or --edits")
     if args.real is not None and not args.levers:
         raise ValueError("--real goes with --levers")
-    if args.seeds is not None and not (args.duet or args.adherence or args.sampling or args.levers):
-        raise ValueError("--seeds goes with --duet, --adherence, --sampling or --levers")
+    if args.seeds is not None and not (args.duet or args.adherence or args.sampling or args.levers or args.intensity):
+        raise ValueError("--seeds goes with --duet, --adherence, --sampling, --levers or --intensity")
     if args.sampling and args.steps is not None:
         raise ValueError("--sampling measures its own step counts (10, 20, 50; DDPM 1000 with --ddpm): drop --steps")
     if (args.ddpm or args.full) and not args.sampling:
@@ -108,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
         return run_sampling(args)
     if not (args.app or args.edits or args.inversion or args.transfer):
         raise ValueError("choose a benchmark: --app, --soak, --edits, --inversion, --transfer, --compose and/or --control, "
-                         "--duet, --adherence, --sampling, --train, --exports, --tempo")
+                         "--duet, --adherence, --sampling, --train, --exports, --tempo, --intensity")
     if args.app:
         from app.bench.studio import run_app_bench
 
@@ -162,6 +164,16 @@ def run_tempo(args: argparse.Namespace) -> int:
     print(json.dumps(result, indent=2) if args.json else format_table(result) + (
         f"\ncount tempo written to {shown_folder(args.model)}/config.json" if args.write else
         "\n(not written: add --write)"))
+    return 0
+
+
+def run_intensity(args: argparse.Namespace) -> int:
+    from engine.evaluation.bench_intensity import IntensityBenchConfig, bench_intensity, format_table
+
+    if args.seeds is not None and args.seeds < 1:
+        raise ValueError(f"--seeds must be at least 1, got {args.seeds}")
+    result = bench_intensity(_model(args), preset(IntensityBenchConfig, args, seeds=args.seeds), log=_log)
+    print(json.dumps(result, indent=2) if args.json else format_table(result))
     return 0
 
 
@@ -324,4 +336,4 @@ def run_train(args: argparse.Namespace) -> int:
 
 
 #: benchmarks that run alone, in the order they are looked for
-_ALONE = {"train": run_train, "exports": run_exports, "tempo": run_tempo, "soak": run_soak}
+_ALONE = {"train": run_train, "exports": run_exports, "tempo": run_tempo, "soak": run_soak, "intensity": run_intensity}

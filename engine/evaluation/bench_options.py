@@ -62,6 +62,10 @@ class BenchOptions:
         help="the model's count tempo: per counted action, the scale of its predicted length at which the model makes "
              "the asked-for count most often (calibration prompts); --write stores it in config.json, where every "
              "--seconds auto reads it")
+    intensity: bool = option(False, exclusive="benchmark",
+        help="does the model follow the words that scale an action (jumps high, waves gently)? each action plain and "
+             "with the corpus's intensity words, from the same noise: the share of draws that grow and shrink as "
+             "asked (engine/evaluation/bench_intensity.py)")
     exports: bool = option(False, exclusive="benchmark",
         help="seconds to export a 9.8-s motion as the studio's Export buttons do (GIF, MP4, GLB, BVH, npy)")
     train: bool = option(False, exclusive="benchmark",
@@ -95,7 +99,8 @@ class BenchOptions:
              "out duets per interaction (default 3, quick 1)")
     ood_pairs: int | None = option(None, type=int, group=EDITS, help="--transfer: held-out pairs")
     seeds: int | None = option(None, type=int, group=EDITS,
-        help="--duet: seeds per held-out duet (default 1); --adherence: seeds per prompt (default 4, quick 2)")
+        help="--duet: seeds per held-out duet (default 1); --adherence: seeds per prompt (default 4, quick 2); "
+             "--intensity: seeds per action (default 6, quick 2)")
     drawn: int | None = option(None, type=int, group=EDITS,
         help="--control: drawn paths per control (default 9, quick 3; 0: true paths only); the drawn root + left "
              "wrist task, which the studio's verdict reads, draws 3 times as many")
