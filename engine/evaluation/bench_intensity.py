@@ -35,7 +35,7 @@ CASES: dict[str, tuple[str, str]] = {
 class IntensityBenchConfig:
     actions: tuple[str, ...] = tuple(CASES)
     words: int = 2  # "high" and "a little" words per action, the grammar's first
-    seeds: int = 6
+    seeds: int = 12  # a share over 24 draws per action: about ±0.1; the overall in-order share about ±0.06
     steps: int = DEFAULT_STEPS
     seed: int = 0
 
