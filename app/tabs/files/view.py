@@ -61,9 +61,11 @@ class ImportPanel(pn.viewable.Viewer):
         if not data:
             name = display_name(filename)
             self._upload = None  # "Import window" must not go back to an earlier file
+            # the field is cleared before anything is said: once the message shows, the page has the cleared field
+            # (clearing replaces the file input; a file picked while that happened went to the old one, unheard)
+            self._input.clear()
             self.again.disabled = True
             self.state.error(f"Could not import {name}: it is empty (0 bytes)")
-            self._input.clear()
             return
         if "value" not in changed:
             return  # a new name only: its content follows (or is the same bytes: nothing new to import)
@@ -113,8 +115,8 @@ class ImportPanel(pn.viewable.Viewer):
             except ValueError as exc:
                 error = exc
         if error is not None:
-            self.state.error(f"Could not import {name}: {error}")
-            self._input.clear()  # the field does not go on naming a file that was refused ("Import window" retries)
+            self._input.clear()  # the field does not go on naming a file that was refused ("Import window" retries);
+            self.state.error(f"Could not import {name}: {error}")  # cleared first, as for an empty file
             return False
         window = f" from {begin:g} s of its {seconds_of(total):.1f} s" if cut else ""
         self.state.info(f"imported {name}: {len(joints)} frames ({seconds_of(len(joints)):.1f} s){window}")
