@@ -33,12 +33,13 @@ class MotionSource(Protocol):
 class ActionFocus:
     """Oversampling of some corpus actions: a ``share`` of the items is redrawn (deterministically, from corpus
     indices no plain item uses) until its program holds one of ``actions``, as a segment or an overlay (``counted``:
-    one repeated, count >= 2)."""
+    one repeated, count >= 2; ``intense``: one said with an intensity word, "jumps high", "waves gently")."""
 
     actions: tuple[str, ...]
     share: float
     tries: int = 64
     counted: bool = False  # the focus action repeated (count >= 2), not just present
+    intense: bool = False  # the focus action with an intensity word ("high", "a little"), not a normal one
 
     def __post_init__(self) -> None:
         from engine.synth.program import ACTIONS
@@ -53,7 +54,8 @@ class ActionFocus:
 
     def holds(self, program) -> bool:
         parts = [p for seg in program.segments for p in (seg, seg.overlay) if p is not None]
-        return any(p.action in self.actions and (not self.counted or p.count >= 2) for p in parts)
+        return any(p.action in self.actions and (not self.counted or p.count >= 2)
+                   and (not self.intense or p.intensity_word != "normal") for p in parts)
 
 
 # redrawn items come from corpus indices at and above this one, which no plain training item reaches

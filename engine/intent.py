@@ -79,6 +79,12 @@ SPEED_PHRASES: dict[str, str] = {
 }
 INTENSITY_PHRASES = ("very high", "high", "a little", "slightly", "a tiny bit", "low", "deeply", "all the way down",
                      "energetically", "vigorously", "hard", "a bit", "deep")
+# the level a phrase says where the grammar's own table (per action, engine.synth.grammar.INTENSITY_WORDS) has none
+# for the action: "low" is a little for a jump or a kick but a deep bow, so the action's table is read first
+_INTENSITY_LEVEL = {"very high": "high", "high": "high", "deeply": "high", "all the way down": "high",
+                    "energetically": "high", "vigorously": "high", "hard": "high", "deep": "high",
+                    "a little": "a little", "slightly": "a little", "a tiny bit": "a little", "a bit": "a little"}
+_INTENSITY_KEY = {"jump_forward": "jump", "hop": "jump"}  # the actions that share another's words in the grammar
 # style phrases: the corpus's own (lemmatised at import) plus single words people use
 STYLE_WORDS: dict[str, str] = {
     "zombie": "zombie", "chicken": "chicken", "robot": "robot", "robotically": "robot", "mechanically": "robot",
@@ -257,11 +263,11 @@ def _lexicon() -> dict[tuple[str, ...], tuple[str, object]]:
     for p, v in STYLE_WORDS.items():
         put(p, "style", v)
     for p in INTENSITY_PHRASES:
-        put(p, "intensity", True)
+        put(p, "intensity", p)
     for levels in G.INTENSITY_WORDS.values():
         for phrases in levels.values():
             for p in phrases:
-                put(p, "intensity", True)
+                put(p, "intensity", p)
     ignored = (*G.NEUTRAL_PHRASES, *G.IN_PLACE, *G.JUMP_PLACE, *G.RAISE_WHERE, *G._strings(G.RAISE_LOWER),
                *G._strings(G.RAISE_LOWER_ING), *(p for pair in G.BOW_BACK for p in pair))
     for third, gerund in G.VERBS["jumping_jacks"]:  # "works out with two jumping jacks": the count is read apart
@@ -291,11 +297,13 @@ class IntentSegment:
     direction: str | None = None  # forward, backward, left, right, circle(_left|_right), around
     speed: str | None = None  # "slowly" | "quickly"
     overlay: "IntentSegment | None" = None  # a gesture made while doing the action ("walks while waving")
+    intensity: str | None = None  # "high" | "a little" (the corpus's intensity levels: "jumps high", "waves gently")
 
     def describe(self) -> str:
         label = self.action.replace("_", " ")
         bits = [b for b in (self.side and f"{self.side} side" if self.side in ("left", "right") else self.side,
-                            self.direction, self.speed, f"\u00d7{self.count}" if self.count else None) if b]
+                            self.direction, self.speed, self.intensity,
+                            f"\u00d7{self.count}" if self.count else None) if b]
         out = label + (f" ({', '.join(bits)})" if bits else "")
         if self.overlay is not None:
             out += " while " + self.overlay.describe()
@@ -518,11 +526,15 @@ def _parse_clause(items: list[_Span], used: list[bool], style: list[str], *,
             if nxt is not None and nxt.kind == "word" and nxt.word in LIMBS and len(s.words) == 1:
                 continue  # "two hands"
             found["count"] = s.value
+        elif s.kind == "speed" and intensity_level(" ".join(s.words), action, table_only=True):
+            found["intensity"] = intensity_level(" ".join(s.words), action)  # "waves gently": the grammar's size
         elif s.kind == "speed":
             found["speed"] = s.value
         elif s.kind == "style":
             style.append(s.value)
-        elif s.kind in ("intensity", "ignore"):
+        elif s.kind == "intensity":
+            found["intensity"] = intensity_level(str(s.value), action) or found.get("intensity")
+        elif s.kind == "ignore":
             pass
         elif s.kind == "word" and s.word in ("back", "backward", "backwards", "sideways") and \
                 action in ("walk_backward", "side_step"):
@@ -543,7 +555,22 @@ def _parse_clause(items: list[_Span], used: list[bool], style: list[str], *,
         count = None
     if side not in SIDES_OF.get(action, ()):
         side = None
-    return IntentSegment(action=action, count=count, side=side, direction=direction, speed=speed)
+    return IntentSegment(action=action, count=count, side=side, direction=direction, speed=speed,
+                         intensity=found.get("intensity"))
+
+
+def intensity_level(phrase: str, action: str, *, table_only: bool = False) -> str | None:
+    """The corpus intensity level ("high" | "a little") an intensity phrase says for ``action``: the grammar's own
+    words for that action first ("low" is a little for a jump, a deep bow for a bow; "gently" is a small wave), else
+    (unless ``table_only``) the phrase's usual sense; None where the action has no size to scale (a walk "hard")."""
+    table = G.INTENSITY_WORDS.get(_INTENSITY_KEY.get(action, action))
+    if table is None:
+        return None
+    key = _words(phrase)
+    for level, phrases in table.items():
+        if any(_words(p) == key for p in phrases):
+            return level
+    return None if table_only else _INTENSITY_LEVEL.get(" ".join(key)) or _INTENSITY_LEVEL.get(phrase)
 
 
 def _unplaced(items: list[_Span], used: list[bool]) -> list[str]:
@@ -574,7 +601,8 @@ def parse_intent(text: str, tokens: "TokenizedPrompt | None" = None) -> Intent:
                 prev = segments[-1]
                 extra = _parse_clause(main_items, used, styles, action=prev.action)
                 segments[-1] = replace(prev, direction=prev.direction or extra.direction,
-                                       speed=prev.speed or extra.speed, count=prev.count or extra.count)
+                                       speed=prev.speed or extra.speed, count=prev.count or extra.count,
+                                       intensity=prev.intensity or extra.intensity)
             unplaced += _unplaced(main_items, used)
             continue
         seg = _parse_clause(main_items, used, styles)

@@ -81,6 +81,9 @@ class TrainConfig:
     focus_counted: bool = field(default=False, metadata={"help": "with --focus-actions: the redrawn items hold a "
                                                                 "focus action repeated a number of times (claps "
                                                                 "three times), not just the action"})
+    focus_intense: bool = field(default=False, metadata={"help": "with --focus-actions: the redrawn items hold a "
+                                                                "focus action said with an intensity word (jumps "
+                                                                "high, waves gently), not a normal one"})
     # MDM's foot contact term (engine.diffusion.losses.foot_contact_loss): predicted feet kept still where the target's
     # are planted, in (m/s)^2 of foot speed, this weight against the x0 error
     foot_weight: float = field(default=0.0, metadata={"help": "weight of MDM's foot contact loss: the predicted feet's "
@@ -155,7 +158,8 @@ def focus_from(config: TrainConfig) -> "ActionFocus | None":
     names = tuple(a.strip() for a in config.focus_actions.split(",") if a.strip())
     if not names or config.focus_share <= 0:
         return None
-    return ActionFocus(actions=names, share=config.focus_share, counted=config.focus_counted)
+    return ActionFocus(actions=names, share=config.focus_share, counted=config.focus_counted,
+                       intense=config.focus_intense)
 
 
 def lr_at(step: int, config, *, floor: float = 0.1) -> float:

@@ -81,6 +81,14 @@ def test_speed_and_style_have_no_detector(jumps3):
                                  " | style zombie: not checked")
 
 
+def test_an_intensity_word_is_asked_and_not_checked(jumps3):
+    report = followed("a person jumps really high three times", jumps3, reliable=ALL)
+    rows = _rows(report)
+    assert rows["intensity"] == NOT_CHECKED and rows["count"] == FOLLOWED
+    assert report.describe() == ("asked: jump \u00d73 (high) \u00b7 seen: jump \u00d73 \u2713 "
+                                 "(intensity not checked)")
+
+
 def test_a_sequence_reads_one_part_per_segment_and_its_order():
     walk_jump = corpus_motion(Segment(action="walk", frames=60, direction="forward"),
                               Segment(action="jump", frames=40, count=1))

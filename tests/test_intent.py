@@ -174,3 +174,29 @@ def test_a_clause_without_an_action_modifies_the_one_before():
     assert seg("a person walks forward, slowly") == IntentSegment(action="walk", direction="forward", speed="slowly")
     assert seg("a man runs, to the left").direction == "left"
     assert len(parse_intent("a person walks forward, slowly").segments) == 1
+
+
+def test_intensity_words_are_read_as_the_corpus_level_for_the_action():
+    assert seg("a person jumps really high").intensity == "high"
+    assert seg("someone jumps a little twice") == IntentSegment(action="jump", count=2, intensity="a little")
+    # "low" is a small jump or kick, but a deep bow, as in the corpus grammar's own tables
+    assert seg("a person jumps low").intensity == "a little" and seg("a man bows low").intensity == "high"
+    assert seg("a person kicks low with the left leg") == IntentSegment(action="kick", side="left",
+                                                                         intensity="a little")
+    # "gently" is a speed for a walk and a small wave for a wave (the grammar's wave word)
+    assert seg("a person waves gently").intensity == "a little" and seg("a person waves gently").speed is None
+    assert seg("a person walks gently").speed == "slowly" and seg("a person walks gently").intensity is None
+    assert seg("a person punches hard").intensity is None  # a punch has no size the corpus scales
+    assert parse_intent("a person jumps high").describe() == "jump (high)"
+    assert seg("a person squats, deeply").intensity == "high"  # a clause without an action: the one before
+
+
+def test_every_corpus_intensity_phrase_reads_as_its_own_level():
+    from engine.synth.grammar import INTENSITY_WORDS
+
+    verbs = {"jump": "jumps", "kick": "kicks with the left leg", "squat": "squats", "bow": "bows",
+             "wave": "waves the right hand"}
+    for key, levels in INTENSITY_WORDS.items():
+        for level, phrases in levels.items():
+            for p in phrases:
+                assert seg(f"a person {verbs[key]} {p}").intensity == level, (key, p)

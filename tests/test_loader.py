@@ -245,3 +245,23 @@ def test_counted_focus_redraws_repeated_actions_only():
             if plain.holds(p) and not focus.holds(p)]
     assert once  # the corpus has single claps and waves, which the counted focus does not take
     assert focus_from(TrainConfig(focus_actions="clap,wave", focus_share=1.0, focus_counted=True)) == focus
+
+
+def test_intense_focus_redraws_actions_said_with_an_intensity_word():
+    from engine.data import ActionFocus
+    from engine.train import TrainConfig, focus_from
+
+    focus = ActionFocus(actions=("jump", "wave"), share=1.0, intense=True)
+    source = CorpusSource(split="train", focus=focus)
+    words, held = [], 0
+    for i in range(60):
+        program = source.corpus.program(source.corpus_index(i))[0]
+        parts = [p for seg in program.segments for p in (seg, seg.overlay) if p is not None]
+        words += [p.intensity_word for p in parts if p.action in ("jump", "wave") and p.intensity_word != "normal"]
+        held += focus.holds(program)
+    assert held >= 55  # every item redrawn until a jump or a wave is said "high" or "a little" (64 tries each)
+    assert {"high", "a little"} <= set(words)
+    normal = [p for p in (source.corpus.program(j)[0] for j in range(400))
+              if ActionFocus(actions=("jump", "wave"), share=1.0).holds(p) and not focus.holds(p)]
+    assert normal  # plain jumps and waves are in the corpus, and the intense focus does not take them
+    assert focus_from(TrainConfig(focus_actions="jump,wave", focus_share=1.0, focus_intense=True)) == focus

@@ -2,7 +2,7 @@
 
 ``followed(intent, joints)`` gives a :class:`FollowReport`: per intended segment (a "while ..." gesture
 is a part of its own), one row per attribute the prompt states (action, count, side, direction,
-speed) with what was asked, what the detectors saw and a verdict, ✓ (followed), ✗ (not followed)
+speed, intensity) with what was asked, what the detectors saw and a verdict, ✓ (followed), ✗ (not followed)
 or ``not checked``; then the order of a sequence and its style. Its :meth:`FollowReport.describe`
 is one line, a part per segment::
 
@@ -11,7 +11,7 @@ is one line, a part per segment::
 The comparison is the adherence benchmark's own (``engine.evaluation.adherence.check_segments``).
 A check is only made where its detector agreed with corpus ground truth on at least 95 % of the
 corpus test motions (:func:`detector_reliability`, the benchmark's validation, run once per process);
-every other stated attribute (and speed and style, which have no detector) reads ``not checked``,
+every other stated attribute (and speed, intensity and style, which have no detector) reads ``not checked``,
 and what the detector made of it is not shown: never a guess.
 
 ``moattn generate`` prints the line after writing the motion; the studio's Generate box shows it
@@ -57,7 +57,7 @@ def detector_reliability(motions: int = VALIDATION_MOTIONS) -> Reliability:
 class FollowRow:
     """One stated attribute of one part: what was asked, what was seen, and the verdict."""
 
-    attribute: str  # action | count | side | direction | speed | order | style
+    attribute: str  # action | count | side | direction | speed | intensity | order | style
     asked: str
     seen: str  # "" when not checked (what an unreliable detector read is not shown)
     verdict: str  # FOLLOWED | MISSED | NOT_CHECKED
@@ -162,7 +162,7 @@ def _asked(seg: IntentSegment) -> str:
     text = _label(seg.action)
     if seg.count is not None:
         text += f" \u00d7{seg.count}"
-    bits = [b for b in (seg.side, _direction(seg), seg.speed) if b]
+    bits = [b for b in (seg.side, _direction(seg), seg.speed, seg.intensity) if b]
     return text + (f" ({', '.join(bits)})" if bits else "")
 
 
@@ -249,6 +249,8 @@ def _part(check, m: MotionSignals, reliable: Reliability, totals: dict[str, int]
         rows.append(direction_row)
     if seg.speed is not None:
         rows.append(FollowRow("speed", seg.speed, "", NOT_CHECKED))
+    if seg.intensity is not None:  # how big an action is has no detector the corpus validates: never a guess
+        rows.append(FollowRow("intensity", seg.intensity, "", NOT_CHECKED))
 
     # the part's "seen": the checked attributes only, in the asked wording's order
     if action_row.verdict == MISSED:

@@ -23,7 +23,8 @@ _RUNTIME_HELP = {
     "precision": PRECISION_HELP,
 }
 # base-trainer fields a control fine-tune does not take (it keeps its base's architecture and data)
-_NOT_FOR_CONTROL = ("data", "underspecified", "plain_verbs", "styled_captions", "focus_actions", "focus_share")
+_NOT_FOR_CONTROL = ("data", "underspecified", "plain_verbs", "styled_captions", "focus_actions", "focus_share",
+                    "focus_counted", "focus_intense")
 
 
 def _configs():

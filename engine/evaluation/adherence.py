@@ -140,6 +140,7 @@ def intent_of_program(program: Program, text: str = "") -> Intent:
         return IntentSegment(action=s.action, count=s.count if s.action in COUNTED_ACTIONS else None, side=side,
                              direction=direction,
                              speed=s.speed_word if s.speed_word in ("slowly", "quickly") else None,
+                             intensity=s.intensity_word if s.intensity_word in ("high", "a little") else None,
                              overlay=seg_intent(s.overlay) if s.overlay is not None else None)
 
     return Intent(text=text, segments=tuple(seg_intent(s) for s in program.segments),

@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 
 from engine.intent import IntentSegment
-from engine.synth.program import SPEEDS, Segment
+from engine.synth.program import INTENSITIES, SPEEDS, Segment
 
 
 def realise_segment(want: IntentSegment, rng: np.random.Generator) -> Segment:
@@ -22,6 +22,9 @@ def realise_segment(want: IntentSegment, rng: np.random.Generator) -> Segment:
         fields["side"] = want.side
     if want.speed is not None:
         fields["speed"], fields["speed_word"] = SPEEDS[want.speed], want.speed
+    if want.intensity is not None:  # "jumps high": the corpus's high jump, its own spread kept
+        fields["intensity"] = INTENSITIES[want.intensity] * seg.intensity / INTENSITIES[seg.intensity_word]
+        fields["intensity_word"] = want.intensity
     if want.direction is not None:
         if want.action == "turn":
             fields["turn"] = {"around": np.pi, "left": np.pi / 2, "right": -np.pi / 2}[want.direction]
