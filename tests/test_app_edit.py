@@ -72,7 +72,7 @@ def test_emphasis_changes_the_edit_and_keeps_the_reference(studio):
     from engine.analysis.action_size import amplitude
 
     size = f"{amplitude(before.joints, 'jumps'):.2f} → {amplitude(after.joints, 'jumps'):.2f} m"
-    assert html.escape(f"action size 'jumps' (pelvis peak above its median height): {size}") in tab.result.object
+    assert html.escape(f"action size 'jumps' (feet's peak above the floor): {size}") in tab.result.object
 
 
 def test_emphasis_weight_sign_and_multiplicative_mode(studio):
@@ -559,7 +559,7 @@ def test_a_session_opens_on_its_models_calibrated_emphasis_mode(tiny_model_dir, 
     from engine.analysis.action_size import amplitude
 
     size = report["action_size"]  # the edited motion's action, measured as the bench measures it
-    assert size["word"] == "jumps" and size["measure"] == "pelvis peak above its median height"
+    assert size["word"] == "jumps" and size["measure"] == "feet's peak above the floor"
     assert size["after_m"] == pytest.approx(amplitude(np.load(out), "jumps"), abs=1e-3)
 
 
