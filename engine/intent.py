@@ -559,11 +559,23 @@ def _parse_clause(items: list[_Span], used: list[bool], style: list[str], *,
                          intensity=found.get("intensity"))
 
 
+def action_of_word(word: str) -> str | None:
+    """The corpus action a single word names as a verb or noun ("jumps", "hopping", "waves", "kick"), or None."""
+    kind, value = _LEXICON.get(_words(word), (None, None))
+    return value if kind == "action" and value != "implied" else None
+
+
+def intensity_table(action: str) -> dict[str, tuple[str, ...]] | None:
+    """The corpus grammar's intensity words of ``action`` ({"high": (...), "a little": (...)}), or None where the corpus
+    does not scale it."""
+    return G.INTENSITY_WORDS.get(_INTENSITY_KEY.get(action, action))
+
+
 def intensity_level(phrase: str, action: str, *, table_only: bool = False) -> str | None:
     """The corpus intensity level ("high" | "a little") an intensity phrase says for ``action``: the grammar's own
     words for that action first ("low" is a little for a jump, a deep bow for a bow; "gently" is a small wave), else
     (unless ``table_only``) the phrase's usual sense; None where the action has no size to scale (a walk "hard")."""
-    table = G.INTENSITY_WORDS.get(_INTENSITY_KEY.get(action, action))
+    table = intensity_table(action)
     if table is None:
         return None
     key = _words(phrase)

@@ -197,3 +197,51 @@ def test_guide_mode_is_measured_once_over_every_layer_and_kept_when_it_responds_
     assert [s for s in seen if s[0] == "guide"] == [("guide", tuple(range(n)))]  # one measurement, every layer
     assert result["mode"] == "guide" and result["layers"] == list(range(n)) and result["response"] == 0.8
     assert result["modes"]["add"]["layers"] == [0] and result["weights"]["guide"] == [-0.5, 0.0, 1.0]
+
+
+def test_intensity_mode_wins_with_a_fallback_for_words_the_corpus_does_not_scale(tiny_model_dir, tmp_path,
+                                                                                  monkeypatch):
+    import engine.evaluation.calibrate_edits as cal
+    from engine.methods.edit_options import calibrated_mode, with_defaults
+
+    folder = tmp_path / "model"
+    shutil.copytree(tiny_model_dir, folder)
+    loaded = load_model(folder)
+    n = loaded.model.num_layers
+    assert "intensity" in CalibrationConfig().modes  # a full calibration measures it
+
+    def response(_loaded, layers, _config, mode):
+        if mode == "intensity":
+            return cal.Response(0.9, 0.5)
+        return cal.Response(0.6 if tuple(layers) == (1,) else -1.0, 0.2) if mode == "mul" else cal.Response(-1.0, 0.0)
+
+    monkeypatch.setattr(cal, "response", response)
+    config = CalibrationConfig(**{**TINY.__dict__, "modes": ("add", "mul", "intensity"), "threshold": 0.3})
+    result = calibrate_emphasis(loaded, config, log=lambda _: None)
+    assert result["mode"] == "intensity" and result["layers"] == list(range(n))
+    assert result["fallback"] == {"mode": "mul", "layers": [1]}  # the best of the others, with its own layers
+    write_calibration(folder, result)
+    model_config = load_model(folder).config
+    assert model_config["edits"]["emphasize_fallback"] == {"mode": "mul", "layers": [1]}
+    assert "fallback" not in model_config["edits"]["calibration"]
+    # "jumps" has intensity words: intensity; "punches" has none: the fallback, in its calibrated layers
+    assert calibrated_mode(model_config, word="jumps") == "intensity"
+    assert calibrated_mode(model_config, word="punches") == "mul"
+    punch = build_config(EditOptions(kind="emphasize", word="punches"), frames=40, model_config=model_config)
+    assert (punch.mode, punch.weight, punch.window.layers) == ("mul", 2.0, (1,))
+    jump = with_defaults(EditOptions(kind="emphasize", word="jumps"), model_config)
+    assert (jump.mode, jump.weight) == ("intensity", 0.5)
+    # calibrating again with another winner drops the old fallback
+    write_calibration(folder, {"mode": "mul", "layers": [0], "response": 0.5, "change": 0.1})
+    assert "emphasize_fallback" not in load_model(folder).config["edits"]
+
+
+def test_intensity_calibration_scores_a_word_without_intensity_words_as_no_response(tiny_model_dir, monkeypatch):
+    import engine.evaluation.calibrate_edits as cal
+
+    loaded = load_model(tiny_model_dir)
+    calls = []
+    monkeypatch.setattr(cal.edits, "reweight", lambda *a, **k: calls.append(a) or (_ for _ in ()).throw(AssertionError))
+    config = CalibrationConfig(**{**TINY.__dict__, "prompts": (("a person punches", "punches"),), "seeds": 2})
+    assert cal.response(loaded, (0,), config, mode="intensity") == cal.Response(0.0, 0.0)
+    assert not calls  # nothing was sampled: the mode cannot emphasise a punch

@@ -261,5 +261,57 @@ def test_guide_mode_moves_the_out_slot_away_from_the_word_erased_and_nothing_els
     assert torch.equal(guided(0.5, step=7), plain)  # outside the step window: no guidance
     with pytest.raises(ValueError, match=r"between -1 and 1 \(-1 is the word erased"):
         ReweightConfig(word="jumps", weight=1.5, mode="guide")
-    with pytest.raises(ValueError, match="add, mul, guide"):
+    with pytest.raises(ValueError, match="add, mul, guide, intensity"):
         ReweightConfig(word="jumps", mode="scale")
+
+
+def test_intensity_mode_moves_the_out_slot_towards_the_other_prompt_in_its_window_and_frames():
+    from engine.methods.word_guidance import PromptGuidance
+
+    model, c = tiny(), cond(("ref", "out"))
+    x = torch.randn(2, FRAMES, 263, generator=torch.Generator().manual_seed(2))
+    t = torch.full((2,), 300)
+    plain = model(x, t, c, step=1)
+    other_cond = cond(("out",), words=("a", "man", "jumps", "low"))
+    other_cond = Condition(**{**other_cond.__dict__, "text_ids": torch.tensor([[3, 5, 7, 9]])})
+    other = model(x[1:], t[1:], other_cond, step=1)
+    assert (other[0] - plain[1]).abs().max() > 1e-4  # the other prompt predicts another motion
+
+    def guided(weight, step=1, frames=None):
+        return PromptGuidance(model, toward=other_cond, weight=weight, role="out", steps=frozenset({0, 1, 2}),
+                              frames=frames)(x, t, c, step=step)
+
+    assert torch.equal(guided(0.5)[0], plain[0])  # the ref slot keeps the plain prediction
+    assert torch.allclose(guided(0.5)[1], plain[1] + 0.5 * (other[0] - plain[1]), atol=1e-6)
+    assert torch.allclose(guided(1.0)[1], other[0], atol=1e-6)  # 1: the other prompt's prediction
+    assert torch.equal(guided(0.0), plain)
+    assert torch.equal(guided(0.5, step=7), plain)  # outside the step window: no guidance
+    part = guided(1.0, frames=(4, 10))[1]  # only the frame span moves
+    assert torch.equal(part[:4], plain[1, :4]) and torch.equal(part[10:], plain[1, 10:])
+    assert torch.allclose(part[4:10], other[0, 4:10], atol=1e-6)
+    # intensity mode edits no attention map by itself: its controller is a no-op and the output bit-identical
+    cfg = ReweightConfig(word="jumps", weight=-0.5, mode="intensity")
+    assert torch.equal(model(x, t, c, step=1, controller=Reweight(cfg, num_steps=10)), plain)
+    with pytest.raises(ValueError, match=r"between -1 and 1 \(\+1 is the prompt said with the action's high word"):
+        ReweightConfig(word="jumps", weight=1.5, mode="intensity")
+
+
+def test_a_prompt_said_with_the_corpus_intensity_word_for_its_action():
+    from engine.methods.intensity import intensity_word, with_intensity
+    from engine.synth.grammar import INTENSITY_WORDS
+
+    assert with_intensity("a person jumps", "jumps", level="high") == "a person jumps high"
+    assert intensity_word("waves", "high") == INTENSITY_WORDS["wave"]["high"][0]
+    assert intensity_word("hops", "a little") == INTENSITY_WORDS["jump"]["a little"][0]  # a hop says a jump's words
+    # the word goes at the end of the action's own clause, as the corpus's captions put it
+    assert with_intensity("a person walks forward then jumps twice", "jumps", level="a little") == \
+        "a person walks forward then jumps twice a little"
+    assert with_intensity("a person jumps and waves", "jumps", level="high") == "a person jumps high and waves"
+    assert with_intensity("a person waves the right hand, then kicks", "waves", level="high") == \
+        "a person waves the right hand energetically, then kicks"
+    assert with_intensity("a person jumps then jumps again", "jumps", level="high", occurrence=1) == \
+        "a person jumps then jumps again high"
+    with pytest.raises(ValueError, match="'walks' has no intensity word"):
+        with_intensity("a person walks", "walks", level="high")
+    with pytest.raises(ValueError, match="intensity level"):
+        intensity_word("jumps", "medium")

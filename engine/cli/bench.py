@@ -192,7 +192,7 @@ def run_calibration(args: argparse.Namespace) -> int:
           "10 %, on the calibration prompts), per mode:")
     for mode, row in result["modes"].items():
         weights = ", ".join(f"{w:g}" for w in result["weights"][mode])
-        if row["per_layer"]:  # a mode searched layer by layer (guide is measured once, over every layer)
+        if row["per_layer"]:  # a mode searched layer by layer (guide and intensity are measured once)
             singles = "  ".join(f"{layer}: {rho:+.2f}" for layer, rho in row["per_layer"].items())
             print(f"  {mode} ({weights}), layer alone: {singles}")
             where = "layers " + ", ".join(map(str, row["layers"]))
@@ -203,6 +203,10 @@ def run_calibration(args: argparse.Namespace) -> int:
         print(f"  {result['mode']}: layers {', '.join(map(str, row['layers']))}: {row['response']:+.2f} "
               f"(change {row['change']:+.0%})")
     chosen = ", ".join(map(str, result["layers"])) or "none (all layers stay the default)"
+    if result.get("fallback"):  # intensity chosen: what a word without intensity words ("punches") gets
+        fb = result["fallback"]
+        print(f"for a word the corpus does not scale (punches): {fb['mode']}, layers "
+              f"{', '.join(map(str, fb['layers'])) or 'all'}")
     print(f"emphasis mode: {result['mode']}, layers: {chosen}" + (
         f"  (written to {shown_folder(args.model)}/config.json)" if args.write else "  (not written: add --write)"))
     return 0

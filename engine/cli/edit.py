@@ -152,6 +152,9 @@ def run(args: argparse.Namespace) -> int:
          recipe=cli_recipe(args, made_by="moattn edit", prompt=prompt, frames=frames, edit=args.kind))
     if args.kind == "ground":
         report["spans"] = spans_text(out.extra.get("spans", ()))
+    if "toward" in out.extra:  # intensity mode: the prompt the motion was guided towards
+        report["toward"] = out.extra["toward"]
+        print(f"guided towards {out.extra['toward']!r}", file=sys.stderr, flush=True)
     if REGISTRY[args.kind].sized and options.word:  # did the action grow (shrink)? the bench's measure
         from engine.analysis.action_size import size_change
 

@@ -10,8 +10,9 @@ prompts that the benchmark does not use, and builds the
 layer set by forward selection (layers interact, so a set is measured as a whole). It does so for each way of
 weighting the column, added (the paper's) or multiplied (which scales the word's pull where it already acts, not at
 every frame alike); guide mode (the prediction moved away from the one with the word erased,
-:mod:`engine.methods.word_guidance`) is measured once, over every layer. It keeps the mode that responds best.
-The result goes into the model's ``config.json`` ("edits": {"emphasize_mode": "add"|"mul"|"guide",
+:mod:`engine.methods.word_guidance`) and intensity mode (moved towards the prompt said with the action's intensity
+word, :mod:`engine.methods.intensity`) are measured once, over every layer. It keeps the mode that responds best.
+The result goes into the model's ``config.json`` ("edits": {"emphasize_mode": "add"|"mul"|"guide"|"intensity",
 "emphasize_layers": [...], "calibration": {...}}), where
 the CLI, the app and the benchmark read it as the emphasis default (grounding acts in every layer: on the shipped model the
 calibrated layers put fewer jumps in the chosen spans than no grounding at all, see the edits bench's grounding row).
@@ -29,6 +30,7 @@ from engine.checkpoint import LoadedModel, read_config, write_config_json
 from engine.generate import SampleConfig
 from engine.methods import edits
 from engine.methods.edit_options import SWEEP_WEIGHTS, sweep_weights
+from engine.methods.intensity import scales
 from engine.methods.motionclr import ReweightConfig
 from engine.methods.windows import Window
 from engine.units import DEFAULT_ETA, DEFAULT_GUIDANCE
@@ -98,6 +100,9 @@ def response(loaded: LoadedModel, layers: tuple[int, ...], config: CalibrationCo
     draws = []
     for prompt, verb in config.prompts:
         loaded.tokenizer.encode(prompt).word_index(verb)  # a clear error if the model lacks a word
+        if mode == "intensity" and not scales(verb):  # no intensity word ("punches"): the mode cannot emphasise it
+            draws += [{"score": 0.0, "change": 0.0}] * config.seeds
+            continue
         for seed in range(config.seeds):
             sample = SampleConfig(steps=config.steps, guidance=config.guidance, eta=config.eta, seed=seed)
             configs = [ReweightConfig(word=verb, weight=w, mode=mode, window=Window(layers=layers)) for w in weights]
@@ -119,8 +124,9 @@ def _better(trial: Response, current: Response, config: CalibrationConfig) -> bo
 
 
 #: modes measured once with every layer, not layer by layer: guide's other pass is the prediction without the word,
-#: which erasing the word's column in every layer gives (a per-layer search would cost twice a plain mode's)
-WHOLE_MODEL_MODES = ("guide",)
+#: which erasing the word's column in every layer gives (a per-layer search would cost twice a plain mode's);
+#: intensity's is the prediction for another prompt, which has no layers
+WHOLE_MODEL_MODES = ("guide", "intensity")
 
 
 def _select_layers(loaded: LoadedModel, config: CalibrationConfig, mode: str, log) -> dict:
@@ -173,7 +179,17 @@ def calibrate_emphasis(loaded: LoadedModel, config: CalibrationConfig = Calibrat
     chosen = found[mode]
     best = chosen["best"]
     kept = chosen["layers"] if best.score >= config.threshold else []
-    return {"mode": mode, "layers": kept, "response": round(best.score, 3), "change": round(best.change, 3),
+    fallback = {}
+    if mode == "intensity":  # for a word without intensity words ("punches"): the best of the other modes
+        others = [m for m in config.modes if m != "intensity"]
+        if others:
+            runner = others[0]
+            for other in others[1:]:
+                if _better(found[other]["best"], found[runner]["best"], config):
+                    runner = other
+            good = found[runner]["best"].score >= config.threshold
+            fallback = {"fallback": {"mode": runner, "layers": found[runner]["layers"] if good else []}}
+    return {"mode": mode, "layers": kept, **fallback, "response": round(best.score, 3), "change": round(best.change, 3),
             "per_layer": chosen["per_layer"], "history": chosen["history"],
             "modes": {m: {"layers": f["layers"], "response": round(f["best"].score, 3),
                           "change": round(f["best"].change, 3), "per_layer": f["per_layer"]} for m, f in found.items()},
@@ -185,7 +201,11 @@ def calibrate_emphasis(loaded: LoadedModel, config: CalibrationConfig = Calibrat
 def write_calibration(folder: Path, result: dict) -> None:
     """Store the chosen mode and layers in the model folder's config.json (all layers when none qualified)."""
     data = read_config(folder)
-    data["edits"] = {**data.get("edits", {}), "emphasize_mode": result.get("mode", "add"),
+    edits = {k: v for k, v in data.get("edits", {}).items() if k != "emphasize_fallback"}
+    fallback = result.get("fallback")
+    data["edits"] = {**edits, "emphasize_mode": result.get("mode", "add"),
                      "emphasize_layers": result["layers"] or None,
-                     "calibration": {k: v for k, v in result.items() if k not in ("layers", "mode")}}
+                     **({"emphasize_fallback": {"mode": fallback["mode"], "layers": fallback["layers"] or None}}
+                        if fallback else {}),
+                     "calibration": {k: v for k, v in result.items() if k not in ("layers", "mode", "fallback")}}
     write_config_json(folder, data)

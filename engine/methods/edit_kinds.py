@@ -153,10 +153,22 @@ def _style_config(o, *, frames, steps):
 
 
 # ------------------------------------------------------------------------------------------- in a few words
+_MODE_SUFFIX = {"guide": " guided", "intensity": " by intensity"}
+
+
 def _describe_weighted(what: str):
     def describe(o, *, frames: int) -> str:
         sign = "+" if o.mode != "mul" and o.weight >= 0 else ""
-        w = f"×{o.weight:.2f}" if o.mode == "mul" else f"{sign}{o.weight:.2f}" + (" guided" if o.mode == "guide" else "")
+        w = f"×{o.weight:.2f}" if o.mode == "mul" else f"{sign}{o.weight:.2f}" + _MODE_SUFFIX.get(o.mode, "")
+        if o.mode == "intensity" and isinstance(o.prompt, str) and o.word:  # the prompt it is guided towards
+            from engine.methods.intensity import with_intensity
+
+            try:
+                toward = with_intensity(o.prompt, o.word, level="high" if o.weight >= 0 else "a little",
+                                        occurrence=o.occurrence)
+                w = f"{sign}{o.weight:.2f} towards '{toward}'"
+            except ValueError:  # a word the corpus does not scale: the run says so
+                pass
         spans = ", ".join(f"{a}–{min(b, frames)}" for a, b in o.spans)
         return f"{what} '{o.word}' {w}" + (f" frames {spans}" if spans else "")
     return describe
@@ -215,8 +227,9 @@ REGISTRY: dict[str, EditKind] = {k.name: k for k in (
     EditKind("emphasize", "emphasise",
              "Weight the picked word's cross-attention column: multiplied (×w: over 1 = more of that action, under "
              "1 = less) or added (+w, the paper's form: positive = more, range ±0.5); or guide (+w): move the motion "
-             "away from the one with the word erased (positive = more, -1 = the word erased; on the shipped model it "
-             "grows jumps and kicks most reliably, not waves). It opens on the form and layers measured to grow the "
+             "away from the one with the word erased (positive = more, -1 = the word erased); or intensity (±w): move "
+             "it towards the prompt said with the action's intensity word (+1 = 'jumps high', -1 = 'jumps a little'; "
+             "jumps, hops, kicks, squats, bows and waves). It opens on the form and layers measured to grow the "
              "action on this model.",
              inputs=frozenset({"word", "weight", "mode", "frames"}), build=_emphasize_config,
              run=_run("reweight"), calibrated=True, sized=True, describe=_describe_weighted("emphasise")),

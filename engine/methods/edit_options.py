@@ -30,16 +30,22 @@ Source = Any  # a prompt (str), or joints (T, 22, 3) of a real motion (DDIM-inve
 # pitch is 36 deg unedited, 55 deg at add +0.5 or mul x3, and 68 deg ("bent double") at add +1.0.
 # "guide" (session 39) leaves the attention as it is and moves the prediction away from the one whose word column is
 # erased: x0 + w (x0 - x0 without the word); -1 is the word erased, and past +1 the extrapolation leaves the corpus.
-WEIGHT_RANGES: dict[str, tuple[float, float]] = {"add": (-0.5, 0.5), "mul": (0.0, 3.0), "guide": (-1.0, 1.0)}
+# "intensity" (session 41) moves the prediction towards the prompt said with the corpus's intensity word for the
+# word's action ("a person jumps high" for w > 0, "a person jumps a little" for w < 0, by |w|): +-1 is that prompt.
+WEIGHT_RANGES: dict[str, tuple[float, float]] = {"add": (-0.5, 0.5), "mul": (0.0, 3.0), "guide": (-1.0, 1.0),
+                                                 "intensity": (-1.0, 1.0)}
 #: how each mode reads in a front end (the Edit tab's mode buttons)
-MODE_LABELS: dict[str, str] = {"add": "add +w", "mul": "multiply ×w", "guide": "guide +w"}
+MODE_LABELS: dict[str, str] = {"add": "add +w", "mul": "multiply ×w", "guide": "guide +w",
+                               "intensity": "intensity ±w"}
 WEIGHT_BOUNDS = (min(lo for lo, _ in WEIGHT_RANGES.values()), max(hi for _, hi in WEIGHT_RANGES.values()))
-#: the weight each mode starts from when none is given (the CLI, the Edit tab): add +0.3, multiply x2, guide +0.5
-DEFAULT_WEIGHTS: dict[str, float] = {"add": 0.3, "mul": 2.0, "guide": 0.5}
+#: the weight each mode starts from when none is given (the CLI, the Edit tab): add +0.3, multiply x2, guide +0.5,
+#: intensity +0.5 (half way to "jumps high")
+DEFAULT_WEIGHTS: dict[str, float] = {"add": 0.3, "mul": 2.0, "guide": 0.5, "intensity": 0.5}
 #: the weights a benchmark or a calibration sweeps per mode, lowest to highest, the unedited weight in the middle
 #: (multiplying from x0.5 to x2 around the unedited x1, as adding goes from -0.4 to +0.4 around 0)
 SWEEP_WEIGHTS: dict[str, tuple[float, ...]] = {"add": (-0.4, -0.2, 0.0, 0.2, 0.4), "mul": (0.5, 0.75, 1.0, 1.5, 2.0),
-                                               "guide": (-0.5, -0.25, 0.0, 0.5, 1.0)}
+                                               "guide": (-0.5, -0.25, 0.0, 0.5, 1.0),
+                                               "intensity": (-1.0, -0.5, 0.0, 0.5, 1.0)}
 
 
 def weight_range_text() -> str:
@@ -92,12 +98,14 @@ class EditOptions:
                              help="which appearance of the word in the prompt, counted from 0")
     weight: float | None = option(None, bounds=WEIGHT_BOUNDS, step=0.05, label="Weight", help="emphasis weight",
                                   none="the mode's: " + ", ".join(f"{m} {w:g}" for m, w in DEFAULT_WEIGHTS.items()),
-                                  note=f"{weight_range_text()}; mul > 1 and guide > 0 emphasise")
+                                  note=f"{weight_range_text()}; mul > 1, guide > 0 and intensity > 0 emphasise")
     mode: str | None = option(None, choices=tuple(WEIGHT_RANGES), label="Mode",
                               none="emphasize: the mode calibrated for the model (moattn bench --edits --calibrate); "
                                    "else add",
                               help="how the weight acts: added to or multiplied with the word's attention column, or guide: the "
-                                   "prediction moved away from the one with the word erased, x0 + w (x0 - x0 erased)")
+                                   "prediction moved away from the one with the word erased, x0 + w (x0 - x0 erased), "
+                                   "or intensity: moved towards the prompt said with the action's intensity word "
+                                   "(jumps high for w > 0, jumps a little for w < 0), by |w|")
     frames: Span | tuple[Span, ...] | None = option(
         None, parse=parse_spans, metavar="START:END[,START:END...]",
         help="the frame span(s) [start, end) the edit touches, e.g. 10:20; ground takes several, e.g. "
@@ -165,38 +173,52 @@ def option_spec(name: str) -> OptionSpec:
 CALIBRATED_KINDS = tuple(k for k, v in REGISTRY.items() if v.calibrated)
 
 
-def calibrated_layers(model_config: dict | None, mode: str | None = None) -> tuple[int, ...] | None:
+def calibrated_layers(model_config: dict | None, mode: str | None = None, *,
+                      word: str | None = None) -> tuple[int, ...] | None:
     """The layers where emphasis measurably grows the action, as calibrated for this model (None = all). They belong
-    to the calibrated mode: emphasis in another ``mode`` acts in every layer (None)."""
-    if mode is not None and mode != calibrated_mode(model_config):
+    to the calibrated mode (for ``word``, see :func:`calibrated_mode`): emphasis in another ``mode`` acts in every
+    layer (None)."""
+    chosen = calibrated_mode(model_config, word=word)
+    if mode is not None and mode != chosen:
         return None
-    layers = ((model_config or {}).get("edits") or {}).get("emphasize_layers")
+    edits = (model_config or {}).get("edits") or {}
+    layers = edits.get("emphasize_layers") if chosen == edits.get("emphasize_mode", "add") else \
+        (edits.get("emphasize_fallback") or {}).get("layers")
     return tuple(int(i) for i in layers) if layers else None
 
 
-def calibrated_mode(model_config: dict | None) -> str:
-    """How emphasis acts on the word's attention for this model (added or multiplied), as calibrated; "add" (the
-    paper's) where no calibration chose one."""
-    mode = ((model_config or {}).get("edits") or {}).get("emphasize_mode") or "add"
+def calibrated_mode(model_config: dict | None, *, word: str | None = None) -> str:
+    """How emphasis acts for this model (on the word's attention, added or multiplied; or a guidance), as calibrated;
+    "add" (the paper's) where no calibration chose one. Where the calibrated mode is "intensity" and ``word``'s action
+    has no intensity word in the corpus ("punches"), the calibration's best other mode (its "emphasize_fallback")."""
+    edits = (model_config or {}).get("edits") or {}
+    mode = edits.get("emphasize_mode") or "add"
     if mode not in WEIGHT_RANGES:
         raise ValueError(f"the model's config names an unknown emphasis mode {mode!r}")
+    if mode == "intensity" and word is not None:
+        from engine.methods.intensity import scales
+
+        if not scales(word):
+            return (edits.get("emphasize_fallback") or {}).get("mode") or "mul"
     return mode
 
 
-def default_mode(kind: str, model_config: dict | None = None) -> str:
-    """The mode an edit kind uses when none is given: the calibrated one for emphasis-like kinds, else "add"."""
-    return calibrated_mode(model_config) if kind in CALIBRATED_KINDS else "add"
+def default_mode(kind: str, model_config: dict | None = None, *, word: str | None = None) -> str:
+    """The mode an edit kind uses when none is given: the calibrated one (for ``word``) for emphasis-like kinds, else
+    "add"."""
+    return calibrated_mode(model_config, word=word) if kind in CALIBRATED_KINDS else "add"
 
 
 def with_defaults(options: EditOptions, model_config: dict | None = None) -> EditOptions:
-    """``options`` with the mode and weight the user left out filled in: the kind's default mode for this model
-    (:func:`default_mode`) and that mode's default weight."""
-    mode = options.mode or default_mode(options.kind, model_config)
+    """``options`` with the mode and weight the user left out filled in: the kind's default mode for this model and
+    word (:func:`default_mode`) and that mode's default weight."""
+    mode = options.mode or default_mode(options.kind, model_config, word=options.word)
     weight = options.weight if options.weight is not None else DEFAULT_WEIGHTS[mode]
     return options if (mode, weight) == (options.mode, options.weight) else replace(options, mode=mode, weight=weight)
 
 
-def default_window(kind: str, model_config: dict | None = None, mode: str | None = None) -> Window:
+def default_window(kind: str, model_config: dict | None = None, mode: str | None = None, *,
+                   word: str | None = None) -> Window:
     """The method's own step/layer window for an edit kind (what ``--step-window`` / ``--layers`` override).
 
     ``model_config`` (a loaded model's config) supplies calibrated emphasis layers for the calibrated mode (``mode``
@@ -206,7 +228,7 @@ def default_window(kind: str, model_config: dict | None = None, mode: str | None
 
     entry = REGISTRY.get(kind)
     if kind in CALIBRATED_KINDS:
-        return Window(layers=calibrated_layers(model_config, mode))
+        return Window(layers=calibrated_layers(model_config, mode, word=word))
     if entry is not None and entry.window is not None:
         return entry.window(model_config)
     return Window()
@@ -228,7 +250,8 @@ def build_config(options: EditOptions, *, frames: int, model_config: dict | None
         raise ValueError(f"{options.kind!r} is not an edit (counting is edits.count_generated / count_motion)")
     options = with_defaults(options, model_config)
     return entry.build(options, frames=frames,
-                       steps=window(options, default_window(options.kind, model_config, options.mode)))
+                       steps=window(options, default_window(options.kind, model_config, options.mode,
+                                                            word=options.word)))
 
 
 def run_edit(loaded, options: EditOptions, *, frames: int, sample, record: bool = False,

@@ -16,7 +16,7 @@ from engine.analysis.counting import CountingConfig, CountResult, count_from_att
 from engine.attention import AttentionStore, StoreConfig, stack
 from engine.checkpoint import LoadedModel
 from engine.diffusion import StepState
-from engine.generate import Generation, Request, SampleConfig, denoiser_for, generate
+from engine.generate import Generation, Request, SampleConfig, build_condition, denoiser_for, generate
 from engine.methods.hooks import PinTrajectory
 from engine.methods.inversion import InversionConfig, invert
 from engine.methods.motionclr import (
@@ -24,7 +24,8 @@ from engine.methods.motionclr import (
     ShiftConfig, StyleTransfer, StyleTransferConfig, erased,
 )
 from engine.methods.word_alignment import WordAlignment, align_words
-from engine.methods.word_guidance import WordGuidance
+from engine.methods.intensity import with_intensity
+from engine.methods.word_guidance import PromptGuidance, WordGuidance
 
 Source = str | np.ndarray  # a prompt, or joints (T, 22, 3) of a real motion
 OnStep = Callable[[StepState], None] | None  # called after every sampling step (progress, cancel by raising)
@@ -76,6 +77,8 @@ def reweight(loaded: LoadedModel, prompt: str, config: ReweightConfig, *, frames
     """(De-)emphasis or erasing of ``config.word``: "ref" is the unedited motion, "out" the edited one. Guide mode
     samples through :class:`WordGuidance` (the word's column erased in the other pass) instead of a controller."""
     loaded.tokenizer.encode(prompt).word_index(config.word, config.occurrence)  # a clear error for a missing word
+    if config.mode == "intensity":
+        return _intensity_edit(loaded, prompt, config, frames=frames, sample=sample, record=record, on_step=on_step)
     if config.mode == "guide":
         erase = Reweight(erased(config), num_steps=sample.steps)
         guided = WordGuidance(denoiser_for(loaded, sample), erase=erase, weight=config.weight, role=config.role,
@@ -84,6 +87,23 @@ def reweight(loaded: LoadedModel, prompt: str, config: ReweightConfig, *, frames
                           denoiser=guided)
     return _pair_edit(loaded, prompt, Reweight(config, num_steps=sample.steps), frames=frames, sample=sample, record=record,
                       on_step=on_step)
+
+
+def _intensity_edit(loaded: LoadedModel, prompt: str, config: ReweightConfig, *, frames: int, sample: SampleConfig,
+                    record: bool, on_step: OnStep) -> EditOutput:
+    """Emphasis in "intensity" mode: "out" guided towards the prompt said with the action's intensity word ("high"
+    for a positive weight, "a little" for a negative one, by |weight|); ``extra["toward"]`` is that prompt."""
+    level = "high" if config.weight >= 0 else "a little"
+    toward = with_intensity(prompt, config.word, level=level, occurrence=config.occurrence)
+    cond, _ = build_condition(loaded, Request(prompts=[toward], frames=[frames]))
+    span = config.frames
+    guided = PromptGuidance(denoiser_for(loaded, sample), toward=cond, weight=abs(config.weight), role=config.role,
+                            steps=config.window.bind(sample.steps).steps,
+                            frames=(max(0, span[0]), min(frames, span[1])) if span is not None else None)
+    out = _pair_edit(loaded, prompt, None, frames=frames, sample=sample, record=record, on_step=on_step,
+                     denoiser=guided)
+    out.extra["toward"] = toward
+    return out
 
 
 def ground(loaded: LoadedModel, prompt: str, config: GroundingConfig, *, frames: int,

@@ -47,11 +47,17 @@ def halves(ctx: AttnCtx, *roles: str) -> list[tuple[int, ...]]:
 
 
 # ----------------------------------------------------------------------------- (de-)emphasis, erasing
+#: emphasis modes that edit no attention map: a denoiser wrapper guides the prediction (engine.methods.word_guidance)
+GUIDED_MODES = ("guide", "intensity")
+
+
 @dataclass(frozen=True)
 class ReweightConfig:
     """(De-)emphasise a word: its cross-attention column gets +weight ("add") or ×weight ("mul"); or "guide": the
     column is left as it is and the prediction moves away from the one with the column erased
-    (:class:`engine.methods.word_guidance.WordGuidance`, built by :func:`engine.methods.edits.reweight`).
+    (:class:`engine.methods.word_guidance.WordGuidance`, built by :func:`engine.methods.edits.reweight`); or
+    "intensity": the prediction moves towards the prompt said with the corpus's intensity word for the word's action,
+    "high" for w > 0 and "a little" for w < 0, by |w| (:class:`engine.methods.word_guidance.PromptGuidance`).
 
     ``frames`` limits the change to a frame interval [start, end) (None = all frames);
     ``role`` names the batch slots edited; ``occurrence`` picks a repeated word.
@@ -59,7 +65,7 @@ class ReweightConfig:
 
     word: str
     weight: float = 0.3
-    mode: Literal["add", "mul", "guide"] = "add"
+    mode: Literal["add", "mul", "guide", "intensity"] = "add"
     window: Window = field(default_factory=Window)
     frames: tuple[int, int] | None = None
     role: str = "out"
@@ -70,8 +76,9 @@ class ReweightConfig:
             raise ValueError(f"mode must be one of {', '.join(WEIGHT_RANGES)}, got {self.mode!r}")
         lo, hi = WEIGHT_RANGES[self.mode]
         if not lo <= self.weight <= hi:
-            why = ("-1 is the word erased; past +1 the motion leaves the corpus" if self.mode == "guide"
-                   else "past that the body bends out of shape")
+            why = {"guide": "-1 is the word erased; past +1 the motion leaves the corpus",
+                   "intensity": "+1 is the prompt said with the action's high word, -1 with its little word"}.get(
+                self.mode, "past that the body bends out of shape")
             raise ValueError(f"the {self.mode} weight must be between {lo:g} and {hi:g} ({why}), got {self.weight:g}")
 
 
@@ -81,7 +88,8 @@ class Reweight(Controller):
     def __init__(self, config: ReweightConfig, *, num_steps: int):
         self.config = config
         self.window: BoundWindow = config.window.bind(num_steps)
-        self.needs_maps = config.mode != "guide"  # guide edits no map (WordGuidance does its work): a no-op here
+        # guide and intensity edit no map (their denoiser wrappers do the work): a no-op here
+        self.needs_maps = config.mode not in GUIDED_MODES
 
     def on_probs(self, probs, ctx: AttnCtx):
         c = self.config
@@ -96,7 +104,7 @@ class Reweight(Controller):
             col = ctx.words.index(slot, c.word, c.occurrence)
             if c.mode == "add":
                 probs[slot, :, rows, col] += c.weight
-            elif c.mode == "mul":  # guide edits no map (needs_maps is False: never called)
+            elif c.mode == "mul":  # guided modes edit no map (needs_maps is False: never called)
                 probs[slot, :, rows, col] *= c.weight
         return probs
 

@@ -1,4 +1,5 @@
-"""Emphasis by guidance (the "guide" mode of ``moattn edit emphasize``): a denoiser wrapper with the model's signature.
+"""Emphasis by guidance (the "guide" and "intensity" modes of ``moattn edit emphasize``): denoiser wrappers with the
+model's signature.
 
 MotionCLR (de-)emphasises a word by re-weighting its cross-attention column. In this project's small denoiser the
 response of the action to that weight is not monotone (session 38: "waves" barely answers it; some "jumps" draws
@@ -48,4 +49,37 @@ class WordGuidance:
         erased = self.denoiser(x[slots], t[slots], cond.take(slots), step=step, controller=self.erase)  # (S, T, D)
         out = x0.clone()
         out[slots] = x0[slots] + self.weight * (x0[slots] - erased)
+        return out
+
+
+@dataclass
+class PromptGuidance:
+    """``denoiser`` guided towards its prediction under another prompt on ``role``'s slots: x0 + w (x0 other - x0).
+
+    Emphasis in "intensity" mode: the other prompt is the edited one said with the corpus's intensity word for the
+    word's action ("a person jumps high", :mod:`engine.methods.intensity`), so w = 1 samples that prompt and w between
+    0 and 1 goes part of the way. ``toward`` conditions the role's slots (one prompt per slot); ``steps`` and
+    ``frames`` ([start, end)) keep the guidance to the edit's step window and frame span, elsewhere the plain
+    prediction stands.
+    """
+
+    denoiser: Callable
+    toward: Condition
+    weight: float
+    role: str = "out"
+    steps: frozenset[int] | None = None
+    frames: tuple[int, int] | None = None
+
+    def __call__(self, x: torch.Tensor, t: torch.Tensor, cond: Condition, *, step: int = 0,
+                 controller: AttentionController | None = None) -> torch.Tensor:
+        x0 = self.denoiser(x, t, cond, step=step, controller=controller)  # (B, T, D)
+        slots = cond.roles.slots(self.role)
+        if self.weight == 0.0 or not slots or (self.steps is not None and step not in self.steps):
+            return x0
+        if len(slots) != self.toward.text_ids.shape[0]:
+            raise ValueError(f"{len(slots)} {self.role!r} slots but {self.toward.text_ids.shape[0]} guiding prompts")
+        other = self.denoiser(x[slots], t[slots], self.toward, step=step)  # (S, T, D)
+        start, end = self.frames if self.frames is not None else (0, x0.shape[1])
+        out = x0.clone()
+        out[slots, start:end] = x0[slots, start:end] + self.weight * (other[:, start:end] - x0[slots, start:end])
         return out
