@@ -563,6 +563,36 @@ def test_a_session_opens_on_its_models_calibrated_emphasis_mode(tiny_model_dir, 
     assert size["after_m"] == pytest.approx(amplitude(np.load(out), "jumps"), abs=1e-3)
 
 
+def test_a_model_calibrated_to_intensity_falls_back_for_a_word_the_corpus_does_not_scale(tiny_model_dir, tmp_path):
+    """Intensity mode has no intensity word for "punches": picking that word moves the calibrated mode to the
+    calibration's fallback (with its layers) and picking "jumps" again moves it back; a mode the user chose stays."""
+    import shutil
+
+    from engine.evaluation.calibrate_edits import write_calibration
+    from engine.methods.edit_options import DEFAULT_WEIGHTS
+
+    folder = tmp_path / "model"
+    shutil.copytree(tiny_model_dir, folder)
+    write_calibration(folder, {"mode": "intensity", "layers": [0, 1], "fallback": {"mode": "mul", "layers": [1]},
+                               "response": 0.9, "change": 0.5})
+    st = Studio(model_dir=folder, initial=None)
+    try:
+        tab, s = st.edit, st.state
+        tab.kind.value = "emphasise"
+        s.prompt = "a person jumps then punches"
+        assert (tab.settings.mode, tab.settings.weight) == ("intensity", DEFAULT_WEIGHTS["intensity"])
+        tab.words.value = 4  # punches
+        assert (tab.settings.word, tab.settings.mode, tab.settings.weight) == ("punches", "mul", DEFAULT_WEIGHTS["mul"])
+        assert tab.settings.layers == [1] and tab.layers.value == [1]  # the fallback's own calibrated layers
+        tab.words.value = 2  # jumps
+        assert (tab.settings.word, tab.settings.mode) == ("jumps", "intensity")
+        tab.mode.value = "add"  # the user's choice is kept whatever the word
+        tab.words.value = 4
+        assert tab.settings.mode == "add"
+    finally:
+        st.close()
+
+
 def test_switching_to_ground_after_a_multiplied_emphasis_takes_a_grounding_weight(tiny_model_dir, tmp_path):
     """Emphasis opens at x2 on a model calibrated to multiply; grounding adds a weight in (0, 1]: switching kinds
     must not hand it the 2 (it was refused: "the grounding weight must be in (0, 1]")."""

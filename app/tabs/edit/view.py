@@ -25,7 +25,7 @@ from app.session.state import StudioState
 from app.tabs.edit.job import alignment, count_current, run_edit, swap_example, word_choice
 from app.tabs.edit.settings import KIND_HELP, PLAIN_INPUTS, PROMPT_SOURCE, EditSettings
 from engine.analysis.counting import COUNTING_METHODS
-from engine.methods.edit_options import DEFAULT_WEIGHTS, WEIGHT_RANGES, option_spec
+from engine.methods.edit_options import DEFAULT_WEIGHTS, WEIGHT_RANGES, default_mode, option_spec
 from engine.methods.spans import check_spans, parse_spans, spans_text
 
 
@@ -263,7 +263,15 @@ class EditTab(pn.viewable.Viewer):
     def pick_word(self, position: int) -> None:
         """What a click on the prompt's ``position``-th word does: the edit names that word (and which occurrence)."""
         word, occurrence = word_choice(self.state.prompt_words, position)
-        self.settings.param.update(word=word, occurrence=occurrence)
+        e = self.settings
+        mode = e.mode
+        if e.entry.calibrated and "mode" in e.entry.inputs:  # the calibrated mode, for this word: intensity has a
+            config = self._model_config()  # fallback for words the corpus does not scale ("punches")
+            if e.mode in (default_mode(e.entry.name, config), default_mode(e.entry.name, config, word=e.word)):
+                mode = default_mode(e.entry.name, config, word=word)
+        e.param.update(word=word, occurrence=occurrence)
+        if mode != e.mode:
+            e.mode = mode  # its watcher sets that mode's weight and layers
         self._sync(lambda: setattr(self.words, "value", position))
 
     # ------------------------------------------------------------------ state -> widgets
@@ -345,11 +353,11 @@ class EditTab(pn.viewable.Viewer):
             e.style_source = PROMPT_SOURCE
 
     def _on_kind(self, *changed):
-        from engine.methods.edit_options import default_mode, default_window
+        from engine.methods.edit_options import default_window
 
         e = self.settings
         entry = e.entry
-        window = default_window(entry.name, self._model_config()) if entry.is_edit else None
+        window = default_window(entry.name, self._model_config(), word=e.word) if entry.is_edit else None
         if window is not None:
             e.step_window = (window.start, window.end)
             e.layers = sorted(window.layers or [])  # the calibrated emphasis layers, shown so they can be changed
@@ -403,7 +411,7 @@ class EditTab(pn.viewable.Viewer):
         if changed and e.entry.calibrated:  # the calibrated layers belong to the calibrated mode: follow the switch
             from engine.methods.edit_options import default_window
 
-            e.layers = sorted(default_window(e.entry.name, self._model_config(), e.mode).layers or [])
+            e.layers = sorted(default_window(e.entry.name, self._model_config(), e.mode, word=e.word).layers or [])
             self._sync(lambda: setattr(self.layers, "value", list(e.layers)))
 
     def _alignment(self) -> tuple[bool, str]:
