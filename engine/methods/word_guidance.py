@@ -24,6 +24,17 @@ from engine.attention.controller import AttentionController
 from engine.model.denoiser import Condition
 
 
+def _plain_and_slots(guidance, x: torch.Tensor, t: torch.Tensor, cond: Condition, *, step: int,
+                     controller: AttentionController | None) -> tuple[torch.Tensor, list[int]]:
+    """A guidance wrapper's plain prediction (B, T, D) and the slots it guides at this step ([] where it does not:
+    weight 0, no slot of its role, or a step outside its window)."""
+    x0 = guidance.denoiser(x, t, cond, step=step, controller=controller)  # (B, T, D)
+    slots = cond.roles.slots(guidance.role)
+    if guidance.weight == 0.0 or (guidance.steps is not None and step not in guidance.steps):
+        return x0, []
+    return x0, list(slots)
+
+
 @dataclass
 class WordGuidance:
     """``denoiser`` guided away from its own prediction with ``erase`` acting (the word's column erased).
@@ -42,9 +53,8 @@ class WordGuidance:
 
     def __call__(self, x: torch.Tensor, t: torch.Tensor, cond: Condition, *, step: int = 0,
                  controller: AttentionController | None = None) -> torch.Tensor:
-        x0 = self.denoiser(x, t, cond, step=step, controller=controller)  # (B, T, D)
-        slots = cond.roles.slots(self.role)
-        if self.weight == 0.0 or not slots or (self.steps is not None and step not in self.steps):
+        x0, slots = _plain_and_slots(self, x, t, cond, step=step, controller=controller)
+        if not slots:
             return x0
         erased = self.denoiser(x[slots], t[slots], cond.take(slots), step=step, controller=self.erase)  # (S, T, D)
         out = x0.clone()
@@ -72,9 +82,8 @@ class PromptGuidance:
 
     def __call__(self, x: torch.Tensor, t: torch.Tensor, cond: Condition, *, step: int = 0,
                  controller: AttentionController | None = None) -> torch.Tensor:
-        x0 = self.denoiser(x, t, cond, step=step, controller=controller)  # (B, T, D)
-        slots = cond.roles.slots(self.role)
-        if self.weight == 0.0 or not slots or (self.steps is not None and step not in self.steps):
+        x0, slots = _plain_and_slots(self, x, t, cond, step=step, controller=controller)
+        if not slots:
             return x0
         if len(slots) != self.toward.text_ids.shape[0]:
             raise ValueError(f"{len(slots)} {self.role!r} slots but {self.toward.text_ids.shape[0]} guiding prompts")
