@@ -81,12 +81,24 @@ def test_speed_and_style_have_no_detector(jumps3):
                                  " | style zombie: not checked")
 
 
-def test_an_intensity_word_is_asked_and_not_checked(jumps3):
-    report = followed("a person jumps really high three times", jumps3, reliable=ALL)
-    rows = _rows(report)
-    assert rows["intensity"] == NOT_CHECKED and rows["count"] == FOLLOWED
-    assert report.describe() == ("asked: jump \u00d73 (high) \u00b7 seen: jump \u00d73 \u2713 "
-                                 "(intensity not checked)")
+def test_an_intensity_word_is_checked_against_the_corpus_levels(jumps3):
+    from engine.analysis.action_size import amplitude
+
+    high = corpus_motion(Segment(action="jump", frames=80, count=3, intensity=1.6, intensity_word="high"))
+    size, size_high = amplitude(jumps3, "jumps"), amplitude(high, "jumps")
+    report = followed("a person jumps really high three times", high, reliable=ALL)
+    assert _rows(report) == {"action": FOLLOWED, "count": FOLLOWED, "intensity": FOLLOWED}
+    assert report.describe() == f"asked: jump \u00d73 (high) \u00b7 seen: jump \u00d73 (high {size_high:.2f} m) \u2713"
+    plain = followed("a person jumps really high three times", jumps3, reliable=ALL)  # a normal jump asked high
+    assert _rows(plain)["intensity"] == MISSED
+    assert plain.describe() == f"asked: jump \u00d73 (high) \u00b7 seen: jump \u00d73 (normal {size:.2f} m) \u2717"
+    # where the reading was not validated for the action it is not checked, and what it read is not shown
+    unvalidated = {k: v for k, v in ALL.items() if k != ("intensity", "jump")}
+    row = next(r for _, r in followed("a person jumps high three times", jumps3, reliable=unvalidated).rows
+               if r.attribute == "intensity")
+    assert row.verdict == NOT_CHECKED and row.seen == ""
+    # a punch has no size the corpus scales: "hard" is not read as an intensity at all
+    assert "intensity" not in _rows(followed("a person punches hard", jumps3, reliable=ALL))
 
 
 def test_a_sequence_reads_one_part_per_segment_and_its_order():

@@ -61,6 +61,25 @@ def amplitude(joints: np.ndarray, verb: str) -> float:
     return float((heights.max(0) - heights.min(0)).max())
 
 
+#: action -> (under this size it reads "a little", over this one "high"), metres of the action's measure: the midpoints
+#: between the corpus's a little / normal / high means of unstyled single actions (runs/s41/measure.py: jumps 0.14 /
+#: 0.25 / 0.40, hops 0.07 / 0.12 / 0.19, kicks 0.44 / 0.59 / 0.80, waves 0.12 / 0.18 / 0.23). Whether a reading
+#: is trusted is the adherence validation's call, per action (engine.evaluation.adherence.validate)
+INTENSITY_BOUNDS: dict[str, tuple[float, float]] = {"jump": (0.19, 0.32), "hop": (0.093, 0.155), "kick": (0.51, 0.70),
+                                                    "wave": (0.148, 0.202)}
+_VERB = {"jump": "jumps", "hop": "hops", "kick": "kicks", "wave": "waves"}
+
+
+def intensity_seen(joints: np.ndarray, action: str) -> tuple[str, float] | None:
+    """The intensity level ("a little" | "normal" | "high") the motion's ``action`` reads at, and its size (m); None for
+    an action without bounds (:data:`INTENSITY_BOUNDS`)."""
+    if action not in INTENSITY_BOUNDS:
+        return None
+    size = amplitude(joints, _VERB[action])
+    little, high = INTENSITY_BOUNDS[action]
+    return ("a little" if size < little else "high" if size > high else "normal"), size
+
+
 @dataclass(frozen=True)
 class SizeChange:
     """An action's size before and after an edit of its word."""

@@ -11,7 +11,7 @@ is one line, a part per segment::
 The comparison is the adherence benchmark's own (``engine.evaluation.adherence.check_segments``).
 A check is only made where its detector agreed with corpus ground truth on at least 95 % of the
 corpus test motions (:func:`detector_reliability`, the benchmark's validation, run once per process);
-every other stated attribute (and speed, intensity and style, which have no detector) reads ``not checked``,
+every other stated attribute (and speed and style, which have no detector) reads ``not checked``,
 and what the detector made of it is not shown: never a guess.
 
 ``moattn generate`` prints the line after writing the motion; the studio's Generate box shows it
@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from engine.analysis.action_size import intensity_seen
 from engine.analysis.detectors import DETECTORS, Detected, MotionSignals, detect
 from engine.evaluation.adherence import Reliability, check_order, check_segments, reliability, validate
 from engine.intent import COUNTED_ACTIONS, Intent, IntentSegment, parse_intent
@@ -235,7 +236,7 @@ def _part(check, m: MotionSignals, reliable: Reliability, totals: dict[str, int]
     found = bool(events)
     action_row = row("action", _label(seg.action), _label(seg.action) if found else f"no {_label(seg.action)}")
     rows.append(action_row)
-    count_row = side_row = direction_row = None
+    count_row = side_row = direction_row = intensity_row = None
     if seg.count is not None:
         n, total = len(events), totals[seg.action]
         asked = f"\u00d7{seg.count}" + (f" ({total} in all)" if total != seg.count else "")
@@ -249,8 +250,11 @@ def _part(check, m: MotionSignals, reliable: Reliability, totals: dict[str, int]
         rows.append(direction_row)
     if seg.speed is not None:
         rows.append(FollowRow("speed", seg.speed, "", NOT_CHECKED))
-    if seg.intensity is not None:  # how big an action is has no detector the corpus validates: never a guess
-        rows.append(FollowRow("intensity", seg.intensity, "", NOT_CHECKED))
+    if seg.intensity is not None:  # how big the action is, against the corpus's levels (where validated)
+        seen_level = intensity_seen(m.joints, seg.action)
+        intensity_row = row("intensity", seg.intensity,
+                            "" if seen_level is None else f"{seen_level[0]} {seen_level[1]:.2f} m")
+        rows.append(intensity_row)
 
     # the part's "seen": the checked attributes only, in the asked wording's order
     if action_row.verdict == MISSED:
@@ -259,7 +263,7 @@ def _part(check, m: MotionSignals, reliable: Reliability, totals: dict[str, int]
         seen = _label(seg.action) if action_row.verdict == FOLLOWED else ""
         if count_row is not None and count_row.verdict != NOT_CHECKED:
             seen = f"{seen} {count_row.seen}".strip()
-        bits = [r.seen for r in (side_row, direction_row) if r is not None and r.verdict != NOT_CHECKED]
+        bits = [r.seen for r in (side_row, direction_row, intensity_row) if r is not None and r.verdict != NOT_CHECKED]
         if bits:
             seen = f"{seen} ({', '.join(bits)})".strip()
         seen = seen or NOT_CHECKED

@@ -9,6 +9,8 @@ detector was found unreliable on ground truth):
 - ``side``: the detected events are made with the side the prompt names ("both": both sides);
 - ``direction``: a walk/run/jog travels the stated way (forward, curving left/right, a circle),
   a turn turns the stated way, a side step goes the stated side;
+- ``intensity``: a jump, hop, kick or wave said "high" or "a little" reads at that level
+  (``engine.analysis.action_size.intensity_seen``: its size against the corpus's levels);
 - ``order``: the segments' actions happen in the prompt's order.
 
 ``validate`` runs the same check on corpus motions with their true intent: the agreement it
@@ -23,12 +25,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from engine.analysis.action_size import intensity_seen
 from engine.analysis.detectors import Detected, MotionSignals, detect
 from engine.intent import COUNTED_ACTIONS, SIDES_OF, Intent, IntentSegment
 from engine.synth.intents import realise_segment
 from engine.synth.program import FPS, MAX_FRAMES, Program, Segment
 
-ATTRIBUTES = ("action", "count", "side", "direction", "order")
+ATTRIBUTES = ("action", "count", "side", "direction", "intensity", "order")
 RELIABLE = 0.95  # agreement with ground truth a check needs to be scored
 MIN_VALIDATION = 5  # fewer ground-truth cases than this: the check cannot be called reliable
 DIRECTED = ("walk", "run", "jog", "turn", "side_step")
@@ -92,6 +95,8 @@ def check_segments(joints: np.ndarray | MotionSignals, intent: Intent) -> list[S
             result["direction"] = any(_direction_matches(seg.direction, e.side) for e in events)
         else:
             result["direction"] = None
+        seen = intensity_seen(m.joints, seg.action) if seg.intensity is not None else None
+        result["intensity"] = None if seen is None else seen[0] == seg.intensity
         out.append(SegmentCheck(segment=seg, events=tuple(events), result=result))
     return out
 
@@ -205,8 +210,14 @@ def validate(*, motions: int = 500, split: str = "test", start: int = 0,
         checks = check_segments(m, intent)
         for c in checks:
             for attr in ATTRIBUTES[:-1]:
-                if c.result[attr] is not None:
+                if c.result[attr] is not None and attr != "intensity":
                     hits[(attr, c.segment.action)].append(bool(c.result[attr]))
+        # the intensity reading against every segment's true level, normal ones too: a reading that calls a
+        # normal jump "high" must not pass for a check of "jumps high"
+        for part in (p for seg in sample.program.segments for p in (seg, seg.overlay) if p is not None):
+            seen = intensity_seen(m.joints, part.action)
+            if seen is not None:
+                hits[("intensity", part.action)].append(seen[0] == part.intensity_word)
         order = check_order(checks, intent)
         if order is not None:
             hits[("order", "*")].append(order)
