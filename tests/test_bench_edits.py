@@ -85,7 +85,7 @@ def test_tiny_end_to_end(tiny_model, tiny_evaluator):  # noqa: F811
     assert 0.0 <= result["counting"]["attention"] <= 1.0 and 0.0 <= result["counting"]["baseline"] <= 1.0
     assert -1.0 <= result["emphasis_spearman"] <= 1.0
     e = result["emphasis"]
-    assert e["mode"] == "add" and set(e["other_modes"]) == {"mul", "guide"}  # the tiny model is not calibrated
+    assert e["mode"] == "add" and set(e["other_modes"]) == {"mul", "guide", "intensity"}  # the tiny model is not calibrated
     assert e["other_modes"]["guide"]["every_layer"] and e["other_modes"]["guide"]["weights"] == [-0.5, 0.0, 1.0]
     assert all(-1.0 <= o["spearman"] <= 1.0 for o in e["other_modes"].values())
     r = result["replacement"]

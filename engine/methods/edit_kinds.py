@@ -225,12 +225,10 @@ def _run_style(loaded, options, config, **common):
 
 REGISTRY: dict[str, EditKind] = {k.name: k for k in (
     EditKind("emphasize", "emphasise",
-             "Weight the picked word's cross-attention column: multiplied (×w: over 1 = more of that action, under "
-             "1 = less) or added (+w, the paper's form: positive = more, range ±0.5); or guide (+w): move the motion "
-             "away from the one with the word erased (positive = more, -1 = the word erased); or intensity (±w): move "
-             "it towards the prompt said with the action's intensity word (+1 = 'jumps high', -1 = 'jumps a little'; "
-             "jumps, hops, kicks, squats, bows and waves). It opens on the form and layers measured to grow the "
-             "action on this model.",
+             "Weight the picked word's cross-attention column: multiplied (×w: over 1 = more of that action) or "
+             "added (+w, the paper's form, ±0.5); or guide (+w): away from the motion with the word erased; or "
+             "intensity (±w): towards the prompt said with the action's intensity word (+1 = 'jumps high', -1 = "
+             "'jumps a little'). It opens on the form and layers measured to grow the action on this model.",
              inputs=frozenset({"word", "weight", "mode", "frames"}), build=_emphasize_config,
              run=_run("reweight"), calibrated=True, sized=True, describe=_describe_weighted("emphasise")),
     EditKind("erase", "erase",

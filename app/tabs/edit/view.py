@@ -47,10 +47,11 @@ class EditTab(pn.viewable.Viewer):
                                                  variant="outline", css_classes=["edit-words"], margin=(2, 10),
                                                  sizing_mode="stretch_width", stylesheets=[WRAP_BUTTONS_CSS])
         self.mode = pn.widgets.RadioButtonGroup.from_param(e.param.mode, color="primary", variant="outline",
-                                                           css_classes=["edit-mode"], width=270)
-        for widget in (self.kind, self.mode):  # their tooltip below them: on the right it ran off the screen
-            if isinstance(widget.description, str):
-                widget.description = Tooltip(content=widget.description, position="bottom")
+                                                           css_classes=["edit-mode"], width=360)
+        for widget in (self.kind, self.mode):  # their tooltip below them: on the right it ran off the screen; its
+            if isinstance(widget.description, str):  # text wrapped, not one line as wide as it is long
+                widget.description = Tooltip(content=widget.description, position="bottom",
+                                             stylesheets=[":host { max-width: 460px; white-space: normal; }"])
         lo, hi = WEIGHT_RANGES[e.mode]  # the mode's own range (the settings' bounds cover both modes)
         self.weight = pn.widgets.FloatSlider.from_param(e.param.weight, start=lo, end=hi, css_classes=["edit-weight"],
                                                         sizing_mode="stretch_width")
