@@ -571,6 +571,20 @@ def intensity_table(action: str) -> dict[str, tuple[str, ...]] | None:
     return G.INTENSITY_WORDS.get(_INTENSITY_KEY.get(action, action))
 
 
+def _levels_in_every_table() -> dict[tuple[str, ...], str]:
+    """Phrases the grammar's intensity tables give one level wherever they appear ("really high": high), so another
+    scaled action may say them ("kicks really high"); "low" (a small jump, a deep bow) is not among them."""
+    seen: dict[tuple[str, ...], set[str]] = {}
+    for levels in G.INTENSITY_WORDS.values():
+        for level, phrases in levels.items():
+            for p in phrases:
+                seen.setdefault(_words(p), set()).add(level)
+    return {k: next(iter(v)) for k, v in seen.items() if len(v) == 1}
+
+
+_ANY_TABLE_LEVEL = _levels_in_every_table()
+
+
 def intensity_level(phrase: str, action: str, *, table_only: bool = False) -> str | None:
     """The corpus intensity level ("high" | "a little") an intensity phrase says for ``action``: the grammar's own
     words for that action first ("low" is a little for a jump, a deep bow for a bow; "gently" is a small wave), else
@@ -582,7 +596,9 @@ def intensity_level(phrase: str, action: str, *, table_only: bool = False) -> st
     for level, phrases in table.items():
         if any(_words(p) == key for p in phrases):
             return level
-    return None if table_only else _INTENSITY_LEVEL.get(" ".join(key)) or _INTENSITY_LEVEL.get(phrase)
+    if table_only:
+        return None
+    return _INTENSITY_LEVEL.get(" ".join(key)) or _INTENSITY_LEVEL.get(phrase) or _ANY_TABLE_LEVEL.get(key)
 
 
 def _unplaced(items: list[_Span], used: list[bool]) -> list[str]:

@@ -187,6 +187,8 @@ def test_intensity_words_are_read_as_the_corpus_level_for_the_action():
     assert seg("a person waves gently").intensity == "a little" and seg("a person waves gently").speed is None
     assert seg("a person walks gently").speed == "slowly" and seg("a person walks gently").intensity is None
     assert seg("a person punches hard").intensity is None  # a punch has no size the corpus scales
+    # a phrase another scaled action says, at one level in every table: "kicks really high" (a jump's words)
+    assert seg("someone kicks really high with the left leg").intensity == "high"
     assert parse_intent("a person jumps high").describe() == "jump (high)"
     assert seg("a person squats, deeply").intensity == "high"  # a clause without an action: the one before
 

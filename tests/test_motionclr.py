@@ -311,6 +311,11 @@ def test_a_prompt_said_with_the_corpus_intensity_word_for_its_action():
         "a person waves the right hand energetically, then kicks"
     assert with_intensity("a person jumps then jumps again", "jumps", level="high", occurrence=1) == \
         "a person jumps then jumps again high"
+    # an intensity the clause already says is replaced, not added to
+    assert with_intensity("a person jumps a little then punches", "jumps", level="high") == \
+        "a person jumps high then punches"
+    assert with_intensity("a person waves the right hand gently", "waves", level="high") == \
+        "a person waves the right hand energetically"
     with pytest.raises(ValueError, match="'walks' has no intensity word"):
         with_intensity("a person walks", "walks", level="high")
     with pytest.raises(ValueError, match="intensity level"):

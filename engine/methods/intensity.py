@@ -11,11 +11,16 @@ from __future__ import annotations
 
 import re
 
-from engine.intent import action_of_word, intensity_table
+from engine.intent import INTENSITY_PHRASES, action_of_word, intensity_table
+from engine.synth.grammar import INTENSITY_WORDS
 
 #: words that end a clause: the intensity word goes before the first of them after the action's verb
 _CLAUSE_END = re.compile(r",|;|\.|\b(?:then|and|while|after|before|followed)\b", re.IGNORECASE)
 LEVELS = ("high", "a little")
+#: the intensity words a clause may already say, longest first (they are replaced, not added to)
+_INTENSITY_PHRASES = re.compile(r"\s*\b(?:" + "|".join(re.escape(p) for p in sorted(
+    {p for levels in INTENSITY_WORDS.values() for phrases in levels.values() for p in phrases} | set(INTENSITY_PHRASES),
+    key=len, reverse=True)) + r")\b", re.IGNORECASE)
 
 
 def scales(word: str) -> bool:
@@ -50,5 +55,7 @@ def with_intensity(prompt: str, word: str, *, level: str, occurrence: int = 0) -
         cut = end.start() if end is not None else len(prompt.rstrip())
     else:
         cut = len(prompt.rstrip())
-    head, tail = prompt[:cut].rstrip(), prompt[cut:]
+    start = found[occurrence].end() if occurrence < len(found) else 0
+    clause = _INTENSITY_PHRASES.sub("", prompt[start:cut])  # "jumps a little" said high: not "a little high"
+    head, tail = (prompt[:start] + re.sub(r"\s+", " ", clause)).rstrip(), prompt[cut:]
     return f"{head} {adverb}" + (tail if tail.startswith((",", ";", ".")) or not tail else f" {tail.lstrip()}")
