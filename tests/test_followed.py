@@ -82,10 +82,17 @@ def test_speed_and_style_have_no_detector(jumps3):
 
 
 def test_an_intensity_word_is_checked_against_the_corpus_levels(jumps3):
-    from engine.analysis.action_size import amplitude
+    from engine.analysis.action_size import intensity_seen
+    from engine.analysis.detectors import MotionSignals, detect
 
     high = corpus_motion(Segment(action="jump", frames=80, count=3, intensity=1.6, intensity_word="high"))
-    size, size_high = amplitude(jumps3, "jumps"), amplitude(high, "jumps")
+
+    def read(joints):  # the reading at the detected jumps' apexes
+        m = MotionSignals(joints)
+        return intensity_seen(m.joints, "jump", events=[e.frame for e in detect(m, "jump")])
+
+    (level, size), (level_high, size_high) = read(jumps3), read(high)
+    assert (level, level_high) == ("normal", "high")
     report = followed("a person jumps really high three times", high, reliable=ALL)
     assert _rows(report) == {"action": FOLLOWED, "count": FOLLOWED, "intensity": FOLLOWED}
     assert report.describe() == f"asked: jump \u00d73 (high) \u00b7 seen: jump \u00d73 (high {size_high:.2f} m) \u2713"
@@ -97,6 +104,11 @@ def test_an_intensity_word_is_checked_against_the_corpus_levels(jumps3):
     row = next(r for _, r in followed("a person jumps high three times", jumps3, reliable=unvalidated).rows
                if r.attribute == "intensity")
     assert row.verdict == NOT_CHECKED and row.seen == ""
+    # a zombie jumps at 0.6x the height: its high jump reads high, not as a normal one
+    zombie = make_sample(Program(segments=(Segment(action="jump", frames=80, count=3, intensity=1.6,
+                                                   intensity_word="high"),), style="zombie"),
+                         captions=["x"], with_features=False).joints
+    assert _rows(followed("a zombie jumps high three times", zombie, reliable=ALL))["intensity"] == FOLLOWED
     # a punch has no size the corpus scales: "hard" is not read as an intensity at all
     assert "intensity" not in _rows(followed("a person punches hard", jumps3, reliable=ALL))
 

@@ -5,6 +5,7 @@ Edit tab report it before and after an emphasis or an erasure, so a user sees wh
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -70,12 +71,27 @@ INTENSITY_BOUNDS: dict[str, tuple[float, float]] = {"jump": (0.19, 0.32), "hop":
 _VERB = {"jump": "jumps", "hop": "hops", "kick": "kicks", "wave": "waves"}
 
 
-def intensity_seen(joints: np.ndarray, action: str) -> tuple[str, float] | None:
+def intensity_seen(joints: np.ndarray, action: str, *, style: str | None = None,
+                   events: Sequence[int] | None = None) -> tuple[str, float] | None:
     """The intensity level ("a little" | "normal" | "high") the motion's ``action`` reads at, and its size (m); None for
-    an action without bounds (:data:`INTENSITY_BOUNDS`)."""
+    an action without bounds (:data:`INTENSITY_BOUNDS`).
+
+    Jumps and hops: ``events`` (the detected apexes' frames) keep the reading to the action's own frames, each apex's
+    feet above the floor (another action of the motion, e.g. jumping jacks, is not read); ``style`` takes out the
+    style's own jump height (a zombie jumps at 0.6x: its high jump is a normal one's height)."""
     if action not in INTENSITY_BOUNDS:
         return None
-    size = amplitude(joints, _VERB[action])
+    if action in ("jump", "hop") and events:
+        lowest = joints[:, [JOINT_INDEX[n] for n in _FEET], 1].min(axis=1)  # (T,)
+        floor = np.percentile(lowest, 5)
+        size = float(np.median([lowest[max(0, f - 4):f + 5].max() - floor for f in events]))
+    else:
+        size = amplitude(joints, _VERB[action])
+    if action in ("jump", "hop") and style is not None:
+        from engine.synth.styles import SPECS
+
+        if style in SPECS:
+            size /= SPECS[style].jump
     little, high = INTENSITY_BOUNDS[action]
     return ("a little" if size < little else "high" if size > high else "normal"), size
 

@@ -95,7 +95,8 @@ def check_segments(joints: np.ndarray | MotionSignals, intent: Intent) -> list[S
             result["direction"] = any(_direction_matches(seg.direction, e.side) for e in events)
         else:
             result["direction"] = None
-        seen = intensity_seen(m.joints, seg.action) if seg.intensity is not None else None
+        seen = intensity_seen(m.joints, seg.action, style=intent.style, events=[e.frame for e in events]) \
+            if seg.intensity is not None else None
         result["intensity"] = None if seen is None else seen[0] == seg.intensity
         out.append(SegmentCheck(segment=seg, events=tuple(events), result=result))
     return out
@@ -215,7 +216,9 @@ def validate(*, motions: int = 500, split: str = "test", start: int = 0,
         # the intensity reading against every segment's true level, normal ones too: a reading that calls a
         # normal jump "high" must not pass for a check of "jumps high"
         for part in (p for seg in sample.program.segments for p in (seg, seg.overlay) if p is not None):
-            seen = intensity_seen(m.joints, part.action)
+            found = next((c for c in checks if c.segment.action == part.action), None)
+            seen = intensity_seen(m.joints, part.action, style=intent.style,
+                                  events=[e.frame for e in found.events] if found is not None else None)
             if seen is not None:
                 hits[("intensity", part.action)].append(seen[0] == part.intensity_word)
         order = check_order(checks, intent)
