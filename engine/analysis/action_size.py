@@ -73,8 +73,8 @@ _VERB = {"jump": "jumps", "hop": "hops", "kick": "kicks", "wave": "waves"}
 
 def intensity_seen(joints: np.ndarray, action: str, *, style: str | None = None,
                    events: Sequence[int] | None = None) -> tuple[str, float] | None:
-    """The intensity level ("a little" | "normal" | "high") the motion's ``action`` reads at, and its size (m); None for
-    an action without bounds (:data:`INTENSITY_BOUNDS`).
+    """The intensity level ("a little" | "normal" | "high") the motion's ``action`` reads at, and its size as measured
+    (m, before any style is taken out); None for an action without bounds (:data:`INTENSITY_BOUNDS`).
 
     Jumps and hops: ``events`` (the detected apexes' frames) keep the reading to the action's own frames, each apex's
     feet above the floor (another action of the motion, e.g. jumping jacks, is not read); ``style`` takes out the
@@ -87,13 +87,14 @@ def intensity_seen(joints: np.ndarray, action: str, *, style: str | None = None,
         size = float(np.median([lowest[max(0, f - 4):f + 5].max() - floor for f in events]))
     else:
         size = amplitude(joints, _VERB[action])
+    read = size
     if action in ("jump", "hop") and style is not None:
         from engine.synth.styles import SPECS
 
         if style in SPECS:
-            size /= SPECS[style].jump
+            read = size / SPECS[style].jump
     little, high = INTENSITY_BOUNDS[action]
-    return ("a little" if size < little else "high" if size > high else "normal"), size
+    return ("a little" if read < little else "high" if read > high else "normal"), size
 
 
 @dataclass(frozen=True)
