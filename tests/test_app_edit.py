@@ -584,8 +584,10 @@ def test_a_model_calibrated_to_intensity_falls_back_for_a_word_the_corpus_does_n
         tab.words.value = 4  # punches
         assert (tab.settings.word, tab.settings.mode, tab.settings.weight) == ("punches", "mul", DEFAULT_WEIGHTS["mul"])
         assert tab.settings.layers == [1] and tab.layers.value == [1]  # the fallback's own calibrated layers
+        assert tab.layers.visible
         tab.words.value = 2  # jumps
         assert (tab.settings.word, tab.settings.mode) == ("jumps", "intensity")
+        assert not tab.layers.visible  # intensity guides through another prompt: no layers to choose
         tab.mode.value = "add"  # the user's choice is kept whatever the word
         tab.words.value = 4
         assert tab.settings.mode == "add"

@@ -231,6 +231,8 @@ def test_intensity_mode_wins_with_a_fallback_for_words_the_corpus_does_not_scale
     assert (punch.mode, punch.weight, punch.window.layers) == ("mul", 2.0, (1,))
     jump = with_defaults(EditOptions(kind="emphasize", word="jumps"), model_config)
     assert (jump.mode, jump.weight) == ("intensity", 0.5)
+    with pytest.raises(ValueError, match="acts in no layer"):
+        build_config(EditOptions(kind="emphasize", word="jumps", layers=(0,)), frames=40, model_config=model_config)
     # calibrating again with another winner drops the old fallback
     write_calibration(folder, {"mode": "mul", "layers": [0], "response": 0.5, "change": 0.1})
     assert "emphasize_fallback" not in load_model(folder).config["edits"]

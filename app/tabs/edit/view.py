@@ -380,7 +380,8 @@ class EditTab(pn.viewable.Viewer):
         self.weight.visible = "weight" in reads
         self.frames.visible = "frames" in reads and not entry.spans
         self.spans_box.visible = "frames" in reads and entry.spans  # several spans, dragged on the curve
-        self.steps.visible = self.layers.visible = is_edit
+        self.steps.visible = is_edit
+        self._show_layers()
         for name in PLAIN_INPUTS:
             self.plain[name].visible = self.plain_help[name].visible = name in reads
         self.edited.visible = self.alignment.visible = "edited" in reads
@@ -400,6 +401,11 @@ class EditTab(pn.viewable.Viewer):
             e.edited = " ".join(swap_example(list(self.state.prompt_words)))
         self.bar.refresh()  # Run waits for aligned prompts in replacement only
 
+    def _show_layers(self) -> None:
+        """The Layers box, for edits that act in layers: intensity mode guides through another prompt and has none."""
+        e = self.settings
+        self.layers.visible = e.entry.is_edit and not ("mode" in e.entry.inputs and e.mode == "intensity")
+
     def _on_mode(self, *changed):
         """The weight slider follows the mode: its range, and on a switch the new mode's default weight (+0.3 added
         and x0.3 multiplied are opposite edits); on opening, the settings' weight where it is in range."""
@@ -409,6 +415,7 @@ class EditTab(pn.viewable.Viewer):
 
         self.weight.param.update(start=start, end=end, value=value)  # the widget writes the settings' weight
         e.weight = value
+        self._show_layers()
         if changed and e.entry.calibrated:  # the calibrated layers belong to the calibrated mode: follow the switch
             from engine.methods.edit_options import default_window
 
