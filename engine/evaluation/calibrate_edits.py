@@ -30,6 +30,7 @@ from engine.checkpoint import LoadedModel, read_config, write_config_json
 from engine.generate import SampleConfig
 from engine.methods import edits
 from engine.methods.edit_options import SWEEP_WEIGHTS, sweep_weights
+from engine.methods.emphasis_modes import GUIDED_MODES
 from engine.methods.intensity import scales
 from engine.methods.motionclr import ReweightConfig
 from engine.methods.windows import Window
@@ -126,7 +127,7 @@ def _better(trial: Response, current: Response, config: CalibrationConfig) -> bo
 #: modes measured once with every layer, not layer by layer: guide's other pass is the prediction without the word,
 #: which erasing the word's column in every layer gives (a per-layer search would cost twice a plain mode's);
 #: intensity's is the prediction for another prompt, which has no layers
-WHOLE_MODEL_MODES = ("guide", "intensity")
+WHOLE_MODEL_MODES = GUIDED_MODES
 
 
 def _select_layers(loaded: LoadedModel, config: CalibrationConfig, mode: str, log) -> dict:

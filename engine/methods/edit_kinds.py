@@ -12,6 +12,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from engine.methods.emphasis_modes import MODES
+
 #: the fields of ``EditOptions`` an edit kind can read besides the prompt, the step window and the layers
 INPUTS = frozenset({"word", "weight", "mode", "frames", "edited", "copy_self", "swapped", "fraction", "style", "count",
                     "chunk_frames", "seed"})
@@ -153,13 +155,10 @@ def _style_config(o, *, frames, steps):
 
 
 # ------------------------------------------------------------------------------------------- in a few words
-_MODE_SUFFIX = {"guide": " guided", "intensity": " by intensity"}
-
-
 def _describe_weighted(what: str):
     def describe(o, *, frames: int) -> str:
         sign = "+" if o.mode != "mul" and o.weight >= 0 else ""
-        w = f"×{o.weight:.2f}" if o.mode == "mul" else f"{sign}{o.weight:.2f}" + _MODE_SUFFIX.get(o.mode, "")
+        w = f"×{o.weight:.2f}" if o.mode == "mul" else f"{sign}{o.weight:.2f}" + (MODES[o.mode].suffix if o.mode in MODES else "")
         if o.mode == "intensity" and isinstance(o.prompt, str) and o.word:  # the prompt it is guided towards
             from engine.methods.intensity import with_intensity
 

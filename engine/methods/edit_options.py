@@ -18,34 +18,24 @@ if TYPE_CHECKING:  # imported lazily below: the CLI reads KINDS without loading 
     from engine.methods.windows import Window
 
 from engine.methods.edit_kinds import EDIT_KINDS, KINDS, REGISTRY  # noqa: F401 (the registry's names, re-exported)
+from engine.methods.emphasis_modes import MODES
 from engine.methods.spans import Span, as_spans, check_spans, parse_spans
 from engine.methods.word_alignment import SWAPPED, SWAPPED_DEFAULT
 from engine.options import option, spec, validate
 
 Source = Any  # a prompt (str), or joints (T, 22, 3) of a real motion (DDIM-inverted by the edit)
 
-# The one statement of the emphasis weight's range, per mode (the CLI, the Edit tab and the checks read it;
-# engine.methods.motionclr.ReweightConfig checks the mode's own range).
-# Measured on the shipped model ("a person jumps twice", emphasis on "jumps", 3 seeds): the trunk's largest
-# pitch is 36 deg unedited, 55 deg at add +0.5 or mul x3, and 68 deg ("bent double") at add +1.0.
-# "guide" (session 39) leaves the attention as it is and moves the prediction away from the one whose word column is
-# erased: x0 + w (x0 - x0 without the word); -1 is the word erased, and past +1 the extrapolation leaves the corpus.
-# "intensity" (session 41) moves the prediction towards the prompt said with the corpus's intensity word for the
-# word's action ("a person jumps high" for w > 0, "a person jumps a little" for w < 0, by |w|): +-1 is that prompt.
-WEIGHT_RANGES: dict[str, tuple[float, float]] = {"add": (-0.5, 0.5), "mul": (0.0, 3.0), "guide": (-1.0, 1.0),
-                                                 "intensity": (-1.0, 1.0)}
+# The emphasis modes' ranges, labels, default weights and sweeps, as the CLI, the Edit tab and the checks read them,
+# derived from their one declaration (engine.methods.emphasis_modes.MODES).
+WEIGHT_RANGES: dict[str, tuple[float, float]] = {name: m.range for name, m in MODES.items()}
 #: how each mode reads in a front end (the Edit tab's mode buttons)
-MODE_LABELS: dict[str, str] = {"add": "add +w", "mul": "multiply ×w", "guide": "guide +w",
-                               "intensity": "intensity ±w"}
+MODE_LABELS: dict[str, str] = {name: m.label for name, m in MODES.items()}
 WEIGHT_BOUNDS = (min(lo for lo, _ in WEIGHT_RANGES.values()), max(hi for _, hi in WEIGHT_RANGES.values()))
 #: the weight each mode starts from when none is given (the CLI, the Edit tab): add +0.3, multiply x2, guide +0.5,
 #: intensity +0.5 (half way to "jumps high")
-DEFAULT_WEIGHTS: dict[str, float] = {"add": 0.3, "mul": 2.0, "guide": 0.5, "intensity": 0.5}
+DEFAULT_WEIGHTS: dict[str, float] = {name: m.default for name, m in MODES.items()}
 #: the weights a benchmark or a calibration sweeps per mode, lowest to highest, the unedited weight in the middle
-#: (multiplying from x0.5 to x2 around the unedited x1, as adding goes from -0.4 to +0.4 around 0)
-SWEEP_WEIGHTS: dict[str, tuple[float, ...]] = {"add": (-0.4, -0.2, 0.0, 0.2, 0.4), "mul": (0.5, 0.75, 1.0, 1.5, 2.0),
-                                               "guide": (-0.5, -0.25, 0.0, 0.5, 1.0),
-                                               "intensity": (-1.0, -0.5, 0.0, 0.5, 1.0)}
+SWEEP_WEIGHTS: dict[str, tuple[float, ...]] = {name: m.sweep for name, m in MODES.items()}
 
 
 def weight_range_text() -> str:

@@ -14,6 +14,7 @@ import torch
 from engine.attention.context import AttnCtx
 from engine.attention.controller import Controller
 from engine.methods.edit_options import WEIGHT_RANGES, option_spec, weight_range_text  # noqa: F401 (re-exported)
+from engine.methods.emphasis_modes import GUIDED_MODES, MODES
 from engine.methods.mixing import MixConfig, MixedAttention
 from engine.methods.spans import Span, mask_spans, spans_mask
 from engine.methods.windows import BoundWindow, Window
@@ -47,10 +48,6 @@ def halves(ctx: AttnCtx, *roles: str) -> list[tuple[int, ...]]:
 
 
 # ----------------------------------------------------------------------------- (de-)emphasis, erasing
-#: emphasis modes that edit no attention map: a denoiser wrapper guides the prediction (engine.methods.word_guidance)
-GUIDED_MODES = ("guide", "intensity")
-
-
 @dataclass(frozen=True)
 class ReweightConfig:
     """(De-)emphasise a word: its cross-attention column gets +weight ("add") or ×weight ("mul"); or "guide": the
@@ -65,21 +62,16 @@ class ReweightConfig:
 
     word: str
     weight: float = 0.3
-    mode: Literal["add", "mul", "guide", "intensity"] = "add"
+    mode: str = "add"  # a name of engine.methods.emphasis_modes.MODES
     window: Window = field(default_factory=Window)
     frames: tuple[int, int] | None = None
     role: str = "out"
     occurrence: int = 0
 
     def __post_init__(self) -> None:
-        if self.mode not in WEIGHT_RANGES:
-            raise ValueError(f"mode must be one of {', '.join(WEIGHT_RANGES)}, got {self.mode!r}")
-        lo, hi = WEIGHT_RANGES[self.mode]
-        if not lo <= self.weight <= hi:
-            why = {"guide": "-1 is the word erased; past +1 the motion leaves the corpus",
-                   "intensity": "+1 is the prompt said with the action's high word, -1 with its little word"}.get(
-                self.mode, "past that the body bends out of shape")
-            raise ValueError(f"the {self.mode} weight must be between {lo:g} and {hi:g} ({why}), got {self.weight:g}")
+        if self.mode not in MODES:
+            raise ValueError(f"mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        MODES[self.mode].check(self.weight)
 
 
 class Reweight(Controller):
