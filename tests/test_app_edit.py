@@ -588,6 +588,11 @@ def test_a_model_calibrated_to_intensity_falls_back_for_a_word_the_corpus_does_n
         tab.words.value = 2  # jumps
         assert (tab.settings.word, tab.settings.mode) == ("jumps", "intensity")
         assert not tab.layers.visible  # intensity guides through another prompt: no layers to choose
+        from app.tabs.edit.job import prepare
+
+        tab.settings.layers = [0, 1]  # what the box held stays unsent: the edit is prepared, not refused
+        plan = prepare(s, tab.settings)
+        assert plan.options.layers is None and plan.options.mode == "intensity"
         tab.mode.value = "add"  # the user's choice is kept whatever the word
         tab.words.value = 4
         assert tab.settings.mode == "add"

@@ -239,7 +239,7 @@ def build_config(options: EditOptions, *, frames: int, model_config: dict | None
     if not entry.is_edit:
         raise ValueError(f"{options.kind!r} is not an edit (counting is edits.count_generated / count_motion)")
     options = with_defaults(options, model_config)
-    if options.mode == "intensity" and options.layers and "mode" in entry.inputs:
+    if options.layers and "mode" in entry.inputs and not MODES[options.mode].in_layers:
         raise ValueError("intensity mode guides the motion through another prompt and acts in no layer: "
                          "leave out the layers, or choose a mode that weights the attention (add, mul, guide)")
     return entry.build(options, frames=frames,

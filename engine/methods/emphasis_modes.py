@@ -20,6 +20,7 @@ class EmphasisMode:
     sweep: tuple[float, ...]  # what a benchmark or a calibration sweeps, lowest to highest, unedited in the middle
     guided: bool = False  # edits no attention map: a denoiser wrapper guides the prediction; measured once, not per layer
     suffix: str = ""  # after the weight in a one-line description
+    in_layers: bool = True  # acts in the chosen layers (intensity guides through another prompt: no layers)
 
     def check(self, weight: float) -> None:
         lo, hi = self.range
@@ -42,6 +43,6 @@ MODES: dict[str, EmphasisMode] = {m.name: m for m in (
     # ("a person jumps high" for w > 0, "a person jumps a little" for w < 0, by |w|): +-1 is that prompt
     EmphasisMode("intensity", "intensity ±w", (-1.0, 1.0),
                  "+1 is the prompt said with the action's high word, -1 with its little word", 0.5,
-                 (-1.0, -0.5, 0.0, 0.5, 1.0), guided=True, suffix=" by intensity"),
+                 (-1.0, -0.5, 0.0, 0.5, 1.0), guided=True, suffix=" by intensity", in_layers=False),
 )}
 GUIDED_MODES: tuple[str, ...] = tuple(name for name, m in MODES.items() if m.guided)

@@ -404,7 +404,10 @@ class EditTab(pn.viewable.Viewer):
     def _show_layers(self) -> None:
         """The Layers box, for edits that act in layers: intensity mode guides through another prompt and has none."""
         e = self.settings
-        self.layers.visible = e.entry.is_edit and not ("mode" in e.entry.inputs and e.mode == "intensity")
+        from engine.methods.emphasis_modes import MODES
+
+        acts_in_none = "mode" in e.entry.inputs and e.mode in MODES and not MODES[e.mode].in_layers
+        self.layers.visible = e.entry.is_edit and not acts_in_none
 
     def _on_mode(self, *changed):
         """The weight slider follows the mode: its range, and on a switch the new mode's default weight (+0.3 added
