@@ -70,7 +70,7 @@ class CorpusSource:
     motion's style ("a person walks like a robot"). ``focus``: oversample some actions (:class:`ActionFocus`)."""
 
     def __init__(self, *, split: str = "train", seed: int = 0, underspecified: int = 0, plain_verbs: float = 0.0,
-                 styled: float = 0.0, focus: ActionFocus | None = None):
+                 styled: float = 0.0, focus: ActionFocus | None = None, keep_intensity: bool = False):
         from engine.synth import Corpus
 
         self.corpus = Corpus(split=split, seed=seed)
@@ -78,6 +78,7 @@ class CorpusSource:
         self.plain_verbs = plain_verbs
         self.styled = styled
         self.focus = focus
+        self.keep_intensity = keep_intensity
 
     def corpus_index(self, index: int) -> int:
         """The corpus item that training item ``index`` reads: itself, or (for the focus share) the first of its
@@ -99,7 +100,8 @@ class CorpusSource:
 
             rng = np.random.default_rng([s.program.seed, index, 7919])
             captions += tuple(underspecified_captions(s.program, rng, n=self.underspecified,
-                                                            plain=self.plain_verbs, styled=self.styled))
+                                                            plain=self.plain_verbs, styled=self.styled,
+                                                            keep_intensity=self.keep_intensity))
         return MotionText(features=s.features, captions=captions)
 
     def words(self) -> Sequence[str]:

@@ -72,6 +72,9 @@ class TrainConfig:
     styled_captions: float = field(default=0.0, metadata={"help": "chance that an --underspecified caption of a "
                                                                   "styled motion keeps its style (a person walks like "
                                                                   "a robot; a zombie walks)"})
+    keep_intensity: bool = field(default=False, metadata={"help": "an --underspecified caption that is not bare keeps "
+                                                                "its intensity word (waves energetically, jumps "
+                                                                "high)"})
     # corpus only: oversample these actions (comma-separated corpus action names, e.g. "punch,hop,wave,clap"):
     # a share of the batch items is redrawn until its program has one of them (as a segment or an overlay)
     focus_actions: str = field(default="", metadata={"help": "corpus actions to oversample, comma-separated "
@@ -149,6 +152,7 @@ def make_source(config: TrainConfig, *, split: str = "train") -> MotionSource:
         train = split == "train"
         return CorpusSource(split=split, seed=config.seed, underspecified=config.underspecified if train else 0,
                             plain_verbs=config.plain_verbs, styled=config.styled_captions,
+                            keep_intensity=config.keep_intensity,
                             focus=focus_from(config) if train else None)
     return FolderSource(config.data, split=split)
 

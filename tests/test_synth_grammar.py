@@ -157,3 +157,33 @@ def test_styled_captions_keep_a_styled_motions_style_even_when_bare():
             bare_kept += has and len(words) <= 7
     assert styled_programs >= 100 and kept >= 1.6 * styled_programs and bare_kept >= 30, (styled_programs, kept,
                                                                                            bare_kept)
+
+
+def test_keep_intensity_keeps_the_intensity_word_in_captions_that_are_not_bare():
+    """A big wave captioned "waves" most of the time teaches that waves are big; keep_intensity keeps the word."""
+    import numpy as np
+
+    from engine.synth import Corpus
+    from engine.synth.grammar import INTENSITY_WORDS, underspecified_captions
+
+    corpus = Corpus("train")
+    said = {False: 0, True: 0}
+    captions = 0
+    for i in range(600):
+        program = corpus.program(i)[0]
+        intense = [s for s in program.segments if s.action == "wave" and s.intensity_word != "normal"]
+        if not intense:
+            continue
+        words = INTENSITY_WORDS["wave"][intense[0].intensity_word]
+        for keep in (False, True):
+            texts = underspecified_captions(program, np.random.default_rng([i, 1]), n=2, keep_intensity=keep)
+            long = [t for t in texts if len(t.split()) > 4]
+            said[keep] += sum(any(w in t for w in words) for t in long)
+            captions += len(long) if keep else 0
+    # a caption that is not bare says it (a bare one, "the guy greets someone with a wave", may run past 4 words)
+    assert captions >= 10 and said[True] >= 0.8 * captions
+    assert said[False] < 0.6 * captions and said[True] > said[False] + 3  # without the option, most drop it
+    # the option off draws exactly what the captions drew before it existed
+    program = corpus.program(5)[0]
+    assert underspecified_captions(program, np.random.default_rng([5, 1]), n=2) == \
+        underspecified_captions(program, np.random.default_rng([5, 1]), n=2, keep_intensity=False)

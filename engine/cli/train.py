@@ -24,7 +24,7 @@ _RUNTIME_HELP = {
 }
 # base-trainer fields a control fine-tune does not take (it keeps its base's architecture and data)
 _NOT_FOR_CONTROL = ("data", "underspecified", "plain_verbs", "styled_captions", "focus_actions", "focus_share",
-                    "focus_counted", "focus_intense")
+                    "focus_counted", "focus_intense", "keep_intensity")
 
 
 def _configs():

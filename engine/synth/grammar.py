@@ -458,7 +458,7 @@ STYLE_SUBJECTS = {"zombie": ("a zombie",), "old": ("an old man", "an old woman",
 
 
 def underspecified_captions(program: Program, rng: np.random.Generator, *, n: int = 2,
-                            plain: float = 0.0, styled: float = 0.0) -> list[str]:
+                            plain: float = 0.0, styled: float = 0.0, keep_intensity: bool = False) -> list[str]:
     """Captions that leave attributes out, the way people type ("a person waves" for a left-hand wave, twice).
 
     Side, count, speed, intensity and style are each dropped at random, keeping the meaning: an unstated side
@@ -466,7 +466,8 @@ def underspecified_captions(program: Program, rng: np.random.Generator, *, n: in
     four words ("someone kicks"). ``plain``: the chance that a segment's verb is the action's plain one ("walks",
     not "treads"), as people mostly type it. ``styled``: the chance that a styled motion's caption keeps its style,
     bare ones included ("a person walks like a robot", "a zombie walks": the style as a phrase on one segment, or as
-    the subject where :data:`STYLE_SUBJECTS` has one); otherwise the style is dropped. Only words of the phrase
+    the subject where :data:`STYLE_SUBJECTS` has one); otherwise the style is dropped. ``keep_intensity``: a caption that
+    is not bare keeps its intensity word ("waves energetically"), so a big wave is not mostly captioned plainly. Only words of the phrase
     tables are used, so :func:`vocabulary` is unchanged.
     """
     from dataclasses import replace as _replace
@@ -482,7 +483,7 @@ def underspecified_captions(program: Program, rng: np.random.Generator, *, n: in
             say_side = not (bare or rng.random() < 0.6)
             if bare or rng.random() < 0.6:
                 fields["speed_word"] = "normal"
-            if bare or rng.random() < 0.6:
+            if bare or (rng.random() < 0.6 and not keep_intensity):  # (the same draws whether kept or not)
                 fields["intensity_word"] = "normal"
             if bare and seg.action in ("walk", "run", "jog") and rng.random() < 0.7:
                 fields["direction"] = "none"
