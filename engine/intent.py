@@ -526,10 +526,9 @@ def _parse_clause(items: list[_Span], used: list[bool], style: list[str], *,
             if nxt is not None and nxt.kind == "word" and nxt.word in LIMBS and len(s.words) == 1:
                 continue  # "two hands"
             found["count"] = s.value
-        elif s.kind == "speed" and intensity_level(" ".join(s.words), action, table_only=True):
-            found["intensity"] = intensity_level(" ".join(s.words), action)  # "waves gently": the grammar's size
         elif s.kind == "speed":
-            found["speed"] = s.value
+            level = intensity_level(" ".join(s.words), action, table_only=True)  # "waves gently": the grammar's size
+            found["intensity" if level else "speed"] = level or s.value
         elif s.kind == "style":
             style.append(s.value)
         elif s.kind == "intensity":

@@ -25,7 +25,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from engine.analysis.action_size import intensity_seen
 from engine.analysis.detectors import DETECTORS, Detected, MotionSignals, detect
 from engine.evaluation.adherence import Reliability, check_order, check_segments, reliability, validate
 from engine.intent import COUNTED_ACTIONS, Intent, IntentSegment, parse_intent
@@ -210,8 +209,7 @@ def followed(intent: Intent | str, joints: np.ndarray | MotionSignals, fps: floa
         if c.segment.count is not None:
             totals[c.segment.action] += c.segment.count
     asked_actions = {c.segment.action for c in checks}
-    parts = [_part(c, m, reliable, totals, asked_actions, overlay=overlays.get(id(c.segment), ""), style=intent.style)
-             for c in checks]
+    parts = [_part(c, m, reliable, totals, asked_actions, overlay=overlays.get(id(c.segment), "")) for c in checks]
     extra = []
     mains = [s for s in intent.segments if s.action != "stand"]
     if len(mains) >= 2:
@@ -222,7 +220,7 @@ def followed(intent: Intent | str, joints: np.ndarray | MotionSignals, fps: floa
 
 
 def _part(check, m: MotionSignals, reliable: Reliability, totals: dict[str, int], asked_actions: set[str], *,
-          overlay: str, style: str | None = None) -> FollowPart:
+          overlay: str) -> FollowPart:
     seg: IntentSegment = check.segment
     events: tuple[Detected, ...] = check.events
     result = check.result
@@ -252,7 +250,7 @@ def _part(check, m: MotionSignals, reliable: Reliability, totals: dict[str, int]
     if seg.speed is not None:
         rows.append(FollowRow("speed", seg.speed, "", NOT_CHECKED))
     if seg.intensity is not None:  # how big the action is, against the corpus's levels (where validated)
-        seen_level = intensity_seen(m.joints, seg.action, style=style, events=[e.frame for e in events])
+        seen_level = check.intensity
         intensity_row = row("intensity", seg.intensity,
                             "" if seen_level is None else f"{seen_level[0]} {seen_level[1]:.2f} m")
         rows.append(intensity_row)

@@ -65,6 +65,7 @@ class SegmentCheck:
     segment: IntentSegment
     events: tuple[Detected, ...]
     result: dict  # attribute -> bool | None
+    intensity: tuple[str, float] | None = None  # the level and size read, where the prompt states an intensity
 
 
 def check_segments(joints: np.ndarray | MotionSignals, intent: Intent) -> list[SegmentCheck]:
@@ -98,7 +99,7 @@ def check_segments(joints: np.ndarray | MotionSignals, intent: Intent) -> list[S
         seen = intensity_seen(m.joints, seg.action, style=intent.style, events=[e.frame for e in events]) \
             if seg.intensity is not None else None
         result["intensity"] = None if seen is None else seen[0] == seg.intensity
-        out.append(SegmentCheck(segment=seg, events=tuple(events), result=result))
+        out.append(SegmentCheck(segment=seg, events=tuple(events), result=result, intensity=seen))
     return out
 
 

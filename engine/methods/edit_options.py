@@ -233,13 +233,20 @@ def window(options: EditOptions, default: Window) -> Window:
     return Window(float(start), float(end), layers)
 
 
+def acts_in_layers(kind: str, mode: str | None) -> bool:
+    """Does an edit of ``kind`` in ``mode`` act in chosen layers (intensity emphasis guides through another prompt
+    and has none: the Edit tab hides its Layers box, and given layers are refused)?"""
+    entry = REGISTRY[kind]
+    return entry.is_edit and not ("mode" in entry.inputs and mode in MODES and not MODES[mode].in_layers)
+
+
 def build_config(options: EditOptions, *, frames: int, model_config: dict | None = None):
     """The typed method config for ``options`` (a motion of ``frames`` frames; ``model_config``: see default_window)."""
     entry = REGISTRY[options.kind]
     if not entry.is_edit:
         raise ValueError(f"{options.kind!r} is not an edit (counting is edits.count_generated / count_motion)")
     options = with_defaults(options, model_config)
-    if options.layers and "mode" in entry.inputs and not MODES[options.mode].in_layers:
+    if options.layers and not acts_in_layers(options.kind, options.mode):
         raise ValueError("intensity mode guides the motion through another prompt and acts in no layer: "
                          "leave out the layers, or choose a mode that weights the attention (add, mul, guide)")
     return entry.build(options, frames=frames,

@@ -126,18 +126,11 @@ class EditResult:
 
 
 # ---------------------------------------------------------------------------------------------- checks
-def _no_layers(entry, mode: str) -> bool:
-    """Is the edit one that acts in no layer (intensity mode: its Layers box is hidden and what it held is not sent)?"""
-    from engine.methods.emphasis_modes import MODES
-
-    return "mode" in entry.inputs and mode in MODES and not MODES[mode].in_layers
-
-
 def prepare(state, settings: EditSettings) -> EditPlan:
     """Check the tab's settings against the session (prompt, model, sources); raises ValueError with a message.
     What each kind reads and how it is described is the engine's registry (``engine.methods.edit_kinds``)."""
     from engine.generate import frames_for
-    from engine.methods.edit_options import EditOptions, build_config
+    from engine.methods.edit_options import EditOptions, acts_in_layers, build_config
 
     cfg = settings
     entry = cfg.entry
@@ -177,7 +170,7 @@ def prepare(state, settings: EditSettings) -> EditPlan:
         kind=entry.name, prompt=source, word=word, occurrence=cfg.occurrence, weight=float(cfg.weight),
         mode=cfg.mode, frames=span, edited=cfg.edited, style=style, **cfg.plain_values(),
         step_window=tuple(cfg.step_window) if cfg.step_window is not None else None,
-        layers=None if _no_layers(entry, cfg.mode) else tuple(cfg.layers) or None, seed=int(state.seed))
+        layers=tuple(cfg.layers) or None if acts_in_layers(entry.name, cfg.mode) else None, seed=int(state.seed))
     # built once, here: the config's own checks (weight ranges, windows) before any work; the worker runs it
     config = build_config(options, frames=frames, model_config=loaded.config)
     description = entry.describe(options, frames=frames)

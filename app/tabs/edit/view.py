@@ -25,7 +25,7 @@ from app.session.state import StudioState
 from app.tabs.edit.job import alignment, count_current, run_edit, swap_example, word_choice
 from app.tabs.edit.settings import KIND_HELP, PLAIN_INPUTS, PROMPT_SOURCE, EditSettings
 from engine.analysis.counting import COUNTING_METHODS
-from engine.methods.edit_options import DEFAULT_WEIGHTS, WEIGHT_RANGES, default_mode, option_spec
+from engine.methods.edit_options import DEFAULT_WEIGHTS, WEIGHT_RANGES, acts_in_layers, default_mode, option_spec
 from engine.methods.spans import check_spans, parse_spans, spans_text
 
 
@@ -403,11 +403,7 @@ class EditTab(pn.viewable.Viewer):
 
     def _show_layers(self) -> None:
         """The Layers box, for edits that act in layers: intensity mode guides through another prompt and has none."""
-        e = self.settings
-        from engine.methods.emphasis_modes import MODES
-
-        acts_in_none = "mode" in e.entry.inputs and e.mode in MODES and not MODES[e.mode].in_layers
-        self.layers.visible = e.entry.is_edit and not acts_in_none
+        self.layers.visible = acts_in_layers(self.settings.entry.name, self.settings.mode)
 
     def _on_mode(self, *changed):
         """The weight slider follows the mode: its range, and on a switch the new mode's default weight (+0.3 added
