@@ -1,6 +1,8 @@
 """Adherence detectors on hand-built motions and corpus ground truth, and the adherence bench's shape."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -98,6 +100,21 @@ def test_bench_ground_truth_only_shape():
     assert [u["prompt"] for u in result["unparsed"]] == ["a person flurbs"]  # no word of it says a motion
     assert len(result["per_prompt"]) == 2
     assert "detector validation" in format_table(result)
+
+
+def test_the_bench_scores_a_stated_intensity_in_its_own_column():
+    from engine.evaluation.bench_adherence import AdherenceBenchConfig, bench_adherence, format_table
+
+    result = bench_adherence(None, AdherenceBenchConfig(seeds=1, validation_motions=60),
+                             prompts=["a person jumps high", "a person kicks a little with the left leg"])
+    truth = result["ground_truth"]
+    assert truth["intensity_n"] >= 1 and truth["intensity"] == 1.0  # the truth jumps at its stated level
+    lines = format_table(result).splitlines()
+    head = lines[lines.index("adherence (share of motions whose stated attribute matches; n in brackets):") + 1]
+    assert head.split() == ["action", "count", "side", "direction", "intensity", "order"]
+    truth_row = next(line for line in lines if line.startswith("ground_truth"))
+    cells = re.findall(r"(\S+) \(\s*(\d+)\)", truth_row)  # "share (n)" per column
+    assert cells[4] == ("1.00", str(truth["intensity_n"]))
 
 
 def test_root_speed_shows_a_walk_in_place(monkeypatch):

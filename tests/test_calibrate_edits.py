@@ -177,6 +177,21 @@ def test_the_calibrated_mode_is_the_default_of_emphasis_and_its_weight_follows(t
         calibrated_mode({"edits": {"emphasize_mode": "pow"}})
 
 
+def test_a_mode_the_calibration_measured_but_did_not_choose_acts_in_its_own_best_layers():
+    edits = {"emphasize_mode": "intensity", "emphasize_layers": [0, 1, 2],
+             "emphasize_fallback": {"mode": "mul", "layers": [0, 5]},
+             "calibration": {"modes": {"add": {"layers": [3]}, "mul": {"layers": [0, 5]},
+                                       "intensity": {"layers": [0, 1, 2]}}}}
+    config = {"edits": edits}
+    assert calibrated_layers(config, "add") == (3,)  # the user's --mode add: add's own best, not every layer
+    assert calibrated_layers(config, "mul") == (0, 5)
+    assert calibrated_layers(config, "guide") is None  # not measured: every layer
+    assert calibrated_layers(config, word="punches") == (0, 5)  # no intensity word: the fallback's
+    assert calibrated_layers(config, word="jumps") == (0, 1, 2)
+    assert build_config(EditOptions(kind="emphasize", word="jumps", mode="add"), frames=40,
+                        model_config=config).window.layers == (3,)
+
+
 def test_guide_mode_is_measured_once_over_every_layer_and_kept_when_it_responds_best(tiny_model_dir, monkeypatch):
     import engine.evaluation.calibrate_edits as cal
 

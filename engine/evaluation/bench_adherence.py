@@ -37,7 +37,7 @@ from engine.units import FPS
 
 PROMPTS_FILE = Path(__file__).with_name("data") / "adherence_prompts.txt"
 TRAVELLING = frozenset(LOCOMOTION) - {"turn"}  # the corpus's actions whose root speed is the action (a turn is in place)
-TOTALS = ("action", "count", "side", "direction", "order")
+TOTALS = ATTRIBUTES  # every attribute a prompt can state has a column (intensity: "jumps high")
 
 
 def read_prompts(path: Path = PROMPTS_FILE) -> list[str]:
@@ -255,7 +255,7 @@ def format_table(result: dict) -> str:
         row = result.get(name)
         if row is None:
             continue
-        lines.append(f"{name:<16}" + "".join(f"{_fmt(row[a]):>6} ({row[a + '_n']:>3})" for a in TOTALS))
+        lines.append(f"{name:<16}" + "".join(f"{_fmt(row.get(a)):>6} ({row.get(a + '_n', 0):>3})" for a in TOTALS))
     skate = result.get("foot_skate") or {}
     if skate.get("ground_truth") is not None:
         lines.append(f"foot skate: model {_fmt(skate.get('model')).strip()}, ground truth {skate['ground_truth']:.2f}"

@@ -166,14 +166,18 @@ CALIBRATED_KINDS = tuple(k for k, v in REGISTRY.items() if v.calibrated)
 def calibrated_layers(model_config: dict | None, mode: str | None = None, *,
                       word: str | None = None) -> tuple[int, ...] | None:
     """The layers where emphasis measurably grows the action, as calibrated for this model (None = all). They belong
-    to the calibrated mode (for ``word``, see :func:`calibrated_mode`): emphasis in another ``mode`` acts in every
-    layer (None)."""
+    to the calibrated mode (for ``word``, see :func:`calibrated_mode`). Emphasis in another ``mode`` acts in the
+    layers the calibration found best for that mode (its ``calibration.modes``), or in every layer (None) where the
+    calibration did not measure it."""
     chosen = calibrated_mode(model_config, word=word)
-    if mode is not None and mode != chosen:
-        return None
     edits = (model_config or {}).get("edits") or {}
-    layers = edits.get("emphasize_layers") if chosen == edits.get("emphasize_mode", "add") else \
-        (edits.get("emphasize_fallback") or {}).get("layers")
+    if mode is not None and mode != chosen:
+        measured = ((edits.get("calibration") or {}).get("modes") or {}).get(mode) or {}
+        layers = measured.get("layers")
+    elif chosen == edits.get("emphasize_mode", "add"):
+        layers = edits.get("emphasize_layers")
+    else:
+        layers = (edits.get("emphasize_fallback") or {}).get("layers")
     return tuple(int(i) for i in layers) if layers else None
 
 
@@ -211,8 +215,8 @@ def default_window(kind: str, model_config: dict | None = None, mode: str | None
                    word: str | None = None) -> Window:
     """The method's own step/layer window for an edit kind (what ``--step-window`` / ``--layers`` override).
 
-    ``model_config`` (a loaded model's config) supplies calibrated emphasis layers for the calibrated mode (``mode``
-    None or that mode; another mode acts in every layer), see :mod:`engine.evaluation.calibrate_edits`.
+    ``model_config`` (a loaded model's config) supplies calibrated emphasis layers (:func:`calibrated_layers`: the
+    calibrated mode's, or another measured mode's own best), see :mod:`engine.evaluation.calibrate_edits`.
     """
     from engine.methods.windows import Window
 

@@ -415,7 +415,7 @@ class EditTab(pn.viewable.Viewer):
         self.weight.param.update(start=start, end=end, value=value)  # the widget writes the settings' weight
         e.weight = value
         self._show_layers()
-        if changed and e.entry.calibrated:  # the calibrated layers belong to the calibrated mode: follow the switch
+        if changed and e.entry.calibrated:  # each mode has its own calibrated layers: follow the switch
             from engine.methods.edit_options import default_window
 
             e.layers = sorted(default_window(e.entry.name, self._model_config(), e.mode, word=e.word).layers or [])
