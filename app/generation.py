@@ -17,7 +17,8 @@ from app.attention_record import AttentionRecord, plan_steps
 from app.model_cache import SAMPLING_SLOT
 from engine.analysis.followed import follow_generated
 from engine.checkpoint import LoadedModel
-from engine.methods.generate_options import DEFAULT_SEQUENCE, DEFAULT_TRIES, MAX_TRIES
+from engine.methods.generate_options import DEFAULT_SEQUENCE, DEFAULT_TRIES, HOLD_FROM_TRY, MAX_TRIES
+from engine.methods.held_direction import held_plan, held_segment
 from engine.methods.sequence import generate_sequence, plan, sampling_steps, sequence_clauses, timeline_frames
 from engine.generate import Request, SampleConfig, finish, frames_for, sample_states
 from engine.duration import resolve_seconds
@@ -42,6 +43,9 @@ class GenerationSettings:
     # tries from the seed on (seed, seed + 1, ...), keeping the first that follows every checked attribute
     # (engine.analysis.followed.best_try); the kept motion's settings say its own seed and 1 try
     tries: int = DEFAULT_TRIES
+    # this take walks the prompt's turn along the corpus's path with the root control model
+    # (engine.methods.held_direction): what the later tries of a turning walk do (HOLD_FROM_TRY)
+    held_path: bool = False
 
     def clauses(self) -> tuple[str, ...]:
         """The clauses this prompt is generated as, one each; () where it is one take of the whole prompt."""
@@ -229,7 +233,8 @@ def run_tries(loaded: LoadedModel, checked: Checked, *, on_step: Callable[[int, 
 
     def one_take(seed: int) -> GenerationResult:
         k = seed - first
-        one = replace(checked, settings=replace(checked.settings, seed=seed, tries=1),
+        held = k >= HOLD_FROM_TRY and checked.intervals is None and held_segment(checked.settings.prompt) is not None
+        one = replace(checked, settings=replace(checked.settings, seed=seed, tries=1, held_path=held),
                       config=replace(checked.config, seed=seed))
         step = None if on_step is None else (lambda done, _n: on_step(k * checked.total_steps + done, total))
         if on_try is not None:
@@ -267,9 +272,16 @@ def run_generation(
     with sampling_slot(cancel, on_wait):
         start = time.perf_counter()
         settings, config = checked.settings, checked.config
-        request = Request(prompts=[settings.prompt], frames=[checked.frames], roles=["out"])
+        held = held_plan(loaded, settings.prompt, frames=checked.frames, sample=config) if settings.held_path else None
+        if held is None and settings.held_path:  # no root control model, or no corpus path for it: the model's own
+            settings = replace(settings, held_path=False)
+        plan = None if held is None else held.plan
+        request = Request(prompts=[settings.prompt], frames=[checked.frames], roles=["out"],
+                          noise=None if plan is None else plan.noise)
         store = _recording_store(settings, config, slots=1)
-        states, cond, tokens, noise = sample_states(loaded, request, config, controller=store)
+        states, cond, tokens, noise = sample_states(loaded, request, config, controller=store,
+                                                    hooks=() if plan is None else plan.hooks,
+                                                    denoiser=None if plan is None else plan.denoiser)
         last = None
         timesteps: dict[int, int] = {}
         history: list[tuple[int, np.ndarray]] = []
@@ -300,6 +312,7 @@ def run_generation(
         history[-1] = (history[-1][0], joints.astype(np.float16))  # the final step is the result itself
         seconds_taken = time.perf_counter() - start
     follow, notes = follow_generated(settings.prompt, joints, tokens[0])  # outside the slot: others may sample
+    notes = notes + (() if held is None else (held.note,))
     return GenerationResult(settings=settings, words=tokens[0].words, joints=joints, features=features,
                             attention=record, seconds_taken=seconds_taken,
                             denoising=Denoising.collect(history, num_steps=config.steps, recorded=recorded),

@@ -122,7 +122,7 @@ def test_root_speed_shows_a_walk_in_place(monkeypatch):
     (no foot slides, so skate cannot show it) reads a ratio near 0; jumps are not counted."""
     import engine.evaluation.bench_adherence as ba
 
-    def in_place(loaded, prompt, lengths, config):
+    def in_place(loaded, prompt, lengths, config, **_held):
         truths = [ba.ground_truth_motion(ba.parse_intent(prompt), 7 + k) for k in range(len(lengths))]
         for j in truths:
             j[:, :, [0, 2]] -= j[:, :1, [0, 2]]  # the same body, its root held where it is
@@ -183,9 +183,9 @@ def test_the_model_row_uses_the_lengths_a_user_gets(monkeypatch, tiny_model_dir)
     seen = []
     real = bench._model_motions
 
-    def spy(loaded, prompt, lengths, config):
+    def spy(loaded, prompt, lengths, config, **held):
         seen.append(list(lengths))
-        return real(loaded, prompt, lengths, config)
+        return real(loaded, prompt, lengths, config, **held)
 
     monkeypatch.setattr(bench, "_model_motions", spy)
     loaded = load_model(tiny_model_dir)
@@ -206,7 +206,7 @@ def test_tries_keep_each_seeds_best_motion(monkeypatch):
 
     made = []
 
-    def one_right(loaded, prompt, lengths, config):
+    def one_right(loaded, prompt, lengths, config, **_held):
         # seed 0's first try and seed 1's second try are two jumps; the others stand still
         jumps = ba.ground_truth_motion(ba.parse_intent("a person jumps twice"), 3)
         still = ba.ground_truth_motion(ba.parse_intent("someone stands still"), 3)

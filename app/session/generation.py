@@ -107,10 +107,12 @@ class RerecordJob(GenerateJob):
 
 
 def tried_text(result: GenerationResult) -> str:
-    """", kept seed 3 of seeds 2-3" where several tries were made, else ""."""
+    """"; tried seeds 2-3, kept seed 3" where several tries were made (and whether the kept one walked the corpus's
+    path for its turn), else ""."""
     if len(result.tried) <= 1:
         return ""
-    return f"; tried seeds {result.tried[0]}-{result.tried[-1]}, kept seed {result.settings.seed}"
+    along = " (walked along the corpus's path for the turn)" if result.settings.held_path else ""
+    return f"; tried seeds {result.tried[0]}-{result.tried[-1]}, kept seed {result.settings.seed}{along}"
 
 
 def _info(result: GenerationResult) -> dict:

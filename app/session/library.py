@@ -47,6 +47,7 @@ def recipe_of(item: MotionItem, *, model_dir: str | Path | None) -> dict:
                       eta=s.eta, seconds=s.seconds)
         info["record_steps"] = s.record_steps
         info["sequence"] = s.sequence
+        info["held_path"] = s.held_path
     elif "seed" in info:
         recipe["seed"] = info.pop("seed")
     if kind == "import":
@@ -91,7 +92,9 @@ def settings_from_recipe(recipe: Mapping) -> GenerationSettings | None:
                                   eta=float(recipe.get("eta", 0.0)),  # before eta was kept: deterministic DDIM
                                   record_steps=int(operation.get("record_steps", 10) or 10),
                                   # before sequences were generated clause by clause: one take of the whole prompt
-                                  sequence=str(operation.get("sequence", "whole")))
+                                  sequence=str(operation.get("sequence", "whole")),
+                                  # a take that walked its turn along the corpus's path (a later try) does again
+                                  held_path=operation.get("held_path") is True)
     except (KeyError, TypeError, ValueError, AttributeError):
         return None
 

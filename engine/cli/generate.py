@@ -59,30 +59,41 @@ def run(args: argparse.Namespace) -> int:
         print("clause by clause: " + " -> ".join(f"{iv.prompt!r} ({iv.seconds:.1f} s)" for iv in intervals),
               file=sys.stderr)
     from engine.analysis.followed import follow_generated, misses, take_tries
+    from engine.methods.generate_options import HOLD_FROM_TRY
+    from engine.methods.held_direction import held_plan
 
     def one_take(seed: int) -> tuple:
-        """(seed, joints, features, tokens, follow, notes) of the take from ``seed``."""
+        """(seed, joints, features, tokens, follow, notes, held: whether it walked a held path) of the take from
+        ``seed``."""
         attempt = f"try {seed - args.seed + 1}/{args.tries}, seed {seed}: " if args.tries > 1 else ""
 
         def progress(state):
             print(f"\r{attempt}step {state.step + 1}/{state.num_steps}", end="", file=sys.stderr, flush=True)
 
         take = replace(config, seed=seed)
+        held = None
+        if intervals is None and seed - args.seed >= HOLD_FROM_TRY:  # a later try: a turn walks the corpus's path
+            held = held_plan(loaded, args.prompt, frames=frames, sample=take)
         if intervals is None:
-            gen = generate(loaded, Request(prompts=[args.prompt], frames=[frames]), take, on_step=progress)
+            plan = None if held is None else held.plan
+            request = Request(prompts=[args.prompt], frames=[frames], noise=None if plan is None else plan.noise)
+            gen = generate(loaded, request, take, on_step=progress, hooks=() if plan is None else plan.hooks,
+                           denoiser=None if plan is None else plan.denoiser)
             joints, features, tokens = gen.joints[0], gen.features[0, :frames], gen.tokens[0]
         else:
             composed = generate_sequence(loaded, intervals, take, on_step=progress)
             joints, features, tokens = composed.joints, composed.features, loaded.tokenizer.encode(args.prompt)
         # what was and was not followed: the prompt's intent beside what the detectors see in the motion
         follow, notes = follow_generated(args.prompt, joints, tokens)
-        return seed, joints, features, tokens, follow, notes
+        return seed, joints, features, tokens, follow, notes + (() if held is None else (held.note,)), held is not None
 
     kept, tries = take_tries(one_take, seed=args.seed, tries=args.tries, report=lambda t: t[4])
     print(file=sys.stderr)
-    seed, joints, features, tokens, follow, notes = tries[kept]
+    seed, joints, features, tokens, follow, notes, held_path = tries[kept]
     if args.tries > 1:
-        print(f"tried seed{'s' * (len(tries) > 1)} {', '.join(str(t[0]) for t in tries)}: kept seed {seed} ("
+        along = [str(t[0]) for t in tries if t[6]]  # the takes that walked the corpus's path for the turn
+        print(f"tried seed{'s' * (len(tries) > 1)} {', '.join(str(t[0]) for t in tries)}"
+              + (f" ({', '.join(along)} along the corpus's path for the turn)" if along else "") + f": kept seed {seed} ("
               + ("it followed every checked attribute)" if misses(follow) == 0 else
                  "none followed everything: it missed fewest)"), file=sys.stderr)
     for out in args.out:
@@ -98,13 +109,13 @@ def run(args: argparse.Namespace) -> int:
          features=features,
          recipe=cli_recipe(args, made_by="moattn generate", prompt=args.prompt, seed=seed,
                            seconds=None if args.seconds == AUTO else seconds, sampler=args.sampler,
-                           seconds_used=seconds, sequence=args.sequence,
+                           seconds_used=seconds, sequence=args.sequence, held_path=held_path,
                            clauses=None if intervals is None else [iv.prompt for iv in intervals]))
     for line in follow_lines(follow, notes):
         print(printable(line, sys.stdout))
     print(json.dumps({"prompt": args.prompt, "seconds": seconds, "seconds_from": "prompt" if args.seconds == AUTO
                       else "given", "frames": len(joints),
-                      "clauses": None if intervals is None else [iv.prompt for iv in intervals], "seed": seed, "tries": len(tries), "steps": args.steps,
+                      "clauses": None if intervals is None else [iv.prompt for iv in intervals], "seed": seed, "tries": len(tries), "held_path": held_path, "steps": args.steps,
                       "guidance": args.guidance, "guidance_from": args.guidance_from, "eta": args.eta,
                       "followed": follow.to_json() if not isinstance(follow, str) else {"error": follow},
                       "notes": list(notes)}))

@@ -21,15 +21,15 @@ from __future__ import annotations
 
 from collections import defaultdict
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from engine.analysis.action_size import intensity_seen
 from engine.analysis.detectors import Detected, MotionSignals, detect
 from engine.intent import COUNTED_ACTIONS, SIDES_OF, Intent, IntentSegment
-from engine.synth.intents import realise_segment
-from engine.synth.program import FPS, MAX_FRAMES, Program, Segment
+from engine.synth.intents import program_for_intent
+from engine.synth.program import Program, Segment
 
 ATTRIBUTES = ("action", "count", "side", "direction", "intensity", "order")
 RELIABLE = 0.95  # agreement with ground truth a check needs to be scored
@@ -152,30 +152,6 @@ def intent_of_program(program: Program, text: str = "") -> Intent:
 
     return Intent(text=text, segments=tuple(seg_intent(s) for s in program.segments),
                   style=program.style if program.style != "none" else None)
-
-
-def program_for_intent(intent: Intent, rng: np.random.Generator) -> Program:
-    """A corpus program realising an intent: stated attributes as stated, the rest drawn as the
-    corpus draws them (an unstated side is either side), durations that fit the counts."""
-    from engine.synth.splits import natural_seconds, random_person
-    from engine.synth.styles import STYLES
-
-    segments = []
-    for want in intent.segments:
-        seg = realise_segment(want, rng)
-        if want.overlay is not None:
-            seg = replace(seg, overlay=realise_segment(want.overlay, rng))
-        segments.append(seg)
-    secs = [natural_seconds(s, rng) for s in segments]
-    if any(s.overlay is not None for s in segments):
-        secs = [max(x, (s.overlay.count * 0.6 + 1.2) if s.overlay is not None else x) for x, s in zip(secs, segments)]
-    scale = min(1.0, (MAX_FRAMES - 1) / FPS / sum(secs))
-    frames = [max(int(round(x * scale * FPS)), 12) for x in secs]
-    segments = [replace(s, frames=f, overlay=replace(s.overlay, frames=f) if s.overlay is not None else None)
-                for s, f in zip(segments, frames)]
-    style = intent.style if intent.style in STYLES else "none"
-    return Program(segments=tuple(segments), style=style, person=random_person(rng),
-                   blend=int(rng.integers(6, 11)), seed=int(rng.integers(2**31)))
 
 
 def ground_truth_motion(intent: Intent, seed: int) -> np.ndarray:

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +31,8 @@ from engine.evaluation.adherence import (ATTRIBUTES, check_motion, ground_truth_
                                          validate)
 from engine.generate import SampleConfig
 from engine.intent import Intent, parse_intent
-from engine.methods.generate_options import DEFAULT_SEQUENCE, check_sequence
+from engine.methods.generate_options import DEFAULT_SEQUENCE, HOLD_FROM_TRY, check_sequence
+from engine.methods.held_direction import held_segment
 from engine.synth.program import LOCOMOTION
 from engine.units import FPS
 
@@ -94,12 +95,16 @@ def guidance_text(guidance: float, guidance_from: int = 0, eta: float = 0.0) -> 
     return f"{guidance:g}" + (f" at t >= {guidance_from}" if guidance_from else "") + (f", eta {eta:g}" if eta else "")
 
 
-def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: AdherenceBenchConfig) -> list[np.ndarray]:
+def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: AdherenceBenchConfig, *,
+                   held_from: int | None = None) -> list[np.ndarray]:
     """One motion per entry of ``lengths`` (a batch slot each, noise drawn from ``config.seed``), each with that
     number of joint frames; a prompt of several actions in order as a user gets it (``config.sequence``): clause by
     clause, one DoubleTake run per entry k (seed ``config.seed + k``), its clauses as long as predicted under
-    ``lengths`` "auto", else sharing the entry's length."""
+    ``lengths`` "auto", else sharing the entry's length. Entries from ``held_from`` on are later tries: a prompt of
+    one gait that turns walks the corpus's path for it there (:mod:`engine.methods.held_direction`, as `moattn
+    generate`'s later tries do), each from seed ``config.seed + k``."""
     from engine.generate import Request, generate
+    from engine.methods.held_direction import held_plan
     from engine.methods.sequence import generate_sequence, plan
 
     if plan(prompt, sequence=config.sequence, tempo=loaded.tempo) is not None:
@@ -112,10 +117,18 @@ def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: Adherenc
             motions.append(generate_sequence(loaded, intervals, sample).joints)
         return motions
     frames = [min(n - 1, loaded.model.config.max_frames) for n in lengths]  # one batch: a slot per seed
-    gen = generate(loaded, Request(prompts=[prompt] * len(frames), frames=frames),
-                   SampleConfig(steps=config.steps, guidance=config.guidance,
-                                guidance_from=config.guidance_from, eta=config.eta, seed=config.seed))
-    return list(gen.joints)
+    sample = SampleConfig(steps=config.steps, guidance=config.guidance, guidance_from=config.guidance_from,
+                          eta=config.eta, seed=config.seed)
+    plain = frames[:held_from]
+    motions = list(generate(loaded, Request(prompts=[prompt] * len(plain), frames=plain), sample).joints) \
+        if plain else []
+    for k, n in enumerate(frames[len(plain):], start=len(plain)):  # later tries: a turn walks the corpus's path
+        take = replace(sample, seed=config.seed + k)
+        held = held_plan(loaded, prompt, frames=n, sample=take)
+        request = Request(prompts=[prompt], frames=[n], noise=None if held is None else held.plan.noise)
+        motions.append(generate(loaded, request, take, hooks=() if held is None else held.plan.hooks,
+                                denoiser=None if held is None else held.plan.denoiser).joints[0])
+    return motions
 
 
 def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(), *,
@@ -165,7 +178,9 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
                     lengths = [frames_for(auto_seconds(prompt, loaded.tempo)) + 1] * config.seeds
                 else:
                     lengths = [len(j) for j in truths]
-                motions = _model_motions(loaded, prompt, list(lengths) * config.tries, config)
+                motions = _model_motions(loaded, prompt, list(lengths) * config.tries, config,
+                                         held_from=config.seeds * HOLD_FROM_TRY
+                                         if config.tries > 1 and held_segment(intent) is not None else None)
                 if config.tries > 1:  # seed k's tries are entries k, k + seeds, ...: each seed keeps its best
                     motions, row["tries_kept"] = _best_tries(motions, intent, reliable, seeds=config.seeds)
                 model_checks = [check_motion(j, intent, reliable=reliable) for j in motions]

@@ -137,17 +137,21 @@ def normalized_weights(weights, n: int) -> list[float]:
     return blend_shares(weights, [f"control {i + 1}" for i in range(n)])
 
 
-def controlled(loaded: LoadedModel, prompt: str, controls: list[Control], *, seconds: float,
-               models: dict[str, LoadedModel] | None = None, weights=None,
-               sample: SampleConfig = SampleConfig(), on_step=None,
-               planted_feet: bool = option_info(ControlOptions, "planted_feet").default) -> Generation:
-    """Text + controls -> motion. With ``models`` (name -> fine-tuned control model): each control's
-    model, blended (DiffusionBlending) with ``weights`` (None: the declared defaults, ``ControlOptions``'s: the root 1,
-    a wrist 1/4; one per control in order, or control name -> raw weight; scaled to sum 1 by
-    :func:`~engine.methods.control_options.blend_shares`), controls noise-free
-    (Algorithm 2). Without: plain inpainting with ``loaded`` (the baseline), which takes no weights.
-    ``planted_feet``: either method's prediction is wrapped in :class:`~engine.diffusion.feet.PlantedFeet` (the legs
-    move so feet on the floor stay put; the root and the wrists, the controlled cells, are left as they are)."""
+@dataclass(frozen=True)
+class ControlPlan:
+    """What sampling under controls adds to a plain generation: the starting noise with the controls' cells in it,
+    the wrapped denoiser and the step-end hook (:func:`control_plan`). Any sampling of the loop takes it."""
+
+    noise: torch.Tensor  # (1, T, 263) the seed's noise, the controls' cells at the first timestep's level
+    denoiser: Callable
+    hooks: tuple
+
+
+def control_plan(loaded: LoadedModel, controls: list[Control], *, frames: int,
+                 models: dict[str, LoadedModel] | None = None, weights=None, sample: SampleConfig = SampleConfig(),
+                 planted_feet: bool = option_info(ControlOptions, "planted_feet").default) -> ControlPlan:
+    """The noise, denoiser and hook that make a generation of ``frames`` follow ``controls`` (see
+    :func:`controlled`, which samples with them)."""
     if not controls:
         raise ValueError("give at least one control (a root or wrist path)")
     names = [c.name for c in controls]
@@ -155,7 +159,6 @@ def controlled(loaded: LoadedModel, prompt: str, controls: list[Control], *, sec
         raise ValueError(f"each control at most once, got {names}")
     if models is None and weights is not None:
         raise ValueError("blend weights apply to blending (the fine-tuned control models), not to inpainting")
-    frames = frames_for(seconds)
     known = KnownFeatures.of(controls, loaded.normalizer, frames=frames, dim=loaded.model.config.feature_dim)
     schedule = CosineSchedule()
     g = torch.Generator().manual_seed(sample.seed)
@@ -176,8 +179,25 @@ def controlled(loaded: LoadedModel, prompt: str, controls: list[Control], *, sec
     denoiser = Inpaint(base, known)
     if planted_feet:
         denoiser = PlantedFeet(denoiser, loaded.normalizer)
-    return generate(loaded, Request(prompts=[prompt], frames=[frames], noise=noise), sample, hooks=[hook],
-                    denoiser=denoiser, on_step=on_step)
+    return ControlPlan(noise=noise, denoiser=denoiser, hooks=(hook,))
+
+
+def controlled(loaded: LoadedModel, prompt: str, controls: list[Control], *, seconds: float,
+               models: dict[str, LoadedModel] | None = None, weights=None,
+               sample: SampleConfig = SampleConfig(), on_step=None,
+               planted_feet: bool = option_info(ControlOptions, "planted_feet").default) -> Generation:
+    """Text + controls -> motion. With ``models`` (name -> fine-tuned control model): each control's
+    model, blended (DiffusionBlending) with ``weights`` (None: the declared defaults, ``ControlOptions``'s: the root 1,
+    a wrist 1/4; one per control in order, or control name -> raw weight; scaled to sum 1 by
+    :func:`~engine.methods.control_options.blend_shares`), controls noise-free
+    (Algorithm 2). Without: plain inpainting with ``loaded`` (the baseline), which takes no weights.
+    ``planted_feet``: either method's prediction is wrapped in :class:`~engine.diffusion.feet.PlantedFeet` (the legs
+    move so feet on the floor stay put; the root and the wrists, the controlled cells, are left as they are)."""
+    frames = frames_for(seconds)
+    plan = control_plan(loaded, controls, frames=frames, models=models, weights=weights, sample=sample,
+                        planted_feet=planted_feet)
+    return generate(loaded, Request(prompts=[prompt], frames=[frames], noise=plan.noise), sample, hooks=plan.hooks,
+                    denoiser=plan.denoiser, on_step=on_step)
 
 
 def control_name(loaded: LoadedModel) -> str:

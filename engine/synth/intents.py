@@ -6,8 +6,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from engine.intent import IntentSegment
-from engine.synth.program import INTENSITIES, SPEEDS, Segment
+from engine.intent import Intent, IntentSegment
+from engine.synth.program import FPS, INTENSITIES, MAX_FRAMES, SPEEDS, Program, Segment
 
 
 def realise_segment(want: IntentSegment, rng: np.random.Generator) -> Segment:
@@ -35,3 +35,27 @@ def realise_segment(want: IntentSegment, rng: np.random.Generator) -> Segment:
         elif want.action == "side_step" and want.direction in ("left", "right"):
             fields["direction"] = want.direction
     return replace(seg, **fields)
+
+
+def program_for_intent(intent: Intent, rng: np.random.Generator) -> Program:
+    """A corpus program realising an intent: stated attributes as stated, the rest drawn as the
+    corpus draws them (an unstated side is either side), durations that fit the counts."""
+    from engine.synth.splits import natural_seconds, random_person
+    from engine.synth.styles import STYLES
+
+    segments = []
+    for want in intent.segments:
+        seg = realise_segment(want, rng)
+        if want.overlay is not None:
+            seg = replace(seg, overlay=realise_segment(want.overlay, rng))
+        segments.append(seg)
+    secs = [natural_seconds(s, rng) for s in segments]
+    if any(s.overlay is not None for s in segments):
+        secs = [max(x, (s.overlay.count * 0.6 + 1.2) if s.overlay is not None else x) for x, s in zip(secs, segments)]
+    scale = min(1.0, (MAX_FRAMES - 1) / FPS / sum(secs))
+    frames = [max(int(round(x * scale * FPS)), 12) for x in secs]
+    segments = [replace(s, frames=f, overlay=replace(s.overlay, frames=f) if s.overlay is not None else None)
+                for s, f in zip(segments, frames)]
+    style = intent.style if intent.style in STYLES else "none"
+    return Program(segments=tuple(segments), style=style, person=random_person(rng),
+                   blend=int(rng.integers(6, 11)), seed=int(rng.integers(2**31)))

@@ -1,0 +1,117 @@
+"""A direction held by a root path: "walks to the left" walked along the corpus's own path for it.
+
+The base model often walks straight where a prompt asks for a turn to one side ("a woman walks quickly to the
+right": the right turn in 1 of 4 draws). The root control model (PriorMDM, ``assets/control/root``) follows a path
+on the floor. The path is the one the corpus itself walks for the prompt: the prompt's intent realised as a corpus
+program (:func:`engine.evaluation.adherence.program_for_intent`) at the generation's length, its pelvis on the
+floor. `moattn generate`'s and the studio's later tries take it where the prompt is one walk, run or jog that turns
+(left, right, a circle), and the report says so (:func:`held_note`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from engine.intent import Intent, IntentSegment, parse_intent
+from engine.units import FPS
+
+GAITS = ("walk", "run", "jog")
+HELD = ("left", "right", "circle")  # the directions a gait turns for: forward needs no path, backward is its own action
+
+
+def held_segment(intent: Intent | str) -> IntentSegment | None:
+    """The prompt's one gait that turns (a path can hold it), or None: a prompt of several actions in order, a
+    gait straight ahead, an action that does not travel."""
+    if isinstance(intent, str):
+        intent = parse_intent(intent)
+    if len(intent.segments) != 1:
+        return None
+    seg = intent.segments[0]
+    return seg if seg.action in GAITS and seg.direction in HELD else None
+
+
+def corpus_path(intent: Intent, *, frames: int, seed: int) -> np.ndarray:
+    """The pelvis on the floor, (frames + 1, 2) x/z metres, of the corpus's realisation of ``intent`` lasting
+    ``frames`` frames (the corpus's speed for the gait and its words, its turn for the direction)."""
+    from engine.synth.intents import program_for_intent
+    from engine.synth.corpus import make_sample
+
+    rng = np.random.default_rng([seed, 11])
+    last: Exception | None = None
+    for _ in range(6):  # a drawn person or count that does not fit: draw again
+        program = program_for_intent(intent, rng)
+        seg = program.segments[0]
+        seg = replace(seg, frames=frames, overlay=None if seg.overlay is None else replace(seg.overlay, frames=frames))
+        try:
+            joints = make_sample(replace(program, segments=(seg,)), captions=[intent.text], with_features=False).joints
+        except ValueError as exc:
+            last = exc
+            continue
+        xz = joints[:, 0, [0, 2]].astype(np.float64)
+        t = np.arange(frames + 1) / FPS
+        return np.stack([np.interp(t, np.arange(len(xz)) / FPS, xz[:, d]) for d in range(2)], -1)
+    raise ValueError(f"the corpus cannot walk {intent.text!r} in {frames} frames: {last}")
+
+
+def held_control(intent: Intent, *, frames: int, seed: int):
+    """The root :class:`~engine.methods.control.Control` along :func:`corpus_path` (its values start at the origin
+    facing +Z, as a generated motion does)."""
+    from engine.methods.control import Control
+    from engine.methods.paths import RootPath, root_controls
+
+    xz = corpus_path(intent, frames=frames, seed=seed)
+    values, _frame = root_controls(RootPath(points=tuple(map(tuple, xz)), times=tuple(np.arange(len(xz)) / FPS)),
+                                   frames / FPS)
+    return Control("root", values)
+
+
+@lru_cache(maxsize=2)
+def _root_model(folder: str):
+    from engine.methods.control import load_controls
+
+    return load_controls(folder).get("root")
+
+
+def root_model(base, folder: Path | None = None):
+    """The root control model that blends with ``base`` (``assets/control/root``), or None where there is none."""
+    from engine.methods.control import same_base
+    from engine.paths import CONTROL_DIR
+
+    model = _root_model(str(folder or CONTROL_DIR))
+    return model if model is not None and same_base(base, model) else None
+
+
+def held_note(seg: IntentSegment) -> str:
+    """The line a report carries when the take walked a held path."""
+    way = "in a circle" if seg.direction == "circle" else f"to the {seg.direction}"
+    return f"{seg.action} {way} held by a root path (the corpus's, the root control model)"
+
+
+@dataclass(frozen=True)
+class Held:
+    """A take's turn held by a path: how to sample it and the line its report carries."""
+
+    plan: object  # engine.methods.control.ControlPlan: the noise, denoiser and hook of the root path
+    note: str
+
+
+def held_plan(loaded, prompt: str, *, frames: int, sample, controls: Path | None = None) -> Held | None:
+    """The :class:`Held` plan that walks ``prompt``'s turn along the corpus's path in a take of ``frames`` frames,
+    or None where no path holds it: the prompt is not one gait that turns, there is no root control model for
+    ``loaded`` (in ``controls``, default ``assets/control``), or the corpus cannot walk it in that time."""
+    from engine.methods.control import control_plan
+
+    intent = parse_intent(prompt, loaded.tokenizer.encode(prompt))  # as the model reads it (typos, words left out)
+    seg = held_segment(intent)
+    model = root_model(loaded, controls) if seg is not None else None
+    if model is None:
+        return None
+    try:
+        control = held_control(intent, frames=frames, seed=sample.seed)
+    except ValueError:
+        return None
+    return Held(plan=control_plan(loaded, [control], frames=frames, models={"root": model}, sample=sample),
+                note=held_note(seg))
