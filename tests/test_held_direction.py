@@ -146,3 +146,6 @@ def test_the_adherence_bench_holds_the_later_tries_as_the_studio_does(tiny_model
     monkeypatch.setattr(ba, "_model_motions", lambda *a, **kw: seen.append(kw["held_from"]) or real(*a, **kw))
     ba.bench_adherence(loaded, config, prompts=[prompt, "a person walks forward"])
     assert seen == [2, None]  # the turning prompt's second tries are held; a straight walk's never
+    ba.bench_adherence(loaded, ba.AdherenceBenchConfig(seeds=2, steps=2, tries=2, validation_motions=10,
+                                                       held_turns=False), prompts=[prompt])
+    assert seen[-1] is None  # the lever screen's setting: every try the model's own

@@ -72,6 +72,9 @@ class AdherenceBenchConfig:
     # tries per seed (engine.analysis.followed.best_try): each seed keeps the first of its tries that follows every
     # checked attribute, else the one that misses fewest; 1 = the model's single take
     tries: int = 1
+    # the later tries of a prompt of one gait that turns walk the corpus's path for it (what a user gets:
+    # engine.methods.held_direction); off, every try is the model's own (the lever screen compares models)
+    held_turns: bool = True
 
     def __post_init__(self) -> None:
         check_sequence(self.sequence)
@@ -179,8 +182,8 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
                 else:
                     lengths = [len(j) for j in truths]
                 motions = _model_motions(loaded, prompt, list(lengths) * config.tries, config,
-                                         held_from=config.seeds * HOLD_FROM_TRY
-                                         if config.tries > 1 and held_segment(intent) is not None else None)
+                                         held_from=config.seeds * HOLD_FROM_TRY if config.tries > 1
+                                         and config.held_turns and held_segment(intent) is not None else None)
                 if config.tries > 1:  # seed k's tries are entries k, k + seeds, ...: each seed keeps its best
                     motions, row["tries_kept"] = _best_tries(motions, intent, reliable, seeds=config.seeds)
                 model_checks = [check_motion(j, intent, reliable=reliable) for j in motions]
