@@ -107,6 +107,7 @@ DIRECTION_PHRASES: dict[str, str] = {
     "anticlockwise": "circle_left", "in a circle to the right": "circle_right",
     "in a clockwise circle": "circle_right", "clockwise": "circle_right", "around": "around",
     "all the way around": "around", "to face the other way": "around", "in a circle around": "circle",
+    "in circles": "circle", "around in circles": "circle", "in a loop": "circle",
 }
 LIMBS = {"hand": "arm", "arm": "arm", "fist": "arm", "leg": "leg", "foot": "leg"}
 SEQUENCE_MARKS = ("and then", "then", "after that", "afterwards", "afterward", "followed by", "next", "finally",

@@ -23,6 +23,8 @@ def test_only_one_gait_that_turns_is_held():
     assert held_segment("a person walks to the left").direction == "left"
     assert held_segment("someone runs in a circle").direction == "circle"
     assert held_segment("a woman walks quickly to the right").action == "walk"
+    assert held_segment("a kid runs in circles").direction == "circle"
+    assert held_segment("a man jogs in a circle to the left").direction == "circle_left"
     for prompt in ("a person walks forward", "a person walks", "a person jumps twice", "someone steps sideways to "
                    "the left", "a person walks to the left then jumps", "a person turns left"):
         assert held_segment(prompt) is None, prompt
@@ -51,6 +53,8 @@ def test_a_held_plan_walks_the_corpus_path(tiny_model_dir, root_controls):
                      controls=root_controls.parent / "none") is None  # no root control model: the model's own
     held = held_plan(loaded, "a person walks to the left", frames=60, sample=sample, controls=root_controls)
     assert held is not None and held.note.startswith("walk to the left held by a root path")
+    circle = held_plan(loaded, "a man jogs in a circle to the left", frames=60, sample=sample, controls=root_controls)
+    assert circle.note.startswith("jog in a circle to the left held by a root path")
     out = generate(loaded, Request(prompts=["a person walks to the left"], frames=[60], noise=held.plan.noise), sample,
                    hooks=held.plan.hooks, denoiser=held.plan.denoiser).joints[0]
     path = corpus_path(parse_intent("a person walks to the left"), frames=60, seed=4)

@@ -19,7 +19,8 @@ from engine.intent import Intent, IntentSegment, parse_intent
 from engine.units import FPS
 
 GAITS = ("walk", "run", "jog")
-HELD = ("left", "right", "circle")  # the directions a gait turns for: forward needs no path, backward is its own action
+# the directions a gait turns for: forward needs no path, backward is its own action
+HELD = ("left", "right", "circle", "circle_left", "circle_right")
 
 
 def held_segment(intent: Intent | str) -> IntentSegment | None:
@@ -86,7 +87,9 @@ def root_model(base, folder: Path | None = None):
 
 def held_note(seg: IntentSegment) -> str:
     """The line a report carries when the take walked a held path."""
-    way = "in a circle" if seg.direction == "circle" else f"to the {seg.direction}"
+    turn = seg.direction.partition("_")[2]  # a circle's own turn, if the prompt said one
+    way = (f"in a circle{f' to the {turn}' if turn else ''}" if seg.direction.startswith("circle")
+           else f"to the {seg.direction}")
     return f"{seg.action} {way} held by a root path (the corpus's, the root control model)"
 
 
