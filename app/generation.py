@@ -17,8 +17,8 @@ from app.attention_record import AttentionRecord, plan_steps
 from app.model_cache import SAMPLING_SLOT
 from engine.analysis.followed import follow_generated
 from engine.checkpoint import LoadedModel
-from engine.methods.generate_options import DEFAULT_SEQUENCE, DEFAULT_TRIES, HOLD_FROM_TRY, MAX_TRIES
-from engine.methods.held_direction import held_plan, held_segment
+from engine.methods.generate_options import DEFAULT_SEQUENCE, DEFAULT_TRIES, MAX_TRIES
+from engine.methods.held_direction import held_plan, held_take
 from engine.methods.sequence import generate_sequence, plan, sampling_steps, sequence_clauses, timeline_frames
 from engine.generate import Request, SampleConfig, finish, frames_for, sample_states
 from engine.duration import resolve_seconds
@@ -233,7 +233,7 @@ def run_tries(loaded: LoadedModel, checked: Checked, *, on_step: Callable[[int, 
 
     def one_take(seed: int) -> GenerationResult:
         k = seed - first
-        held = k >= HOLD_FROM_TRY and checked.intervals is None and held_segment(checked.settings.prompt) is not None
+        held = held_take(checked.settings.prompt, try_index=k, one_take=checked.intervals is None)
         one = replace(checked, settings=replace(checked.settings, seed=seed, tries=1, held_path=held),
                       config=replace(checked.config, seed=seed))
         step = None if on_step is None else (lambda done, _n: on_step(k * checked.total_steps + done, total))

@@ -30,6 +30,15 @@ def test_only_one_gait_that_turns_is_held():
         assert held_segment(prompt) is None, prompt
 
 
+def test_the_later_tries_of_one_take_are_held():
+    from engine.methods.held_direction import held_take
+
+    prompt = "a person walks to the left"
+    assert [held_take(prompt, try_index=k) for k in range(3)] == [False, True, True]  # the first is the model's own
+    assert not held_take(prompt, try_index=1, one_take=False)  # clause by clause: never
+    assert not held_take("a person walks forward", try_index=2)
+
+
 def test_the_corpus_path_turns_the_way_the_prompt_says():
     left = corpus_path(parse_intent("a person walks to the left"), frames=80, seed=0)
     right = corpus_path(parse_intent("a person walks to the right"), frames=80, seed=0)

@@ -59,8 +59,7 @@ def run(args: argparse.Namespace) -> int:
         print("clause by clause: " + " -> ".join(f"{iv.prompt!r} ({iv.seconds:.1f} s)" for iv in intervals),
               file=sys.stderr)
     from engine.analysis.followed import follow_generated, misses, take_tries
-    from engine.methods.generate_options import HOLD_FROM_TRY
-    from engine.methods.held_direction import held_plan
+    from engine.methods.held_direction import held_plan, held_take
 
     def one_take(seed: int) -> tuple:
         """(seed, joints, features, tokens, follow, notes, held: whether it walked a held path) of the take from
@@ -72,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
 
         take = replace(config, seed=seed)
         held = None
-        if intervals is None and seed - args.seed >= HOLD_FROM_TRY:  # a later try: a turn walks the corpus's path
+        if held_take(args.prompt, try_index=seed - args.seed, one_take=intervals is None):  # the corpus's path
             held = held_plan(loaded, args.prompt, frames=frames, sample=take)
         if intervals is None:
             plan = None if held is None else held.plan

@@ -31,8 +31,8 @@ from engine.evaluation.adherence import (ATTRIBUTES, check_motion, ground_truth_
                                          validate)
 from engine.generate import SampleConfig
 from engine.intent import Intent, parse_intent
-from engine.methods.generate_options import DEFAULT_SEQUENCE, HOLD_FROM_TRY, check_sequence
-from engine.methods.held_direction import held_segment
+from engine.methods.generate_options import DEFAULT_SEQUENCE, check_sequence
+from engine.methods.held_direction import held_take
 from engine.synth.program import LOCOMOTION
 from engine.units import FPS
 
@@ -134,6 +134,15 @@ def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: Adherenc
     return motions
 
 
+def _held_from(intent: Intent, config: AdherenceBenchConfig) -> int | None:
+    """The first entry of a prompt's tries (seed k's try j is entry k + j x seeds) whose turn walks the corpus's path,
+    as `moattn generate`'s tries do (:func:`~engine.methods.held_direction.held_take`); None: no entry does."""
+    if not config.held_turns:
+        return None
+    first = next((j for j in range(config.tries) if held_take(intent, try_index=j)), None)
+    return None if first is None else first * config.seeds
+
+
 def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(), *,
                     prompts: Sequence[str] | None = None, log: Callable[[str], None] = lambda s: None) -> dict:
     """The validation table, the model's and the ground truth's adherence, per prompt and in total.
@@ -182,8 +191,7 @@ def bench_adherence(loaded, config: AdherenceBenchConfig = AdherenceBenchConfig(
                 else:
                     lengths = [len(j) for j in truths]
                 motions = _model_motions(loaded, prompt, list(lengths) * config.tries, config,
-                                         held_from=config.seeds * HOLD_FROM_TRY if config.tries > 1
-                                         and config.held_turns and held_segment(intent) is not None else None)
+                                         held_from=_held_from(intent, config))
                 if config.tries > 1:  # seed k's tries are entries k, k + seeds, ...: each seed keeps its best
                     motions, row["tries_kept"] = _best_tries(motions, intent, reliable, seeds=config.seeds)
                 model_checks = [check_motion(j, intent, reliable=reliable) for j in motions]

@@ -34,6 +34,15 @@ def held_segment(intent: Intent | str) -> IntentSegment | None:
     return seg if seg.action in GAITS and seg.direction in HELD else None
 
 
+def held_take(intent: Intent | str, *, try_index: int, one_take: bool = True) -> bool:
+    """Whether the try ``try_index`` (0-based) of ``intent`` walks its turn along the corpus's path: a later try
+    (:data:`~engine.methods.generate_options.HOLD_FROM_TRY` on) of a prompt generated in one take (not clause by
+    clause) whose one gait turns. What `moattn generate`'s, the studio's and the adherence bench's tries share."""
+    from engine.methods.generate_options import HOLD_FROM_TRY
+
+    return one_take and try_index >= HOLD_FROM_TRY and held_segment(intent) is not None
+
+
 def corpus_path(intent: Intent, *, frames: int, seed: int) -> np.ndarray:
     """The pelvis on the floor, (frames + 1, 2) x/z metres, of the corpus's realisation of ``intent`` lasting
     ``frames`` frames (the corpus's speed for the gait and its words, its turn for the direction)."""
