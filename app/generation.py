@@ -18,7 +18,7 @@ from app.model_cache import SAMPLING_SLOT
 from engine.analysis.followed import follow_generated
 from engine.checkpoint import LoadedModel
 from engine.methods.generate_options import DEFAULT_SEQUENCE, DEFAULT_TRIES, MAX_TRIES
-from engine.methods.held_direction import held_plan, held_take
+from engine.methods.held_direction import held_plan, held_take, plan_of
 from engine.methods.sequence import generate_sequence, plan, sampling_steps, sequence_clauses, timeline_frames
 from engine.generate import Request, SampleConfig, finish, frames_for, sample_states
 from engine.duration import resolve_seconds
@@ -275,13 +275,11 @@ def run_generation(
         held = held_plan(loaded, settings.prompt, frames=checked.frames, sample=config) if settings.held_path else None
         if held is None and settings.held_path:  # no root control model, or no corpus path for it: the model's own
             settings = replace(settings, held_path=False)
-        plan = None if held is None else held.plan
-        request = Request(prompts=[settings.prompt], frames=[checked.frames], roles=["out"],
-                          noise=None if plan is None else plan.noise)
+        path = plan_of(held)
+        request = Request(prompts=[settings.prompt], frames=[checked.frames], roles=["out"], noise=path.noise)
         store = _recording_store(settings, config, slots=1)
-        states, cond, tokens, noise = sample_states(loaded, request, config, controller=store,
-                                                    hooks=() if plan is None else plan.hooks,
-                                                    denoiser=None if plan is None else plan.denoiser)
+        states, cond, tokens, noise = sample_states(loaded, request, config, controller=store, hooks=path.hooks,
+                                                    denoiser=path.denoiser)
         last = None
         timesteps: dict[int, int] = {}
         history: list[tuple[int, np.ndarray]] = []

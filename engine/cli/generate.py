@@ -59,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         print("clause by clause: " + " -> ".join(f"{iv.prompt!r} ({iv.seconds:.1f} s)" for iv in intervals),
               file=sys.stderr)
     from engine.analysis.followed import follow_generated, misses, take_tries
-    from engine.methods.held_direction import held_plan, held_take
+    from engine.methods.held_direction import held_plan, held_take, plan_of
 
     def one_take(seed: int) -> tuple:
         """(seed, joints, features, tokens, follow, notes, held: whether it walked a held path) of the take from
@@ -74,10 +74,9 @@ def run(args: argparse.Namespace) -> int:
         if held_take(args.prompt, try_index=seed - args.seed, one_take=intervals is None):  # the corpus's path
             held = held_plan(loaded, args.prompt, frames=frames, sample=take)
         if intervals is None:
-            plan = None if held is None else held.plan
-            request = Request(prompts=[args.prompt], frames=[frames], noise=None if plan is None else plan.noise)
-            gen = generate(loaded, request, take, on_step=progress, hooks=() if plan is None else plan.hooks,
-                           denoiser=None if plan is None else plan.denoiser)
+            path = plan_of(held)
+            gen = generate(loaded, Request(prompts=[args.prompt], frames=[frames], noise=path.noise), take,
+                           on_step=progress, hooks=path.hooks, denoiser=path.denoiser)
             joints, features, tokens = gen.joints[0], gen.features[0, :frames], gen.tokens[0]
         else:
             composed = generate_sequence(loaded, intervals, take, on_step=progress)

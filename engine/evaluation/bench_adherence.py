@@ -107,7 +107,7 @@ def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: Adherenc
     one gait that turns walks the corpus's path for it there (:mod:`engine.methods.held_direction`, as `moattn
     generate`'s later tries do), each from seed ``config.seed + k``."""
     from engine.generate import Request, generate
-    from engine.methods.held_direction import held_plan
+    from engine.methods.held_direction import held_plan, plan_of
     from engine.methods.sequence import generate_sequence, plan
 
     if plan(prompt, sequence=config.sequence, tempo=loaded.tempo) is not None:
@@ -127,10 +127,9 @@ def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: Adherenc
         if plain else []
     for k, n in enumerate(frames[len(plain):], start=len(plain)):  # later tries: a turn walks the corpus's path
         take = replace(sample, seed=config.seed + k)
-        held = held_plan(loaded, prompt, frames=n, sample=take)
-        request = Request(prompts=[prompt], frames=[n], noise=None if held is None else held.plan.noise)
-        motions.append(generate(loaded, request, take, hooks=() if held is None else held.plan.hooks,
-                                denoiser=None if held is None else held.plan.denoiser).joints[0])
+        path = plan_of(held_plan(loaded, prompt, frames=n, sample=take))
+        motions.append(generate(loaded, Request(prompts=[prompt], frames=[n], noise=path.noise), take,
+                                hooks=path.hooks, denoiser=path.denoiser).joints[0])
     return motions
 
 

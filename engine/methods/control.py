@@ -142,9 +142,13 @@ class ControlPlan:
     """What sampling under controls adds to a plain generation: the starting noise with the controls' cells in it,
     the wrapped denoiser and the step-end hook (:func:`control_plan`). Any sampling of the loop takes it."""
 
-    noise: torch.Tensor  # (1, T, 263) the seed's noise, the controls' cells at the first timestep's level
-    denoiser: Callable
+    noise: torch.Tensor | None  # (1, T, 263) the seed's noise, the controls' cells at the first timestep's level
+    denoiser: Callable | None
     hooks: tuple
+
+
+#: sampling without controls: the seed's own noise, the model's own prediction, no hook
+PLAIN_PLAN = ControlPlan(noise=None, denoiser=None, hooks=())
 
 
 def control_plan(loaded: LoadedModel, controls: list[Control], *, frames: int,

@@ -3,7 +3,7 @@
 The base model often walks straight where a prompt asks for a turn to one side ("a woman walks quickly to the
 right": the right turn in 1 of 4 draws). The root control model (PriorMDM, ``assets/control/root``) follows a path
 on the floor. The path is the one the corpus itself walks for the prompt: the prompt's intent realised as a corpus
-program (:func:`engine.evaluation.adherence.program_for_intent`) at the generation's length, its pelvis on the
+program (:func:`engine.synth.intents.program_for_intent`) at the generation's length, its pelvis on the
 floor. `moattn generate`'s and the studio's later tries take it where the prompt is one walk, run or jog that turns
 (left, right, a circle), and the report says so (:func:`held_note`).
 """
@@ -12,11 +12,16 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from engine.intent import Intent, IntentSegment, parse_intent
+from engine.methods.generate_options import HOLD_FROM_TRY
 from engine.units import FPS
+
+if TYPE_CHECKING:  # imported lazily: engine.methods.control loads torch and the model code
+    from engine.methods.control import ControlPlan
 
 GAITS = ("walk", "run", "jog")
 # the directions a gait turns for: forward needs no path, backward is its own action
@@ -38,8 +43,6 @@ def held_take(intent: Intent | str, *, try_index: int, one_take: bool = True) ->
     """Whether the try ``try_index`` (0-based) of ``intent`` walks its turn along the corpus's path: a later try
     (:data:`~engine.methods.generate_options.HOLD_FROM_TRY` on) of a prompt generated in one take (not clause by
     clause) whose one gait turns. What `moattn generate`'s, the studio's and the adherence bench's tries share."""
-    from engine.methods.generate_options import HOLD_FROM_TRY
-
     return one_take and try_index >= HOLD_FROM_TRY and held_segment(intent) is not None
 
 
@@ -79,18 +82,19 @@ def held_control(intent: Intent, *, frames: int, seed: int):
 
 
 @lru_cache(maxsize=2)
-def _root_model(folder: str):
+def _root_model(folder: str, runtime):
     from engine.methods.control import load_controls
 
-    return load_controls(folder).get("root")
+    return load_controls(folder, runtime=runtime).get("root")
 
 
 def root_model(base, folder: Path | None = None):
-    """The root control model that blends with ``base`` (``assets/control/root``), or None where there is none."""
+    """The root control model that blends with ``base`` (``assets/control/root``), on ``base``'s device, or None where
+    there is none (loaded once per folder and device)."""
     from engine.methods.control import same_base
     from engine.paths import CONTROL_DIR
 
-    model = _root_model(str(folder or CONTROL_DIR))
+    model = _root_model(str(folder or CONTROL_DIR), base.runtime)
     return model if model is not None and same_base(base, model) else None
 
 
@@ -106,8 +110,15 @@ def held_note(seg: IntentSegment) -> str:
 class Held:
     """A take's turn held by a path: how to sample it and the line its report carries."""
 
-    plan: object  # engine.methods.control.ControlPlan: the noise, denoiser and hook of the root path
+    plan: ControlPlan  # the noise, denoiser and hook of the root path
     note: str
+
+
+def plan_of(held: Held | None) -> ControlPlan:
+    """What a take samples with: the held path's plan, or the plain one (:data:`PLAIN_PLAN`)."""
+    from engine.methods.control import PLAIN_PLAN
+
+    return PLAIN_PLAN if held is None else held.plan
 
 
 def held_plan(loaded, prompt: str, *, frames: int, sample, controls: Path | None = None) -> Held | None:
