@@ -43,8 +43,8 @@ class GenerationSettings:
     # tries from the seed on (seed, seed + 1, ...), keeping the first that follows every checked attribute
     # (engine.analysis.followed.best_try); the kept motion's settings say its own seed and 1 try
     tries: int = DEFAULT_TRIES
-    # this take walks the prompt's turn along the corpus's path with the root control model
-    # (engine.methods.held_direction): what the later tries of a turning walk do (HOLD_FROM_TRY)
+    # this take walks the prompt's gait along the corpus's path with the root control model
+    # (engine.methods.held_direction): what the later tries of one walk, run or jog do (HOLD_FROM_TRY)
     held_path: bool = False
 
     def clauses(self) -> tuple[str, ...]:

@@ -19,14 +19,17 @@ def root_controls(tiny_model_dir, tmp_path_factory):
     return controls_with_prior(tiny_model_dir, tmp_path_factory.mktemp("held") / "control", ("root",), prior=False)
 
 
-def test_only_one_gait_that_turns_is_held():
+def test_only_one_gait_is_held():
     assert held_segment("a person walks to the left").direction == "left"
     assert held_segment("someone runs in a circle").direction == "circle"
     assert held_segment("a woman walks quickly to the right").action == "walk"
     assert held_segment("a kid runs in circles").direction == "circle"
     assert held_segment("a man jogs in a circle to the left").direction == "circle_left"
-    for prompt in ("a person walks forward", "a person walks", "a person jumps twice", "someone steps sideways to "
-                   "the left", "a person walks to the left then jumps", "a person turns left"):
+    assert held_segment("a person walks forward").direction == "forward"  # straight ahead too
+    assert held_segment("an old man walks slowly").action == "walk"
+    assert held_segment("someone walks while waving the right hand").action == "walk"
+    for prompt in ("a person jumps twice", "someone steps sideways to the left", "a person walks backwards",
+                   "a person walks to the left then jumps", "a person turns left", "a person waves"):
         assert held_segment(prompt) is None, prompt
 
 
@@ -36,7 +39,7 @@ def test_the_later_tries_of_one_take_are_held():
     prompt = "a person walks to the left"
     assert [held_take(prompt, try_index=k) for k in range(3)] == [False, True, True]  # the first is the model's own
     assert not held_take(prompt, try_index=1, one_take=False)  # clause by clause: never
-    assert not held_take("a person walks forward", try_index=2)
+    assert not held_take("a person jumps twice", try_index=2)
 
 
 def test_the_corpus_path_turns_the_way_the_prompt_says():
@@ -49,6 +52,11 @@ def test_the_corpus_path_turns_the_way_the_prompt_says():
     assert left[-1, 0] > 0.5 and right[-1, 0] < -0.5
     travelled = np.linalg.norm(np.diff(circle, axis=0), axis=1).sum()
     assert travelled > 3.0 and np.linalg.norm(circle[-1] - circle[0]) < 0.3 * travelled  # round, back near the start
+    slow = corpus_path(parse_intent("an old man walks slowly"), frames=80, seed=0)
+    quick = corpus_path(parse_intent("a person walks quickly"), frames=80, seed=0)
+    for straight in (slow, quick):  # straight ahead (+z)
+        assert straight[-1, 1] > 0.5 and abs(straight[-1, 0]) < 0.2 * straight[-1, 1]
+    assert slow[-1, 1] < 0.7 * quick[-1, 1]  # the corpus's slow walk is slow
 
 
 def test_a_held_plan_walks_the_corpus_path(tiny_model_dir, root_controls):
@@ -57,7 +65,9 @@ def test_a_held_plan_walks_the_corpus_path(tiny_model_dir, root_controls):
 
     loaded = load_model(tiny_model_dir)
     sample = SampleConfig(steps=3, seed=4)
-    assert held_plan(loaded, "a person walks forward", frames=60, sample=sample, controls=root_controls) is None
+    assert held_plan(loaded, "a person jumps twice", frames=60, sample=sample, controls=root_controls) is None
+    straight = held_plan(loaded, "an old man walks slowly", frames=60, sample=sample, controls=root_controls)
+    assert straight.note.startswith("walk forward held by a root path")
     assert held_plan(loaded, "a person walks to the left", frames=60, sample=sample,
                      controls=root_controls.parent / "none") is None  # no root control model: the model's own
     held = held_plan(loaded, "a person walks to the left", frames=60, sample=sample, controls=root_controls)
@@ -89,7 +99,7 @@ def test_generate_holds_the_turn_from_the_second_try(tiny_model_dir, root_contro
     printed = captured.out
     report = json.loads(printed.splitlines()[-1])
     assert report["tries"] == 3  # the tiny model turns left in none of them
-    assert "tried seeds 0, 1, 2 (1, 2 along the corpus's path for the turn): kept seed" in captured.err
+    assert "tried seeds 0, 1, 2 (1, 2 along the corpus's path): kept seed" in captured.err
     assert report["held_path"] == (report["seed"] >= 1)
     assert ("held by a root path" in printed) == report["held_path"]
 
@@ -157,8 +167,8 @@ def test_the_adherence_bench_holds_the_later_tries_as_the_studio_does(tiny_model
     seen = []
     real = ba._model_motions
     monkeypatch.setattr(ba, "_model_motions", lambda *a, **kw: seen.append(kw["held_from"]) or real(*a, **kw))
-    ba.bench_adherence(loaded, config, prompts=[prompt, "a person walks forward"])
-    assert seen == [2, None]  # the turning prompt's second tries are held; a straight walk's never
+    ba.bench_adherence(loaded, config, prompts=[prompt, "a person jumps twice"])
+    assert seen == [2, None]  # the turning prompt's second tries are held; a jump's never
     ba.bench_adherence(loaded, ba.AdherenceBenchConfig(seeds=2, steps=2, tries=2, validation_motions=10,
-                                                       held_turns=False), prompts=[prompt])
+                                                       held_paths=False), prompts=[prompt])
     assert seen[-1] is None  # the lever screen's setting: every try the model's own

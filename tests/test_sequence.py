@@ -11,7 +11,7 @@ import pytest
 from engine.clauses import clause_prompts
 from engine.duration import auto_seconds
 from engine.methods.doubletake import MIN_OWN_FRAMES, DoubleTakeConfig
-from engine.methods.sequence import HANDSHAKE, SHORT_CLAUSE_FRAMES, plan, timeline_frames
+from engine.methods.sequence import HANDSHAKE, SHORT_CLAUSE_FRAMES, TURN_SETTLE, plan, timeline_frames
 from engine.units import FPS, MAX_FRAMES
 
 H = HANDSHAKE  # the frames two clauses share
@@ -72,6 +72,21 @@ def test_a_short_clause_keeps_all_its_time_outside_the_handshakes():
     assert round(clap.seconds * FPS) == max(own_clap + H, 2 * H + min(own_clap, SHORT_CLAUSE_FRAMES))
     own_bow = round(auto_seconds("a man bows") * FPS)
     assert own_bow > SHORT_CLAUSE_FRAMES and round(bow.seconds * FPS) == own_bow + H // 2  # long: half a handshake
+
+
+def test_a_turn_clause_gets_time_to_settle_its_turn_beside_each_neighbour():
+    walk, turn, again = plan("a person walks forward, turns around, then walks forward")
+    assert walk.prompt == again.prompt == "a person walks forward" and turn.prompt == "a person turns around"
+    own_turn = round(auto_seconds("a person turns around") * FPS)
+    # its own time, half of each handshake, and TURN_SETTLE frames beside each of its two neighbours
+    assert round(turn.seconds * FPS) == own_turn + H + 2 * TURN_SETTLE
+    assert round(walk.seconds * FPS) == round(auto_seconds("a person walks forward") * FPS) + H // 2  # not a turn
+    first, runs = plan("a man turns around and then runs")  # one neighbour: one settle
+    assert round(first.seconds * FPS) == round(auto_seconds("a man turns around") * FPS) + H // 2 + TURN_SETTLE
+    # a length the user gives is shared as the settled lengths are
+    given = plan("a person walks forward, turns around, then walks forward", seconds=12.0)
+    assert abs(timeline_frames(given) - 12.0 * FPS) <= 2
+    assert given[1].seconds > given[0].seconds  # the turn's share holds its settle time
 
 
 def test_plan_shares_a_given_length_and_refuses_one_too_short():

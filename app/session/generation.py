@@ -108,10 +108,10 @@ class RerecordJob(GenerateJob):
 
 def tried_text(result: GenerationResult) -> str:
     """"; tried seeds 2-3, kept seed 3" where several tries were made (and whether the kept one walked the corpus's
-    path for its turn), else ""."""
+    path for its gait), else ""."""
     if len(result.tried) <= 1:
         return ""
-    along = " (walked along the corpus's path for the turn)" if result.settings.held_path else ""
+    along = " (walked along the corpus's path)" if result.settings.held_path else ""
     return f"; tried seeds {result.tried[0]}-{result.tried[-1]}, kept seed {result.settings.seed}{along}"
 
 

@@ -93,7 +93,7 @@ def settings_from_recipe(recipe: Mapping) -> GenerationSettings | None:
                                   record_steps=int(operation.get("record_steps", 10) or 10),
                                   # before sequences were generated clause by clause: one take of the whole prompt
                                   sequence=str(operation.get("sequence", "whole")),
-                                  # a take that walked its turn along the corpus's path (a later try) does again
+                                  # a take that walked its gait along the corpus's path (a later try) does again
                                   held_path=operation.get("held_path") is True)
     except (KeyError, TypeError, ValueError, AttributeError):
         return None

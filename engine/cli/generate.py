@@ -89,9 +89,9 @@ def run(args: argparse.Namespace) -> int:
     print(file=sys.stderr)
     seed, joints, features, tokens, follow, notes, held_path = tries[kept]
     if args.tries > 1:
-        along = [str(t[0]) for t in tries if t[6]]  # the takes that walked the corpus's path for the turn
+        along = [str(t[0]) for t in tries if t[6]]  # the takes that walked the corpus's path for the gait
         print(f"tried seed{'s' * (len(tries) > 1)} {', '.join(str(t[0]) for t in tries)}"
-              + (f" ({', '.join(along)} along the corpus's path for the turn)" if along else "") + f": kept seed {seed} ("
+              + (f" ({', '.join(along)} along the corpus's path)" if along else "") + f": kept seed {seed} ("
               + ("it followed every checked attribute)" if misses(follow) == 0 else
                  "none followed everything: it missed fewest)"), file=sys.stderr)
     for out in args.out:

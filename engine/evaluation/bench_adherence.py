@@ -72,9 +72,9 @@ class AdherenceBenchConfig:
     # tries per seed (engine.analysis.followed.best_try): each seed keeps the first of its tries that follows every
     # checked attribute, else the one that misses fewest; 1 = the model's single take
     tries: int = 1
-    # the later tries of a prompt of one gait that turns walk the corpus's path for it (what a user gets:
+    # the later tries of a prompt of one gait walk the corpus's path for it (what a user gets:
     # engine.methods.held_direction); off, every try is the model's own (the lever screen compares models)
-    held_turns: bool = True
+    held_paths: bool = True
 
     def __post_init__(self) -> None:
         check_sequence(self.sequence)
@@ -104,7 +104,7 @@ def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: Adherenc
     number of joint frames; a prompt of several actions in order as a user gets it (``config.sequence``): clause by
     clause, one DoubleTake run per entry k (seed ``config.seed + k``), its clauses as long as predicted under
     ``lengths`` "auto", else sharing the entry's length. Entries from ``held_from`` on are later tries: a prompt of
-    one gait that turns walks the corpus's path for it there (:mod:`engine.methods.held_direction`, as `moattn
+    one gait walks the corpus's path for it there (:mod:`engine.methods.held_direction`, as `moattn
     generate`'s later tries do), each from seed ``config.seed + k``."""
     from engine.generate import Request, generate
     from engine.methods.held_direction import held_plan, plan_of
@@ -125,7 +125,7 @@ def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: Adherenc
     plain = frames[:held_from]
     motions = list(generate(loaded, Request(prompts=[prompt] * len(plain), frames=plain), sample).joints) \
         if plain else []
-    for k, n in enumerate(frames[len(plain):], start=len(plain)):  # later tries: a turn walks the corpus's path
+    for k, n in enumerate(frames[len(plain):], start=len(plain)):  # later tries: a gait walks the corpus's path
         take = replace(sample, seed=config.seed + k)
         path = plan_of(held_plan(loaded, prompt, frames=n, sample=take))
         motions.append(generate(loaded, Request(prompts=[prompt], frames=[n], noise=path.noise), take,
@@ -134,9 +134,9 @@ def _model_motions(loaded, prompt: str, lengths: Sequence[int], config: Adherenc
 
 
 def _held_from(intent: Intent, config: AdherenceBenchConfig) -> int | None:
-    """The first entry of a prompt's tries (seed k's try j is entry k + j x seeds) whose turn walks the corpus's path,
+    """The first entry of a prompt's tries (seed k's try j is entry k + j x seeds) whose gait walks the corpus's path,
     as `moattn generate`'s tries do (:func:`~engine.methods.held_direction.held_take`); None: no entry does."""
-    if not config.held_turns:
+    if not config.held_paths:
         return None
     first = next((j for j in range(config.tries) if held_take(intent, try_index=j)), None)
     return None if first is None else first * config.seeds

@@ -77,9 +77,9 @@ def score_row(folder: Path, config: LeverBenchConfig, *, prompts: Sequence[str],
                                   "eta": config.eta, "steps": config.steps}.items() if v is not None}
     # the model alone: actions in order in one take of the whole prompt (a user gets them clause by clause, which
     # would score the clauses' single actions twice and hide what a lever does to sequences), and every try its own
-    # (a turn held by the shipped root control model would hide what a lever does to turns)
+    # (a gait held by the shipped root control model would hide what a lever does to gaits)
     adherence = bench_adherence(loaded, AdherenceBenchConfig(seeds=config.seeds, sequence="whole", tries=config.tries,
-                                                             held_turns=False,
+                                                             held_paths=False,
                                                              validation_motions=config.validation_motions, **settings),
                                 prompts=prompts, log=log)
     row = {"model": str(folder), **logged_rate(folder), "guidance": adherence["settings"]["guidance"],

@@ -13,7 +13,7 @@ SEQUENCE_MODES = ("clauses", "whole")  # engine.methods.sequence: a prompt of se
 DEFAULT_SEQUENCE = "clauses"  # what the CLI, the studio and the adherence bench do by default
 DEFAULT_TRIES = 3  # tries per generation (engine.analysis.followed.best_try); the studio and the CLI share it
 MAX_TRIES = 8
-# from this try on (0-based: the second), a prompt of one walk, run or jog that turns ("to the left", "in a circle")
+# from this try on (0-based: the second), a prompt of one walk, run or jog (straight, "to the left", "in a circle")
 # walks the corpus's path for it with the root control model (engine.methods.held_direction); the first try is the
 # model's own
 HOLD_FROM_TRY = 1
@@ -42,8 +42,8 @@ class GenerateOptions:
                         help="generate up to this many motions, from the seed on (seed, seed + 1, ...), and keep the "
                              "first whose checked attributes all follow the prompt (what the detectors see: action, "
                              "count, side, direction, order), else the one that misses fewest (1: the one take); from the second "
-                             "try on, a walk, run or jog that turns ('to the left', 'in a circle') walks the "
-                             "corpus's path for the turn (the root control model)")
+                             "try on, one walk, run or jog (straight, 'to the left', 'in a circle') walks the "
+                             "corpus's path for it (the root control model)")
     vecs: bool = option(False, help="write .npy outputs as 263-dim features instead of joints")
 
     def __post_init__(self) -> None:

@@ -1,11 +1,13 @@
-"""A direction held by a root path: "walks to the left" walked along the corpus's own path for it.
+"""A gait held by a root path: "walks to the left" or "an old man walks slowly" walked along the corpus's own path
+for it.
 
 The base model often walks straight where a prompt asks for a turn to one side ("a woman walks quickly to the
-right": the right turn in 1 of 4 draws). The root control model (PriorMDM, ``assets/control/root``) follows a path
-on the floor. The path is the one the corpus itself walks for the prompt: the prompt's intent realised as a corpus
-program (:func:`engine.synth.intents.program_for_intent`) at the generation's length, its pelvis on the
-floor. `moattn generate`'s and the studio's later tries take it where the prompt is one walk, run or jog that turns
-(left, right, a circle), and the report says so (:func:`held_note`).
+right": the right turn in 1 of 4 draws), and stands where a styled walk is slow or sneaky ("an old man walks
+slowly": a walk in 1 of 4 draws, the others at 0.03-0.15 m/s). The root control model (PriorMDM,
+``assets/control/root``) follows a path on the floor. The path is the one the corpus itself walks for the prompt: the
+prompt's intent realised as a corpus program (:func:`engine.synth.intents.program_for_intent`) at the generation's
+length, its pelvis on the floor. `moattn generate`'s and the studio's later tries take it where the prompt is one
+walk, run or jog, straight ahead or turning (left, right, a circle), and the report says so (:func:`held_note`).
 """
 from __future__ import annotations
 
@@ -24,13 +26,13 @@ if TYPE_CHECKING:  # imported lazily: engine.methods.control loads torch and the
     from engine.methods.control import ControlPlan
 
 GAITS = ("walk", "run", "jog")
-# the directions a gait turns for: forward needs no path, backward is its own action
-HELD = ("left", "right", "circle", "circle_left", "circle_right")
+# the directions of a gait a path holds: none said (straight ahead), forward and the turns (backward is its own action)
+HELD = (None, "forward", "left", "right", "circle", "circle_left", "circle_right")
 
 
 def held_segment(intent: Intent | str) -> IntentSegment | None:
-    """The prompt's one gait that turns (a path can hold it), or None: a prompt of several actions in order, a
-    gait straight ahead, an action that does not travel."""
+    """The prompt's one gait, straight ahead or turning (a path can hold it), or None: a prompt of several actions
+    in order, a gait backwards, an action that does not travel."""
     if isinstance(intent, str):
         intent = parse_intent(intent)
     if len(intent.segments) != 1:
@@ -40,15 +42,15 @@ def held_segment(intent: Intent | str) -> IntentSegment | None:
 
 
 def held_take(intent: Intent | str, *, try_index: int, one_take: bool = True) -> bool:
-    """Whether the try ``try_index`` (0-based) of ``intent`` walks its turn along the corpus's path: a later try
+    """Whether the try ``try_index`` (0-based) of ``intent`` walks its gait along the corpus's path: a later try
     (:data:`~engine.methods.generate_options.HOLD_FROM_TRY` on) of a prompt generated in one take (not clause by
-    clause) whose one gait turns. What `moattn generate`'s, the studio's and the adherence bench's tries share."""
+    clause) of one gait. What `moattn generate`'s, the studio's and the adherence bench's tries share."""
     return one_take and try_index >= HOLD_FROM_TRY and held_segment(intent) is not None
 
 
 def corpus_path(intent: Intent, *, frames: int, seed: int) -> np.ndarray:
     """The pelvis on the floor, (frames + 1, 2) x/z metres, of the corpus's realisation of ``intent`` lasting
-    ``frames`` frames (the corpus's speed for the gait and its words, its turn for the direction)."""
+    ``frames`` frames (the corpus's speed for the gait and its words, its turn for the direction, if any)."""
     from engine.synth.intents import program_for_intent
     from engine.synth.corpus import make_sample
 
@@ -100,15 +102,16 @@ def root_model(base, folder: Path | None = None):
 
 def held_note(seg: IntentSegment) -> str:
     """The line a report carries when the take walked a held path."""
-    turn = seg.direction.partition("_")[2]  # a circle's own turn, if the prompt said one
-    way = (f"in a circle{f' to the {turn}' if turn else ''}" if seg.direction.startswith("circle")
-           else f"to the {seg.direction}")
+    direction = seg.direction or "forward"
+    turn = direction.partition("_")[2]  # a circle's own turn, if the prompt said one
+    way = (f"in a circle{f' to the {turn}' if turn else ''}" if direction.startswith("circle")
+           else "forward" if direction == "forward" else f"to the {direction}")
     return f"{seg.action} {way} held by a root path (the corpus's, the root control model)"
 
 
 @dataclass(frozen=True)
 class Held:
-    """A take's turn held by a path: how to sample it and the line its report carries."""
+    """A take's gait held by a path: how to sample it and the line its report carries."""
 
     plan: ControlPlan  # the noise, denoiser and hook of the root path
     note: str
@@ -122,8 +125,8 @@ def plan_of(held: Held | None) -> ControlPlan:
 
 
 def held_plan(loaded, prompt: str, *, frames: int, sample, controls: Path | None = None) -> Held | None:
-    """The :class:`Held` plan that walks ``prompt``'s turn along the corpus's path in a take of ``frames`` frames,
-    or None where no path holds it: the prompt is not one gait that turns, there is no root control model for
+    """The :class:`Held` plan that walks ``prompt``'s gait along the corpus's path in a take of ``frames`` frames,
+    or None where no path holds it: the prompt is not one gait, there is no root control model for
     ``loaded`` (in ``controls``, default ``assets/control``), or the corpus cannot walk it in that time."""
     from engine.methods.control import control_plan
 

@@ -6,8 +6,9 @@ each action alone does it, and DoubleTake is the paper's way to join short motio
 --adherence --sequence whole`` against the default reads the difference on the bench's sequence prompts).
 
 The clauses come from :func:`engine.clauses.clause_prompts`; each clause gets the length predicted for it alone
-(:func:`engine.duration.auto_seconds`), or its share of a length the user gave. What the generate command and the
-studio's Generate box do with a prompt is :func:`plan` (None: one take of the whole prompt).
+(:func:`engine.duration.auto_seconds`; a turn on the spot a little more, :func:`settle_seconds`), or its share of a
+length the user gave. What the generate command and the studio's Generate box do with a prompt is :func:`plan`
+(None: one take of the whole prompt).
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from engine.clauses import clause_prompts
 from engine.diffusion import StepState
 from engine.duration import Tempo, auto_seconds
 from engine.generate import FPS, SampleConfig
+from engine.intent import parse_intent
 from engine.methods.doubletake import (MIN_OWN_FRAMES, Composed, DoubleTakeConfig, Interval, compose,
                                        second_take_timesteps)
 from engine.methods.generate_options import DEFAULT_SEQUENCE, check_sequence
@@ -32,6 +34,12 @@ from engine.units import MAX_FRAMES
 HANDSHAKE = 10
 JOIN = DoubleTakeConfig(handshake=HANDSHAKE)  # how the clauses are joined: DoubleTake's second take, these handshakes
 SHORT_CLAUSE_FRAMES = 30  # a clause predicted shorter than this (1.5 s) keeps all of it outside its handshakes
+#: frames a turn clause ("turns around") gets beyond its predicted time, per neighbour it shares a handshake with.
+#: A turn generated alone turns through its whole predicted length; joined, each handshake averages its first or last
+#: frames with the neighbour's gait, so it turned a third less and partly while walking, and the detectors read no
+#: turn on the spot (direction 0.00 on 4 sequence prompts with a turn, 8 seeds, session 43, assets/model/TRAINING.md).
+#: 5 and 10 frames read 0.31, 20 frames 0.62, 30 and 40 frames 0.53 and 0.59: 20, the shortest of the plateau.
+TURN_SETTLE = 20
 
 
 def sequence_clauses(prompt: str, sequence: str = DEFAULT_SEQUENCE) -> tuple[str, ...]:
@@ -40,6 +48,13 @@ def sequence_clauses(prompt: str, sequence: str = DEFAULT_SEQUENCE) -> tuple[str
     check_sequence(sequence)
     clauses = clause_prompts(prompt)
     return clauses if sequence == "clauses" and len(clauses) > 1 else ()
+
+
+def settle_seconds(clause: str, *, neighbours: int) -> float:
+    """The time a clause gets beyond its predicted length to settle its turn: :data:`TURN_SETTLE` frames per
+    neighbour for a turn on the spot, else 0."""
+    turns = any(seg.action == "turn" for seg in parse_intent(clause).segments)
+    return TURN_SETTLE * neighbours / FPS if turns else 0.0
 
 
 def plan(prompt: str, *, seconds: float | None = None, sequence: str = DEFAULT_SEQUENCE,
@@ -51,7 +66,8 @@ def plan(prompt: str, *, seconds: float | None = None, sequence: str = DEFAULT_S
     clauses = sequence_clauses(prompt, sequence)
     if not clauses:
         return None
-    own = [auto_seconds(c, tempo) for c in clauses]
+    own = [auto_seconds(c, tempo) + settle_seconds(c, neighbours=(i > 0) + (i < len(clauses) - 1))
+           for i, c in enumerate(clauses)]
     if seconds is not None:
         own = [float(seconds) * s / sum(own) for s in own]
     intervals = []
