@@ -80,6 +80,18 @@ def test_ground_truth_realises_the_stated_attributes():
     assert check_motion(ground_truth_motion(intent, 0), intent)["count"] is True
 
 
+def test_a_bow_before_jumps_is_seen():
+    """The jumps' flights do not raise the height a bow's pelvis is measured against (every seed of the corpus's own
+    motion: before, none)."""
+    intent = parse_intent("a man bows, then jumps three times, then waves")
+    for seed in range(4):
+        joints = ground_truth_motion(intent, seed)
+        signals = MotionSignals(joints)
+        assert signals.flights and signals.grounded_pelvis < signals.standing_pelvis - 0.1  # the flights are high
+        assert check_motion(joints, intent) == {"action": True, "count": True, "side": None, "direction": None,
+                                                "intensity": None, "order": True}, seed
+
+
 def test_validation_on_a_corpus_slice():
     result = validate(motions=40)
     agreement = result["agreement"]
