@@ -164,7 +164,7 @@ def test_root_speed_shows_a_walk_in_place(monkeypatch):
     (["--transfer", "--prompts", "p.txt"], "--prompts goes with --adherence, --sampling or --levers"),
     (["--transfer", "--drawn", "2"], "--drawn goes with --control"),
     (["--control", "--drawn", "-1"], "--drawn must be 0 or more"),
-    (["--edits", "--seeds", "2"], "--seeds goes with --duet, --adherence, --sampling, --levers or --intensity"),
+    (["--edits", "--seeds", "2"], "--seeds goes with --duet, --adherence, --sampling, --levers, --intensity or --tempo"),
     (["--adherence", "--seeds", "0"], "--seeds must be at least 1"),
     (["--sampling", "--steps", "20"], "--sampling measures its own step counts"),
 ])

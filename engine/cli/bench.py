@@ -57,8 +57,9 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--eta goes with --adherence, --levers or --edits")
     if args.real is not None and not args.levers:
         raise ValueError("--real goes with --levers")
-    if args.seeds is not None and not (args.duet or args.adherence or args.sampling or args.levers or args.intensity):
-        raise ValueError("--seeds goes with --duet, --adherence, --sampling, --levers or --intensity")
+    if args.seeds is not None and not (args.duet or args.adherence or args.sampling or args.levers or args.intensity
+                                       or args.tempo):
+        raise ValueError("--seeds goes with --duet, --adherence, --sampling, --levers, --intensity or --tempo")
     if args.sampling and args.steps is not None:
         raise ValueError("--sampling measures its own step counts (10, 20, 50; DDPM 1000 with --ddpm): drop --steps")
     if (args.ddpm or args.full) and not args.sampling:
@@ -157,7 +158,9 @@ def _log(line: str) -> None:
 def run_tempo(args: argparse.Namespace) -> int:
     from engine.evaluation.calibrate_tempo import TempoConfig, calibrate_tempo, format_table, write_tempo
 
-    config = preset(TempoConfig, args)
+    if args.seeds is not None and args.seeds < 1:
+        raise ValueError(f"--seeds must be at least 1, got {args.seeds}")
+    config = preset(TempoConfig, args, seeds=args.seeds)
     result = calibrate_tempo(_model(args), config, log=_log)
     if args.write:
         write_tempo(args.model, result)

@@ -100,7 +100,8 @@ class BenchOptions:
     ood_pairs: int | None = option(None, type=int, group=EDITS, help="--transfer: held-out pairs")
     seeds: int | None = option(None, type=int, group=EDITS,
         help="--duet: seeds per held-out duet (default 1); --adherence: seeds per prompt (default 4, quick 2); "
-             "--intensity: seeds per action (default 12, quick 2)")
+             "--intensity: seeds per action (default 12, quick 2); --tempo: seeds per count and scale (default 6, "
+             "quick 4)")
     drawn: int | None = option(None, type=int, group=EDITS,
         help="--control: drawn paths per control (default 9, quick 3; 0: true paths only); the drawn root + left "
              "wrist task, which the studio's verdict reads, draws 3 times as many")
