@@ -50,10 +50,14 @@ def held_take(intent: Intent | str, *, try_index: int, one_take: bool = True) ->
 
 def corpus_path(intent: Intent, *, frames: int, seed: int) -> np.ndarray:
     """The pelvis on the floor, (frames + 1, 2) x/z metres, of the corpus's realisation of ``intent`` lasting
-    ``frames`` frames (the corpus's speed for the gait and its words, its turn for the direction, if any)."""
+    ``frames`` frames (the corpus's speed for the gait and its words, its turn for the direction). A gait whose
+    prompt says no direction walks straight ahead: the corpus would draw a turn or a circle for it in 4 of 10 draws."""
     from engine.synth.intents import program_for_intent
     from engine.synth.corpus import make_sample
 
+    straight = [replace(seg, direction="forward") if seg.action in GAITS and seg.direction is None else seg
+                for seg in intent.segments]
+    intent = replace(intent, segments=tuple(straight))
     rng = np.random.default_rng([seed, 11])
     last: Exception | None = None
     for _ in range(6):  # a drawn person or count that does not fit: draw again
