@@ -134,3 +134,11 @@ def test_the_inversion_round_trip_keeps_a_motion_the_network_cannot_draw(real_jo
     assert errors[0.1, 0] < 0.3 * errors[0.0, 0], errors
     # the landing solves that last step (the latent at t = 19 whose prediction is the motion): the round trip closes
     assert errors[0.1, 4] < 0.1 * errors[0.1, 0], errors
+
+
+def test_keeping_input_marks_the_slots_on_the_conditions_own_device():
+    """Training the skip path on a GPU moves the condition there first, then asks it to keep its input (session 44:
+    the mark was made on the CPU and the prediction's blend failed on cuda:0). The meta device stands in for one."""
+    cond = condition(batch=2, frames=12, roles=("ref", "edit")).to_device(torch.device("meta"))
+    keep = cond.keeping_input().extras[KEEP_INPUT]
+    assert keep.device.type == "meta" and keep.dtype == torch.bool and keep.shape == (2,)

@@ -87,7 +87,8 @@ class Condition:
 
     def keeping_input(self) -> "Condition":
         """The same condition with every slot asking the prediction's skip to act (:data:`KEEP_INPUT`)."""
-        return replace(self, extras={**self.extras, KEEP_INPUT: torch.ones(len(self), dtype=torch.bool)})
+        return replace(self, extras={**self.extras, KEEP_INPUT: torch.ones(len(self), dtype=torch.bool,
+                                                                      device=self.text_ids.device)})
 
     def map_tensors(self, fn) -> "Condition":
         """The same condition with ``fn`` applied to each of its tensors (tensor extras included)."""
@@ -258,7 +259,7 @@ class Denoiser(nn.Module):
         if self.config.skip_sigma <= 0 or keep is None or not bool(keep.any()):
             return out
         ab = self.skip_alpha_bar[t.long() + 1].reshape(-1, *([1] * (x.dim() - 1)))  # (B, 1, 1)
-        c = self.skip_weight(t).reshape(ab.shape) * keep.to(ab.dtype).reshape(ab.shape)
+        c = self.skip_weight(t).reshape(ab.shape) * keep.to(ab.device, ab.dtype).reshape(ab.shape)
         y = x / ab.sqrt()
         if self.skip_path is not None:
             y = y + self.skip_path(y, t)
