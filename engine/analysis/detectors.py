@@ -403,14 +403,17 @@ def detect_side_steps(m: MotionSignals) -> list[Detected]:
 
 
 def detect_turns(m: MotionSignals) -> list[Detected]:
-    """Turning 60 degrees or more on the spot (little travel) within 3 s."""
+    """Turning 60 degrees or more on the spot (little travel) within 3 s. The event is the frame where the body has
+    turned half of the way: the still stretch goes on through what follows on the spot (a bow after "turns around"),
+    so its middle could fall after the next action's first event and read the order backwards."""
     still = np.linalg.norm(m.root_velocity[:, [0, 2]], axis=1) < 0.3
     out = []
     for a, b in _sustained(still, m, 0.6):
         turned = float(m.heading[b - 1] - m.heading[a])
         if abs(turned) > np.radians(60):
             direction = "around" if abs(turned) > np.radians(135) else ("left" if turned > 0 else "right")
-            out.append(Detected("turn", (a + b) // 2, direction))
+            half = int(np.argmax(np.abs(m.heading[a:b] - m.heading[a]) >= abs(turned) / 2))
+            out.append(Detected("turn", a + half, direction))
     return out
 
 
