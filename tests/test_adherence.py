@@ -166,6 +166,7 @@ def test_root_speed_shows_a_walk_in_place(monkeypatch):
     (["--control", "--drawn", "-1"], "--drawn must be 0 or more"),
     (["--edits", "--seeds", "2"], "--seeds goes with --duet, --adherence, --sampling, --levers, --intensity or --tempo"),
     (["--adherence", "--seeds", "0"], "--seeds must be at least 1"),
+    (["--tempo", "--seeds", "0"], "--seeds must be at least 1, got 0"),
     (["--sampling", "--steps", "20"], "--sampling measures its own step counts"),
 ])
 def test_bench_flags_are_checked_before_any_model_loads(capsys, argv, message):

@@ -60,6 +60,8 @@ def run(args: argparse.Namespace) -> int:
     if args.seeds is not None and not (args.duet or args.adherence or args.sampling or args.levers or args.intensity
                                        or args.tempo):
         raise ValueError("--seeds goes with --duet, --adherence, --sampling, --levers, --intensity or --tempo")
+    if args.seeds is not None and args.seeds < 1:
+        raise ValueError(f"--seeds must be at least 1, got {args.seeds}")
     if args.sampling and args.steps is not None:
         raise ValueError("--sampling measures its own step counts (10, 20, 50; DDPM 1000 with --ddpm): drop --steps")
     if (args.ddpm or args.full) and not args.sampling:
@@ -158,8 +160,6 @@ def _log(line: str) -> None:
 def run_tempo(args: argparse.Namespace) -> int:
     from engine.evaluation.calibrate_tempo import TempoConfig, calibrate_tempo, format_table, write_tempo
 
-    if args.seeds is not None and args.seeds < 1:
-        raise ValueError(f"--seeds must be at least 1, got {args.seeds}")
     config = preset(TempoConfig, args, seeds=args.seeds)
     result = calibrate_tempo(_model(args), config, log=_log)
     if args.write:
@@ -173,8 +173,6 @@ def run_tempo(args: argparse.Namespace) -> int:
 def run_intensity(args: argparse.Namespace) -> int:
     from engine.evaluation.bench_intensity import IntensityBenchConfig, bench_intensity, format_table
 
-    if args.seeds is not None and args.seeds < 1:
-        raise ValueError(f"--seeds must be at least 1, got {args.seeds}")
     result = bench_intensity(_model(args), preset(IntensityBenchConfig, args, seeds=args.seeds), log=_log)
     print(json.dumps(result, indent=2) if args.json else format_table(result))
     return 0
@@ -305,8 +303,6 @@ def run_duet(args: argparse.Namespace) -> int:
     from engine.evaluation.bench_duet import DuetBenchConfig, bench_duet, format_table
     from engine.train_commdm import load_trained
 
-    if args.seeds is not None and args.seeds < 1:
-        raise ValueError("--seeds must be at least 1")
     config = preset(DuetBenchConfig, args, per_interaction=args.samples, seeds=args.seeds)
     result = bench_duet(load_trained(args.duet_model, args.model, runtime=runtime_from_args(args)), config, log=_log)
     print(json.dumps(result, indent=2, default=float) if args.json else format_table(result))

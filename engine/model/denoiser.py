@@ -259,7 +259,7 @@ class Denoiser(nn.Module):
         if self.config.skip_sigma <= 0 or keep is None or not bool(keep.any()):
             return out
         ab = self.skip_alpha_bar[t.long() + 1].reshape(-1, *([1] * (x.dim() - 1)))  # (B, 1, 1)
-        c = self.skip_weight(t).reshape(ab.shape) * keep.to(ab.device, ab.dtype).reshape(ab.shape)
+        c = self.skip_weight(t).reshape(ab.shape) * keep.to(ab.dtype).reshape(ab.shape)
         y = x / ab.sqrt()
         if self.skip_path is not None:
             y = y + self.skip_path(y, t)
