@@ -5,7 +5,9 @@ first clause is said again before the later ones. The cut is the intent parser's
 (:func:`engine.intent.parse_intent`): the prompt is split at its sequence marks ("then", "and then", "after that", ...),
 commas and "and", pieces that name no action stay with the piece before them ("walks forward, slowly"), and the cut is
 kept only where each piece reads as exactly one of the whole prompt's actions, in the prompt's order. Anything else
-("claps after jumping", "walks while waving", "walks forward and turns left") is one clause: the whole prompt.
+("claps after jumping", "walks while waving", "walks forward and turns left") is one clause: the whole prompt. After a
+turn on the spot, a clause that goes "back" the way it came is said as the walk forward it is ("turns around, then walks
+back" gives "a person walks forward" for its second clause: the corpus's "walks back" is a walk backwards).
 
 Torch-free: the CLI, the studio and the benches plan a sequence with it before any model loads.
 """
@@ -14,7 +16,7 @@ from __future__ import annotations
 import re
 from functools import lru_cache
 
-from engine.intent import SEQUENCE_MARKS, parse_intent
+from engine.intent import SEQUENCE_MARKS, as_return, parse_intent, says_return, turned_around
 
 # where a prompt may be cut: a comma, a semicolon or a full stop, a sequence mark, or "and" (longest marks first)
 _MARKS = sorted(SEQUENCE_MARKS + ("and",), key=len, reverse=True)
@@ -43,7 +45,8 @@ def clause_prompts(text: str) -> tuple[str, ...]:
     """The prompt's actions in time order, one prompt each; ``(text,)`` when it asks for one action or its order
     cannot be cut from the words (see the module docstring)."""
     text = " ".join(str(text).split())
-    whole = _actions(text)
+    segments = parse_intent(text).segments
+    whole = tuple(s.action for s in segments)
     if len(whole) < 2:
         return (text,)
     pieces: list[str] = []
@@ -55,6 +58,9 @@ def clause_prompts(text: str) -> tuple[str, ...]:
             pieces[-1] = f"{pieces[-1]}, {piece}"
         else:
             pieces.append(piece)
+    if len(pieces) == len(whole):  # "turns around, then walks back": said alone, the return is a walk forward
+        pieces = [as_return(p) if k and turned_around(segments[k - 1]) and says_return(p) else p
+                  for k, p in enumerate(pieces)]
     if len(pieces) != len(whole) or any(_actions(p) != (a,) for p, a in zip(pieces, whole)):
         return (text,)
     subject = _subject(pieces[0].split()) or ["a", "person"]

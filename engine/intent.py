@@ -601,6 +601,45 @@ def intensity_level(phrase: str, action: str, *, table_only: bool = False) -> st
     return _INTENSITY_LEVEL.get(" ".join(key)) or _INTENSITY_LEVEL.get(phrase) or _ANY_TABLE_LEVEL.get(key)
 
 
+# "turns around, then walks back": after a turn on the spot, "back" is the way the body came, ahead of it now (a
+# return, not a walk backwards); "walks backwards", "steps back" and "backs away" keep their meaning
+_RETURN_VERBS = frozenset(("walk", "go", "come", "head", "run", "jog", "stroll", "wander", "march"))
+
+
+def _says_return(items: list[_Span]) -> bool:
+    """The clause's only backward word is a bare "back" after a gait verb ("walks back", "goes back", "runs back"; not
+    "walks back and forth")."""
+    words = [w for s in items for w in s.words]
+    if {"backward", "backwards", "reverse"} & set(words):
+        return False
+    return any(w == "back" and k > 0 and words[k - 1] in _RETURN_VERBS and words[k + 1:k + 2] != ["and"]
+               for k, w in enumerate(words))
+
+
+def turned_around(segment: IntentSegment) -> bool:
+    """A turn on the spot: a later "walks back" is a return (see :func:`says_return`)."""
+    return segment.action == "turn" and segment.direction == "around"
+
+
+def says_return(text: str) -> bool:
+    """``text`` (one clause) goes back the way it came with a bare "back" ("then walks back"); after a turn on the
+    spot (:func:`turned_around`) that is ahead of the body: :func:`parse_intent` reads it as a walk forward."""
+    return _says_return(_spans(_tokens(text)))
+
+
+def as_return(text: str) -> str:
+    """A returning clause said as a prompt of its own says it: "walks back" -> "walks forward"."""
+    return re.sub(r"\bback\b", "forward", text, flags=re.IGNORECASE)
+
+
+def _returning(segment: IntentSegment) -> IntentSegment:
+    if segment.action == "walk_backward":
+        return replace(segment, action="walk", direction="forward")
+    if segment.direction == "backward":
+        return replace(segment, direction="forward")
+    return segment
+
+
 def _unplaced(items: list[_Span], used: list[bool]) -> list[str]:
     return [w for s, u in zip(items, used) if not u and s.kind != "comma"
             for w in s.words if w not in FILLER and w != _IMPLIED_WALK]
@@ -634,6 +673,8 @@ def parse_intent(text: str, tokens: "TokenizedPrompt | None" = None) -> Intent:
             unplaced += _unplaced(main_items, used)
             continue
         seg = _parse_clause(main_items, used, styles)
+        if seg is not None and segments and turned_around(segments[-1]) and _says_return(main_items):
+            seg = _returning(seg)
         unplaced += _unplaced(main_items, used)
         if over_items:
             over_used = [s.kind in ("comma", "overlay") for s in over_items]

@@ -52,6 +52,21 @@ def test_sides_directions_and_disambiguation():
     assert seg("a person jumps on one leg").action == "hop"
 
 
+@pytest.mark.parametrize("text, last", [
+    ("a person walks forward, turns around, then walks back", ("walk", "forward")),  # returns where it came from
+    ("a man turns around and goes back", ("walk", "forward")),
+    ("someone turns around and runs back", ("run", "forward")),
+    ("a man turns around, then walks backwards", ("walk_backward", "backward")),  # said backwards: backwards
+    ("a person turns around and steps back", ("walk_backward", "backward")),  # a step back is a step backwards
+    ("a man turns around and walks back and forth", ("walk_backward", "backward")),
+    ("a person turns left, then walks back", ("walk_backward", "backward")),  # not a turn on the spot
+    ("someone walks back", ("walk_backward", "backward")),
+])
+def test_walking_back_after_turning_around_is_a_return(text, last):
+    final = parse_intent(text).segments[-1]
+    assert (final.action, final.direction) == last
+
+
 def test_sequences_keep_time_order():
     assert [s.action for s in parse_intent("a person walks forward then jumps twice").segments] == ["walk", "jump"]
     assert [s.action for s in parse_intent("a man jumps once, then claps twice, then bows").segments] == \

@@ -36,6 +36,13 @@ def test_clauses_share_half_of_a_long_motions_handshake():
     ("a woman kicks with her left leg and then she waves", ("a woman kicks with her left leg", "a woman waves")),
     ("a man claps and then a woman bows", ("a man claps", "a woman bows")),
     ("an old man walks slowly, then sits down", ("an old man walks slowly", "an old man sits down")),
+    # after a turn on the spot, walking "back" is the way the body came: ahead of it (the corpus's "walks back" is a
+    # walk backwards, so the clause says forward); "backwards" and a "back" with no turn before it keep their meaning
+    ("a person walks forward, turns around, then walks back",
+     ("a person walks forward", "a person turns around", "a person walks forward")),
+    ("a man turns around and runs back to the door", ("a man turns around", "a man runs forward to the door")),
+    ("a man turns around, then walks backwards", ("a man turns around", "a man walks backwards")),
+    ("a man walks back, then turns around", ("a man walks back", "a man turns around")),
 ])
 def test_a_sequence_is_cut_into_one_prompt_per_action(prompt, clauses):
     assert clause_prompts(prompt) == clauses
