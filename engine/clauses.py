@@ -16,6 +16,7 @@ from __future__ import annotations
 import re
 from functools import lru_cache
 
+from engine import wordforms
 from engine.intent import SEQUENCE_MARKS, as_return, parse_intent, says_return, turned_around
 
 # where a prompt may be cut: a comma, a semicolon or a full stop, a sequence mark, or "and" (longest marks first)
@@ -26,17 +27,26 @@ _CUT = re.compile(r"\s*[,;.]\s*(?:(?:" + "|".join(re.escape(m) for m in _MARKS) 
 # then she waves": the first clause's subject is said instead, as a prompt of its own would say it)
 _SUBJECT_WORDS = frozenset("a an the someone somebody person man woman".split())
 _PRONOUNS = frozenset("he she they i we".split())
+_PEOPLE = frozenset(("person", "man", "woman"))  # what a word for who moves means (engine.wordforms.MEANING)
 
 
 def _actions(text: str) -> tuple[str, ...]:
     return tuple(s.action for s in parse_intent(text).segments)
 
 
+def _names_who(word: str) -> bool:
+    """A word for who moves: the corpus's ("man", "someone") or one read as one by meaning ("boxer", "grandpa")."""
+    return word.lower() in _SUBJECT_WORDS | _PRONOUNS or any(
+        set(wordforms.MEANING.get(base, ())) & _PEOPLE for base in wordforms.base_forms(word.lower()))
+
+
 def _subject(words: list[str]) -> list[str]:
-    """The words of a clause before its first action word ("a tired old man" of "a tired old man walks ...")."""
+    """The words of a clause before its first action word, up to the last that names who moves ("a tired old man" of
+    "a tired old man walks ...", "a boxer" of "a boxer throws two punches")."""
     for k in range(len(words)):
         if _actions(" ".join(words[: k + 1])):
-            return words[:k]
+            who = [j for j in range(k) if _names_who(words[j])]
+            return words[:who[-1] + 1] if who else words[:k]
     return []
 
 

@@ -36,6 +36,9 @@ def test_clauses_share_half_of_a_long_motions_handshake():
     ("a woman kicks with her left leg and then she waves", ("a woman kicks with her left leg", "a woman waves")),
     ("a man claps and then a woman bows", ("a man claps", "a woman bows")),
     ("an old man walks slowly, then sits down", ("an old man walks slowly", "an old man sits down")),
+    # the subject is who moves, not the words up to the action ("throws two" is not said again)
+    ("a boxer throws two punches then steps back", ("a boxer throws two punches", "a boxer steps back")),
+    ("someone slowly walks forward, then jumps", ("someone slowly walks forward", "someone jumps")),
     # after a turn on the spot, walking "back" is the way the body came: ahead of it (the corpus's "walks back" is a
     # walk backwards, so the clause says forward); "backwards" and a "back" with no turn before it keep their meaning
     ("a person walks forward, turns around, then walks back",
