@@ -57,7 +57,7 @@ ACTION_PHRASES: dict[str, tuple[str, ...]] = {
     "clap": ("clap", "clap the hand", "clap hand", "applaud", "clap his hand", "clap her hand",
              "bring the hand together"),
     "raise_arms": ("raise", "lift", "put up", "raise up", "lift up", "hold up", "throw up", "stretch up", "reach up",
-                   "bring up"),
+                   "bring up", "stretch the arm", "stretch the arm up", "stretch the hand up", "reach the arm up"),
     "bow": ("bow", "take a bow", "bend forward to bow", "bend forward", "bend over", "bend down"),
     "dance": ("dance", "dance from side to side", "do a little dance", "groove", "boogie", "sway"),
     "stand": ("stand still", "stand in place", "stay still", "stand", "stay", "idle", "wait", "remain still",
@@ -385,12 +385,25 @@ def _read_clitic(word: str, tokens: "TokenizedPrompt | None") -> list[str]:
     return [word]
 
 
+_POSSESSIVES = frozenset(("his", "her", "their", "its", "my", "your"))
+_BODY = frozenset(("head", "hand", "arm", "leg", "foot", "knees", "toe", "shoulder", "fist", "chest", "hip"))
+
+
+def _the_body(words: list[str]) -> list[str]:
+    """"above his head", "claps her hands", "with his right leg": a possessive before a body part is the grammar's
+    "the" ("above the head", "claps the hand")."""
+    return ["the" if w in _POSSESSIVES and (words[k + 1:k + 2] and words[k + 1] in _BODY or
+                                           words[k + 1:k + 2] in (["left"], ["right"], ["both"]) and
+                                           words[k + 2:k + 3] and words[k + 2] in _BODY) else w
+            for k, w in enumerate(words)]
+
+
 def _tokens(text: str, tokens: "TokenizedPrompt | None" = None) -> list[str]:
     text = text.lower().replace("\u2019", "'")
     text = re.sub(r"\b([1-9])\b", lambda m: f" {NUMBER_WORDS[m.group(1)]} ", text)
     text = re.sub(r"[,;.!?]", " , ", text)
-    return [t for w in re.findall(r"[a-z]+(?:'[a-z]+)?|,", text)
-            for t in ([w] if w == "," else _read(w, tokens) if "'" not in w else _read_clitic(w, tokens))]
+    return _the_body([t for w in re.findall(r"[a-z]+(?:'[a-z]+)?|,", text)
+                      for t in ([w] if w == "," else _read(w, tokens) if "'" not in w else _read_clitic(w, tokens))])
 
 
 def _spans(words: list[str]) -> list[_Span]:

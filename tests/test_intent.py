@@ -52,6 +52,15 @@ def test_sides_directions_and_disambiguation():
     assert seg("a person jumps on one leg").action == "hop"
 
 
+def test_a_possessive_before_a_body_part_reads_as_the_grammars_the():
+    claps = parse_intent("she claps her hands above her head three times")
+    assert claps.segments == (IntentSegment(action="clap", count=3),) and claps.unplaced == ()
+    stretch = parse_intent("a man stretches his arms above his head")
+    assert stretch.segments == (IntentSegment(action="raise_arms"),) and stretch.unplaced == ()
+    assert seg("a guy kicks with his right leg") == IntentSegment(action="kick", side="right")
+    assert seg("someone waves their left hand twice") == IntentSegment(action="wave", count=2, side="left")
+
+
 @pytest.mark.parametrize("text, last", [
     ("a person walks forward, turns around, then walks back", ("walk", "forward")),  # returns where it came from
     ("a man turns around and goes back", ("walk", "forward")),
