@@ -7,8 +7,8 @@ from dataclasses import replace
 
 import pytest
 
-from engine.evaluation.calibrate_tempo import (TempoConfig, calibrate_tempo, calibration_prompt, choose, format_table,
-                                               write_tempo)
+from engine.evaluation.calibrate_tempo import (VERB_PHRASES, TempoConfig, calibrate_tempo, calibration_prompt, choose,
+                                               format_table, write_tempo)
 from engine.intent import COUNTED_ACTIONS, parse_intent
 
 
@@ -31,10 +31,13 @@ def test_every_calibration_prompt_is_one_counted_action_and_in_no_bench_set():
         bench |= {ln.strip() for ln in path.read_text().splitlines() if ln.strip() and not ln.startswith("#")}
     for action in COUNTED_ACTIONS:
         for count in TempoConfig().counts:
-            prompt = calibration_prompt(action, count)
-            segs = parse_intent(prompt).segments
-            assert len(segs) == 1 and segs[0].action == action and segs[0].count == count, prompt
-            assert prompt not in bench
+            for phrasing in range(len(VERB_PHRASES[action])):
+                prompt = calibration_prompt(action, count, phrasing)
+                segs = parse_intent(prompt).segments
+                assert len(segs) == 1 and segs[0].action == action and segs[0].count == count, prompt
+                assert prompt not in bench
+    # the draws take an action's phrasings in turn
+    assert calibration_prompt("hop", 2, 1) == "the person hops on the left leg twice" == calibration_prompt("hop", 2, 4)
 
 
 def test_the_config_refuses_scales_without_one_and_unknown_actions():

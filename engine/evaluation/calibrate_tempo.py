@@ -4,11 +4,11 @@
 need not repeat at the corpus's pace: base v9 makes 2 claps where 3 were asked in the corpus's 2.6 s, and 3 in
 1.15-1.3 times that, while its jumps and kicks are exact at the corpus's length and too many when given more. So
 the length a counted segment gets is scaled per action, by the factor measured here for this model: for each
-counted action, calibration prompts ("the person claps three times"; none is a prompt of the adherence bench's
-default or dev sets) are generated at several scales of their predicted length, as a user samples them, and the
-repetitions are counted by the adherence bench's detectors. Of the scales within half ``min_gain`` of the most exact
-counts, the one nearest 1 wins where it beats the corpus's length (scale 1) by at least ``min_gain``; otherwise the
-action keeps scale 1. The factors go into
+counted action, calibration prompts ("the person claps three times", and with a side where people name one: "the
+person hops on the left leg twice"; none is a prompt of the adherence bench's default or dev sets) are generated at
+several scales of their predicted length, as a user samples them, and the repetitions are counted by the adherence
+bench's detectors. Of the scales within half ``min_gain`` of the most exact counts, the one nearest 1 wins where it
+beats the corpus's length (scale 1) by at least ``min_gain``; otherwise the action keeps scale 1. The factors go into
 the model's ``config.json`` ("durations": {"count_scale": {...}, "calibration": {...}}), where every ``--seconds
 auto`` (the CLI, the studio's Generate box, the benches) reads them through :func:`engine.duration.model_tempo`.
 """
@@ -25,15 +25,23 @@ from engine.generate import SampleConfig
 from engine.intent import COUNTED_ACTIONS
 from engine.units import DEFAULT_ETA, DEFAULT_GUIDANCE, MAX_SECONDS
 
-#: the calibration's own phrase per action (the grammar's plain verb; "the person" is a subject no bench prompt uses)
-VERB_PHRASES = {"jump": "jumps", "jump_forward": "jumps forward", "hop": "hops", "jumping_jacks": "does jumping jacks",
-                "squat": "squats", "kick": "kicks", "punch": "punches", "wave": "waves", "clap": "claps",
-                "raise_arms": "raises the arms", "bow": "bows"}
+#: the calibration's own phrases per action: the grammar's plain verb, and for an action people name a side for, that
+#: verb with each side as people type it (a model's pace differs between them: base v11 hops far more often when the
+#: leg is named, so the plain verb alone measured mostly missing hops); "the person" is a subject no bench prompt uses
+VERB_PHRASES: dict[str, tuple[str, ...]] = {
+    "jump": ("jumps",), "jump_forward": ("jumps forward",),
+    "hop": ("hops", "hops on the left leg", "hops on the right foot"), "jumping_jacks": ("does jumping jacks",),
+    "squat": ("squats",), "kick": ("kicks", "kicks with the right leg", "kicks with the left foot"),
+    "punch": ("punches", "punches with the left hand", "punches with the right hand"),
+    "wave": ("waves", "waves the right hand", "waves with the left hand"), "clap": ("claps",),
+    "raise_arms": ("raises the arms", "raises the left arm"), "bow": ("bows",)}
 COUNT_PHRASES = {2: "twice", 3: "three times", 4: "four times", 5: "five times"}
 
 
-def calibration_prompt(action: str, count: int) -> str:
-    return f"the person {VERB_PHRASES[action]} {COUNT_PHRASES[count]}"
+def calibration_prompt(action: str, count: int, phrasing: int = 0) -> str:
+    """The ``phrasing``-th of the action's phrases (cycled), asking for ``count``."""
+    phrases = VERB_PHRASES[action]
+    return f"the person {phrases[phrasing % len(phrases)]} {COUNT_PHRASES[count]}"
 
 
 @dataclass(frozen=True)
@@ -70,7 +78,8 @@ def _exact_shares(loaded: LoadedModel, action: str, config: TempoConfig, log) ->
     from engine.generate import Request, frames_for, generate
     from engine.intent import parse_intent
 
-    prompts = [calibration_prompt(action, c) for c in config.counts]
+    # one draw per count and seed, the seeds taking the action's phrasings in turn
+    prompts = [calibration_prompt(action, c, seed) for c in config.counts for seed in range(config.seeds)]
     intents = [parse_intent(p) for p in prompts]
     for p, intent in zip(prompts, intents):
         if len(intent.segments) != 1 or intent.segments[0].action != action or intent.segments[0].count is None:
@@ -79,13 +88,11 @@ def _exact_shares(loaded: LoadedModel, action: str, config: TempoConfig, log) ->
     for scale in config.scales:
         frames = [min(frames_for(min(auto_seconds(p) * scale, MAX_SECONDS)), loaded.model.config.max_frames)
                   for p in prompts]
-        request = Request(prompts=[p for p in prompts for _ in range(config.seeds)],
-                          frames=[f for f in frames for _ in range(config.seeds)])
+        request = Request(prompts=prompts, frames=frames)
         sample = SampleConfig(steps=config.steps, guidance=config.guidance, eta=config.eta, seed=config.seed)
         joints = generate(loaded, request, sample).joints
         hits, got = [], []
-        for k, j in enumerate(joints):
-            intent = intents[k // config.seeds]
+        for j, intent in zip(joints, intents):
             check = check_segments(j, intent)[0]
             got.append(len(check.events))
             hits.append(bool(check.result["count"]))
