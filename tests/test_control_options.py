@@ -93,7 +93,7 @@ def _result(blending: dict, inpainting: dict, *, paths: int = 9) -> dict:
             "planted_feet": True}
 
 
-def test_judge_needs_both_figures_for_a_leader():
+def test_judge_needs_a_lead_and_no_loss_for_a_leader():
     assert judge({"blending": {"skate": 0.1, "action_match": 0.5},
                   "inpainting": {"skate": 0.3, "action_match": 0.2}})[0] == "blending"
     assert judge({"blending": {"skate": 0.4, "action_match": 0.1},
@@ -102,8 +102,13 @@ def test_judge_needs_both_figures_for_a_leader():
                           "inpainting": {"skate": 0.84, "action_match": 0.22}})
     assert leader is None
     assert said == "foot skate 0.78 vs 0.84 (blending ahead), prompted action 0.00 vs 0.22 (inpainting ahead)"
-    # a tie or a missing figure is no lead
-    assert judge({"blending": {"skate": 0.1, "action_match": 0.2},
+    # ahead on one figure and even on the other is a lead; even on both, or a missing figure, is none
+    leader, said = judge({"blending": {"skate": 0.06, "action_match": 0.78},
+                          "inpainting": {"skate": 0.24, "action_match": 0.78}})
+    assert leader == "blending" and said.endswith("prompted action 0.78 vs 0.78 (even)")
+    assert judge({"blending": {"skate": 0.3, "action_match": 0.2},
+                  "inpainting": {"skate": 0.3, "action_match": 0.4}})[0] == "inpainting"
+    assert judge({"blending": {"skate": 0.3, "action_match": 0.2},
                   "inpainting": {"skate": 0.3, "action_match": 0.2}})[0] is None
     leader, said = judge({"blending": {"skate": 0.1, "action_match": None},
                           "inpainting": {"skate": 0.3, "action_match": 0.2}})

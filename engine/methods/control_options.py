@@ -9,8 +9,8 @@ loading torch.
   show its one-line message and never clamp or re-normalise on their own.
 - :func:`bench_verdict`: which method the control bench has ahead on drawn root + wrist paths, read from the record
   ``moattn bench --control --write`` keeps beside the control models (``assets/control/bench.json``). The studio
-  opens on blending only when that record has blending ahead of inpainting on both of its figures (foot skate and
-  the prompted action); until then it says which one is ahead.
+  opens on blending only when that record has blending ahead of inpainting on one of its figures (foot skate and
+  the prompted action) and behind on neither; until then it says which one is ahead.
 """
 from __future__ import annotations
 
@@ -193,8 +193,9 @@ def models_fingerprint(folder) -> dict[str, str]:
 class BenchVerdict:
     """What the control bench says of blending vs inpainting on drawn root + wrist paths.
 
-    ``leader``: the method ahead on both figures (less foot skate and the prompted action more often), or None (no
-    record, a record of other control models, or each method ahead on one figure). ``message``: one line saying so.
+    ``leader``: the method ahead on a figure (less foot skate, or the prompted action more often) and behind on none,
+    or None (no record, a record of other control models, a figure not measured, each method ahead on one figure,
+    or even on both). ``message``: one line saying so.
     """
 
     leader: str | None
@@ -213,7 +214,9 @@ def _number(value) -> float | None:
 
 
 def judge(figures: Mapping[str, Mapping[str, float]]) -> tuple[str | None, str]:
-    """(leader, what the figures say) for blending vs inpainting; the leader is ahead on every figure."""
+    """(leader, what the figures say) for blending vs inpainting; the leader is ahead on a figure and behind on none
+    (even on the other: on drawn root + wrist paths the v11 control models keep the prompted action in 21 of 27
+    motions with either method, and blending's foot skate is a quarter of inpainting's)."""
     blend, inpaint = figures.get("blending", {}), figures.get("inpainting", {})
     ahead: dict[str, str | None] = {}
     parts = []
@@ -225,8 +228,9 @@ def judge(figures: Mapping[str, Mapping[str, float]]) -> tuple[str | None, str]:
             continue
         ahead[key] = None if b == i else ("blending" if (b > i) == higher else "inpainting")
         parts.append(f"{label} {b:.2f} vs {i:.2f}" + (" (even)" if ahead[key] is None else f" ({ahead[key]} ahead)"))
-    winners = set(ahead.values())
-    leader = winners.pop() if len(winners) == 1 and None not in winners else None
+    measured = all(not p.endswith("not measured") for p in parts)
+    winners = {w for w in ahead.values() if w is not None}
+    leader = winners.pop() if measured and len(winners) == 1 else None
     return leader, ", ".join(parts)
 
 
@@ -259,7 +263,7 @@ def bench_verdict(folder) -> BenchVerdict:
         other = "inpainting" if leader == "blending" else "blending"
         text = f"The control bench has {leader} ahead of {other} {where}, blending vs inpainting: {said}{source}."
     else:
-        text = (f"The control bench has neither method ahead on both figures {where}, blending vs inpainting: "
+        text = (f"The control bench has neither method ahead {where}, blending vs inpainting: "
                 f"{said}{source}.")
     return BenchVerdict(leader, text, figures, record)
 
