@@ -28,6 +28,7 @@ _CUT = re.compile(r"\s*[,;.]\s*(?:(?:" + "|".join(re.escape(m) for m in _MARKS) 
 _SUBJECT_WORDS = frozenset("a an the someone somebody person man woman".split())
 _PRONOUNS = frozenset("he she they i we".split())
 _PEOPLE = frozenset(("person", "man", "woman"))  # what a word for who moves means (engine.wordforms.MEANING)
+_WHO_NOUNS = frozenset("someone somebody person man woman zombie robot chicken gorilla monkey ape soldier".split())
 
 
 def _actions(text: str) -> tuple[str, ...]:
@@ -35,8 +36,9 @@ def _actions(text: str) -> tuple[str, ...]:
 
 
 def _names_who(word: str) -> bool:
-    """A word for who moves: the corpus's ("man", "someone") or one read as one by meaning ("boxer", "grandpa")."""
-    return word.lower() in _SUBJECT_WORDS | _PRONOUNS or any(
+    """A word for who moves: the corpus's ("man", "someone", "zombie") or one read as one by meaning ("boxer",
+    "grandpa"); not a determiner ("a zombie": the subject ends at "zombie", not at "a")."""
+    return word.lower() in _WHO_NOUNS | _PRONOUNS or any(
         set(wordforms.MEANING.get(base, ())) & _PEOPLE for base in wordforms.base_forms(word.lower()))
 
 

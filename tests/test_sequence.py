@@ -39,6 +39,10 @@ def test_clauses_share_half_of_a_long_motions_handshake():
     # the subject is who moves, not the words up to the action ("throws two" is not said again)
     ("a boxer throws two punches then steps back", ("a boxer throws two punches", "a boxer steps back")),
     ("someone slowly walks forward, then jumps", ("someone slowly walks forward", "someone jumps")),
+    ("a zombie waves with the left hand then walks forward slowly",
+     ("a zombie waves with the left hand", "a zombie walks forward slowly")),
+    ("a zombie throws two punches, then bows", ("a zombie throws two punches", "a zombie bows")),
+    ("a very old man waves, then bows", ("a very old man waves", "a very old man bows")),
     # after a turn on the spot, walking "back" is the way the body came: ahead of it (the corpus's "walks back" is a
     # walk backwards, so the clause says forward); "backwards" and a "back" with no turn before it keep their meaning
     ("a person walks forward, turns around, then walks back",
