@@ -28,7 +28,7 @@ _CUT = re.compile(r"\s*[,;.]\s*(?:(?:" + "|".join(re.escape(m) for m in _MARKS) 
 _SUBJECT_WORDS = frozenset("a an the someone somebody person man woman".split())
 _PRONOUNS = frozenset("he she they i we".split())
 _PEOPLE = frozenset(("person", "man", "woman"))  # what a word for who moves means (engine.wordforms.MEANING)
-_WHO_NOUNS = frozenset("someone somebody person man woman zombie robot chicken gorilla monkey ape soldier".split())
+_WHO_NOUNS = _SUBJECT_WORDS - {"a", "an", "the"} | frozenset("zombie robot chicken gorilla monkey ape soldier".split())
 
 
 def _actions(text: str) -> tuple[str, ...]:

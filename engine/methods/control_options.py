@@ -220,15 +220,15 @@ def judge(figures: Mapping[str, Mapping[str, float]]) -> tuple[str | None, str]:
     blend, inpaint = figures.get("blending", {}), figures.get("inpainting", {})
     ahead: dict[str, str | None] = {}
     parts = []
+    measured = True
     for key, (label, higher) in FIGURES.items():
         b, i = _number(blend.get(key)), _number(inpaint.get(key))
         if b is None or i is None:
-            ahead[key] = None
+            ahead[key], measured = None, False
             parts.append(f"{label} not measured")
             continue
         ahead[key] = None if b == i else ("blending" if (b > i) == higher else "inpainting")
         parts.append(f"{label} {b:.2f} vs {i:.2f}" + (" (even)" if ahead[key] is None else f" ({ahead[key]} ahead)"))
-    measured = all(not p.endswith("not measured") for p in parts)
     winners = {w for w in ahead.values() if w is not None}
     leader = winners.pop() if measured and len(winners) == 1 else None
     return leader, ", ".join(parts)
